@@ -1,0 +1,65 @@
+// The OSL-style closure interface: a shading context, per-lobe evaluation results,
+// samples, and weighted sums of closures. Conventions: docs/conventions.md.
+#pragma once
+
+#include <array>
+#include <variant>
+#include <vector>
+
+#include "hairbsdf/math.h"
+
+namespace hairbsdf {
+
+enum class RayType { Camera, Reflection, Transmission, Shadow };
+
+// The role of OSL's ShaderGlobals for one hair hit. All directions share one space
+// (world space in the renderer, the fibre frame in the Python API).
+struct ShadingContext {
+    Vec3 tangent{1, 0, 0};  // unit fibre tangent, root to tip
+    Vec3 wo{0, 0, 1};       // unit direction towards the viewer
+    double h = 0;           // offset across the fibre in [-1, 1], gamma_o = asin(h)
+    RayType ray_type = RayType::Camera;
+    double random = 0;      // per-strand random ("Hair Info > Random")
+};
+
+constexpr int kLobeCount = 4;  // R, TT, TRT, TRRT+ (Chiang); models with fewer lobes leave the rest 0
+enum Lobe { LobeR = 0, LobeTT = 1, LobeTRT = 2, LobeTRRT = 3 };
+
+// Value of a closure for one direction pair: per-lobe RGB values including the cosine
+// factor, and the density `sample` reports for this direction.
+struct BsdfEval {
+    std::array<RGB, kLobeCount> lobes{};
+    double pdf = 0;
+    RGB value() const { return lobes[0] + lobes[1] + lobes[2] + lobes[3]; }
+};
+
+struct BsdfSample {
+    Vec3 wi{};
+    RGB value{};   // eval at wi (including the cosine)
+    RGB weight{};  // value / pdf
+    double pdf = 0;
+    int lobe = -1;  // -1: no sample (zero weight)
+};
+
+// The per-shading-point frame Cycles uses for hair (cycles-hair-notes §4.1):
+// x = tangent, y = normalize(x × wo), z = x × y. The view direction sits at phi = -pi/2.
+struct FibreFrame {
+    Vec3 x, y, z;
+    FibreFrame(Vec3 tangent, Vec3 wo) : x(tangent) {
+        y = cross(x, wo);
+        const double len = length(y);
+        if (len > 1e-12) {
+            y = (1.0 / len) * y;
+        } else {  // wo along the fibre: any perpendicular will do
+            y = normalize(std::fabs(x.x) < 0.9 ? cross(x, Vec3{1, 0, 0}) : cross(x, Vec3{0, 1, 0}));
+        }
+        z = cross(x, y);
+    }
+    double sin_theta(Vec3 w) const { return clamp(dot(w, x), -1.0, 1.0); }
+    double phi(Vec3 w) const { return std::atan2(dot(w, z), dot(w, y)); }
+    Vec3 direction(double sin_theta, double cos_theta, double phi) const {
+        return sin_theta * x + (cos_theta * std::cos(phi)) * y + (cos_theta * std::sin(phi)) * z;
+    }
+};
+
+}  // namespace hairbsdf

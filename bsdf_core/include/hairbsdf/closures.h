@@ -1,0 +1,104 @@
+// The closure registry and weighted sums of closures. Adding a model means adding it to
+// `HairModel` below; every model has eval(ctx, wi), pdf(ctx, wi) and sample(ctx, u).
+#pragma once
+
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "hairbsdf/models/chiang.h"
+
+namespace hairbsdf {
+
+using HairModel = std::variant<ChiangHair>;
+
+// A closure is a weight times a model (OSL's `weight * closure`).
+struct Closure {
+    RGB weight{1.0};
+    HairModel model;
+    // Cycles picks a closure with probability proportional to |average(weight)|.
+    double sample_weight() const { return std::fabs(average(weight)); }
+};
+
+inline BsdfEval eval_model(const HairModel& m, const ShadingContext& ctx, Vec3 wi) {
+    return std::visit([&](const auto& model) { return model.eval(ctx, wi); }, m);
+}
+inline double pdf_model(const HairModel& m, const ShadingContext& ctx, Vec3 wi) {
+    return std::visit([&](const auto& model) { return model.pdf(ctx, wi); }, m);
+}
+inline BsdfSample sample_model(const HairModel& m, const ShadingContext& ctx, const std::array<double, 3>& u) {
+    return std::visit([&](const auto& model) { return model.sample(ctx, u); }, m);
+}
+
+// A weighted sum of closures, evaluated and sampled as Cycles does with several BSDFs:
+// eval sums weight * value, the pdf is the sample-weight mixture of the closures' pdfs.
+class ClosureSum {
+public:
+    ClosureSum() = default;
+    explicit ClosureSum(std::vector<Closure> closures) : closures_(std::move(closures)) {
+        for (const Closure& c : closures_) total_sample_weight_ += c.sample_weight();
+    }
+    const std::vector<Closure>& closures() const { return closures_; }
+
+    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
+        BsdfEval out;
+        if (!(total_sample_weight_ > 0)) return out;
+        for (const Closure& c : closures_) {
+            const BsdfEval e = eval_model(c.model, ctx, wi);
+            for (int p = 0; p < kLobeCount; ++p) out.lobes[p] += c.weight * e.lobes[p];
+            out.pdf += c.sample_weight() * e.pdf;
+        }
+        out.pdf /= total_sample_weight_;
+        return out;
+    }
+
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
+
+    // u[2] picks the closure and is rescaled for the closure's own use.
+    BsdfSample sample(const ShadingContext& ctx, std::array<double, 3> u) const {
+        BsdfSample out;
+        if (!(total_sample_weight_ > 0)) return out;
+        if (closures_.size() == 1) {
+            out = sample_model(closures_[0].model, ctx, u);
+            out.value = closures_[0].weight * out.value;
+            out.weight = closures_[0].weight * out.weight;
+            return out;
+        }
+        double r = u[2] * total_sample_weight_;
+        size_t picked = closures_.size() - 1;
+        for (size_t i = 0; i < closures_.size(); ++i) {
+            const double w = closures_[i].sample_weight();
+            if (r < w || i + 1 == closures_.size()) {
+                picked = i;
+                u[2] = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
+                break;
+            }
+            r -= w;
+        }
+        const BsdfSample s = sample_model(closures_[picked].model, ctx, u);
+        if (s.lobe < 0) return out;
+        // Combine with the other closures' values and pdfs at the sampled direction.
+        RGB value = closures_[picked].weight * s.value;
+        double pdf = closures_[picked].sample_weight() * s.pdf;
+        for (size_t i = 0; i < closures_.size(); ++i) {
+            if (i == picked) continue;
+            const BsdfEval e = eval_model(closures_[i].model, ctx, s.wi);
+            value += closures_[i].weight * e.value();
+            pdf += closures_[i].sample_weight() * e.pdf;
+        }
+        pdf /= total_sample_weight_;
+        if (!(pdf > 0)) return out;
+        out.wi = s.wi;
+        out.value = value;
+        out.pdf = pdf;
+        out.weight = (1.0 / pdf) * value;
+        out.lobe = s.lobe;
+        return out;
+    }
+
+private:
+    std::vector<Closure> closures_;
+    double total_sample_weight_ = 0;
+};
+
+}  // namespace hairbsdf

@@ -1,0 +1,264 @@
+// Chiang et al. 2016, "A Practical and Controllable Hair and Fur Model for Production
+// Path Tracing", as Blender Cycles evaluates and samples it (cycles-hair-notes §4).
+// Setup, eval, sample and pdf for one closure live here, Cycles-closure style.
+#pragma once
+
+#include "hairbsdf/closure.h"
+
+namespace hairbsdf {
+
+// `cycles`: Cycles' truncated Bessel series and log branch (the default).
+// `exact`: accurate special functions, so that every M_p integrates to 1.
+enum class Accuracy { Cycles, Exact };
+
+// Where the cuticle tilt enters M_p. Blender 4.2+ rotates the view angle theta_o;
+// Blender 3.4-4.1 rotated the light angle theta_i and used the older sampler (notes §4.4, §5b).
+enum class TiltConvention { Blender42, Blender34 };
+
+// Model parameters, already mapped (roughness -> variance and logistic scale).
+struct ChiangHairParams {
+    RGB sigma_a{0.0};             // absorption per unit fibre diameter
+    double eta = 1.55;            // relative IOR, used as given (no clamp, as in Cycles)
+    std::array<double, 4> v{};    // M_p variance used by eval and pdf: R, TT, TRT, TRRT+
+    std::array<double, 4> v_sample{};  // variance the sampler uses (Cycles samples R with the un-coated v)
+    std::array<double, 3> s{};    // logistic scale of N_p, sqrt(pi/8) included: R, TT, TRT
+    double tilt = 0;              // cuticle tilt in radians = Blender's Offset; R highlight moves by -2*tilt in theta
+    std::array<RGB, 4> tint{RGB(1.0), RGB(1.0), RGB(1.0), RGB(1.0)};  // per-lobe tints (MaterialX); 1 for Principled Hair
+    Accuracy accuracy = Accuracy::Cycles;
+    TiltConvention tilt_convention = TiltConvention::Blender42;
+};
+
+// Longitudinal scattering M_p for one lobe (d'Eon et al. 2011 form, notes §4.3), with its
+// normalisation precomputed.
+class LongitudinalLobe {
+public:
+    LongitudinalLobe() = default;
+    LongitudinalLobe(double v, Accuracy accuracy) : v_(v), inv_v_(1.0 / v), accuracy_(accuracy) {
+        if (accuracy == Accuracy::Exact) {
+            // log of 1 / (2 v sinh(1/v)), computed without overflow.
+            log_norm_ = -std::log(v) - inv_v_ - std::log1p(-std::exp(-2.0 * inv_v_));
+        } else if (v <= 0.1) {
+            log_norm_ = -inv_v_ + 0.6931 + std::log(0.5 * inv_v_);  // Cycles' constants, 0.6931 included
+        } else {
+            log_branch_ = false;
+            norm_ = 1.0 / (std::sinh(inv_v_) * 2.0 * v);
+        }
+    }
+    // M_p(theta_i, theta_o); both cosines are non-negative.
+    double eval(double sin_theta_i, double cos_theta_i, double sin_theta_o, double cos_theta_o) const {
+        const double a = cos_theta_i * cos_theta_o * inv_v_;
+        const double b = sin_theta_i * sin_theta_o * inv_v_;
+        if (accuracy_ == Accuracy::Exact) return std::exp(log_bessel_i0(a) - b + log_norm_);
+        if (log_branch_) return std::exp(cycles_log_bessel_i0(a) - b + log_norm_);
+        return std::exp(-b) * cycles_bessel_i0(a) * norm_;
+    }
+    double variance() const { return v_; }
+
+private:
+    double v_ = 1, inv_v_ = 1;
+    double log_norm_ = 0;  // additive constant of the log forms
+    double norm_ = 0;      // multiplicative constant of the direct form
+    bool log_branch_ = true;
+    Accuracy accuracy_ = Accuracy::Cycles;
+};
+
+// d'Eon et al. 2013 sampler of M_p around the direction (sin_theta_o, cos_theta_o):
+// returns sin(theta_i). u_theta is clamped to >= 1e-5 as in Cycles.
+inline double sample_longitudinal(double v, double exp_minus_2_over_v, double u_theta, double u_azimuth,
+                                  double sin_theta_o, double cos_theta_o) {
+    u_theta = clamp(u_theta, 1e-5, 1.0);
+    const double fac = 1.0 + v * std::log(u_theta + (1.0 - u_theta) * exp_minus_2_over_v);
+    return clamp(-fac * sin_theta_o + cos_from_sin(fac) * std::cos(kTwoPi * u_azimuth) * cos_theta_o, -1.0, 1.0);
+}
+
+// Rotation of an angle (sin, cos) by a fixed angle (sin_a, cos_a), returning |cos| (notes §4.3).
+struct SinCos {
+    double sin, cos;
+};
+inline SinCos rotate_angle(double sin_t, double cos_t, double sin_a, double cos_a) {
+    return {sin_t * cos_a + cos_t * sin_a, std::fabs(cos_t * cos_a - sin_t * sin_a)};
+}
+
+class ChiangHair {
+public:
+    explicit ChiangHair(const ChiangHairParams& params) : params_(params) {
+        for (int p = 0; p < 4; ++p) {
+            mp_[p] = LongitudinalLobe(params.v[p], params.accuracy);
+            exp_minus_2_over_v_[p] = std::exp(-2.0 / params.v_sample[p]);
+        }
+        for (int p = 0; p < 3; ++p) {
+            logistic_norm_[p] = 1.0 / (logistic_cdf(kPi, params.s[p]) - logistic_cdf(-kPi, params.s[p]));
+        }
+        // Per-lobe tilt of M_p's angle: R by +2 tilt, TT by -tilt, TRT by -4 tilt.
+        const double t = params.tilt;
+        rotations_ = {SinCos{std::sin(2 * t), std::cos(2 * t)}, SinCos{std::sin(-t), std::cos(-t)},
+                      SinCos{std::sin(-4 * t), std::cos(-4 * t)}};
+    }
+
+    const ChiangHairParams& params() const { return params_; }
+
+    // Narrowest lobe widths in theta and phi (radians), for quadrature resolution.
+    std::array<double, 2> angular_scales() const {
+        double theta = 1e9, phi = 1e9;
+        for (double v : params_.v) theta = std::min(theta, std::sqrt(v));
+        for (double s : params_.s) phi = std::min(phi, s);
+        return {theta, phi};
+    }
+
+    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
+        const FibreFrame frame(ctx.tangent, ctx.wo);
+        const ViewTerms vt = view_terms(frame, ctx);
+        if (!vt.valid) return {};
+        const double sin_theta_i = frame.sin_theta(wi);
+        return eval_local(vt, sin_theta_i, cos_from_sin(sin_theta_i), frame.phi(wi) - vt.phi_o);
+    }
+
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
+
+    // u = (u0, u1, u2): u2 picks the lobe and, rescaled, theta_i; u1 the azimuth of the
+    // longitudinal sampler; u0 the azimuthal offset (docs/conventions.md).
+    BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
+        BsdfSample out;
+        const FibreFrame frame(ctx.tangent, ctx.wo);
+        const ViewTerms vt = view_terms(frame, ctx);
+        if (!vt.valid) return out;
+
+        int p = 0;
+        double u_lobe = u[2];
+        for (; p < 3; ++p) {
+            if (u_lobe < vt.lobe_weight[p]) break;
+            u_lobe -= vt.lobe_weight[p];
+        }
+        u_lobe = vt.lobe_weight[p] > 0 ? u_lobe / vt.lobe_weight[p] : 0.5;
+
+        const double v = params_.v_sample[p];
+        double sin_theta_i;
+        if (params_.tilt_convention == TiltConvention::Blender42) {
+            // Sample around the tilted view angle (the importance-sampling fix #114780).
+            const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u[1], o.sin, o.cos);
+        } else {
+            // Blender 3.4: sample around the untilted view angle, then rotate the result
+            // back by the lobe's tilt (the pbrt-v3 scheme that #114780 replaced).
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u[1], vt.sin_theta_o,
+                                              vt.cos_theta_o);
+        }
+        double cos_theta_i = cos_from_sin(sin_theta_i);
+
+        double phi;
+        if (p < 3) {
+            phi = azimuth_center(p, vt) + sample_trimmed_logistic(u[0], params_.s[p]);
+        } else {
+            phi = kTwoPi * u[0];
+        }
+        if (params_.tilt_convention == TiltConvention::Blender34 && p < 3) {
+            // Rotate theta_i by minus the lobe's tilt; past the pole the direction flips in phi.
+            const SinCos& r = rotations_[p];
+            const double s = sin_theta_i, c = cos_theta_i;
+            sin_theta_i = clamp(s * r.cos - c * r.sin, -1.0, 1.0);
+            const double c_rotated = c * r.cos + s * r.sin;
+            cos_theta_i = std::fabs(c_rotated);
+            if (c_rotated < 0) phi += kPi;
+        }
+        const BsdfEval e = eval_local(vt, sin_theta_i, cos_theta_i, phi);
+        const RGB value = e.value();
+        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(value)) return out;
+        out.wi = frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi);
+        out.value = value;
+        out.pdf = e.pdf;
+        out.weight = (1.0 / e.pdf) * value;
+        out.lobe = p;
+        return out;
+    }
+
+private:
+    struct ViewTerms {
+        double sin_theta_o = 0, cos_theta_o = 0, phi_o = 0;
+        double gamma_o = 0, gamma_t = 0;
+        std::array<RGB, 4> attenuation{};    // A_p with tints
+        std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
+        std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
+        bool valid = false;
+    };
+
+    static double azimuth_center(int p, const ViewTerms& vt) {
+        return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
+    }
+
+    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
+        ViewTerms vt;
+        const double eta = params_.eta;
+        vt.sin_theta_o = frame.sin_theta(ctx.wo);
+        vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
+        vt.phi_o = frame.phi(ctx.wo);
+
+        const double sin_theta_t = vt.sin_theta_o / eta;
+        const double cos_theta_t = cos_from_sin(sin_theta_t);
+        const double h = ctx.h;
+        const double cos_gamma_o = cos_from_sin(h);
+        vt.gamma_o = safe_asin(h);
+        // NaN for eta < 1 at grazing angles, as in Cycles; caught below and returned as 0.
+        const double sin_gamma_t = h * vt.cos_theta_o / std::sqrt(eta * eta - sqr(vt.sin_theta_o));
+        const double cos_gamma_t = cos_from_sin(sin_gamma_t);
+        vt.gamma_t = safe_asin(sin_gamma_t);
+
+        const RGB T = exp((-2.0 * cos_gamma_t / cos_theta_t) * params_.sigma_a);
+        const double f = fresnel_dielectric(vt.cos_theta_o * cos_gamma_o, eta);
+        const double one_minus_f = 1.0 - f;
+        RGB a = RGB(f);
+        vt.attenuation[0] = a;
+        a = (one_minus_f * one_minus_f) * T;
+        vt.attenuation[1] = a;
+        a = a * T * f;
+        vt.attenuation[2] = a;
+        const RGB tf = f * T;
+        auto safe_ratio = [](double x) { return x == 1.0 ? 0.0 : x / (1.0 - x); };
+        vt.attenuation[3] = a * RGB(safe_ratio(tf.r), safe_ratio(tf.g), safe_ratio(tf.b));
+
+        double total = 0;
+        for (int p = 0; p < 4; ++p) {
+            vt.attenuation[p] = vt.attenuation[p] * params_.tint[p];
+            vt.lobe_weight[p] = luminance(vt.attenuation[p]);
+            total += vt.lobe_weight[p];
+        }
+        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
+        for (double& w : vt.lobe_weight) w /= total;
+
+        for (int p = 0; p < 3; ++p) {
+            vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
+        }
+        vt.valid = true;
+        return vt;
+    }
+
+    // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o.
+    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
+        BsdfEval out;
+        for (int p = 0; p < 3; ++p) {
+            double mp;
+            if (params_.tilt_convention == TiltConvention::Blender42) {
+                mp = mp_[p].eval(sin_theta_i, cos_theta_i, vt.tilted[p].sin, vt.tilted[p].cos);
+            } else {
+                const SinCos ti = rotate_angle(sin_theta_i, cos_theta_i, rotations_[p].sin, rotations_[p].cos);
+                mp = mp_[p].eval(ti.sin, ti.cos, vt.sin_theta_o, vt.cos_theta_o);
+            }
+            const double x = wrap_angle(phi - azimuth_center(p, vt));
+            const double np = logistic(x, params_.s[p]) * logistic_norm_[p];
+            out.lobes[p] = (mp * np) * vt.attenuation[p];
+            out.pdf += vt.lobe_weight[p] * mp * np;
+        }
+        const double m3 = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o) * kInvTwoPi;
+        out.lobes[3] = m3 * vt.attenuation[3];
+        out.pdf += vt.lobe_weight[3] * m3;
+        if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
+        return out;
+    }
+
+    ChiangHairParams params_;
+    std::array<LongitudinalLobe, 4> mp_;
+    std::array<double, 3> logistic_norm_{};
+    std::array<double, 4> exp_minus_2_over_v_{};
+    std::array<SinCos, 3> rotations_{};  // tilt rotation per lobe (R, TT, TRT)
+};
+
+}  // namespace hairbsdf

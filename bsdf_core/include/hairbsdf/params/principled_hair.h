@@ -1,0 +1,114 @@
+// Blender's Principled Hair BSDF node inputs -> model parameters, as Cycles' SVM maps
+// them (cycles-hair-notes §1, §2). The only place where sigma_a, v and s are derived
+// from node inputs: the Python API, the engine and the tests all call these.
+#pragma once
+
+#include "hairbsdf/models/chiang.h"
+
+namespace hairbsdf {
+
+enum class Parametrization { Color, Melanin, Absorption };  // Blender: COLOR, MELANIN, ABSORPTION
+
+// Socket values; defaults are Blender 4.5's node defaults. Offset is in radians.
+struct PrincipledHairInputs {
+    Parametrization parametrization = Parametrization::Color;
+    RGB color{0.017513, 0.005763, 0.002059};
+    double melanin = 0.8;
+    double melanin_redness = 1.0;
+    RGB tint{1.0, 1.0, 1.0};
+    RGB absorption_coefficient{0.245531, 0.52, 1.365};
+    double roughness = 0.3;
+    double radial_roughness = 0.3;
+    double coat = 0.0;
+    double ior = 1.55;
+    double offset = 0.0349066;  // 2 degrees
+    double random_color = 0.0;
+    double random_roughness = 0.0;
+    double random = 0.0;
+};
+
+// Chiang 2016 eq. 7: longitudinal roughness -> variance of M_p.
+inline double longitudinal_variance(double beta_m) {
+    const double b2 = beta_m * beta_m, b4 = b2 * b2, b20 = b4 * b4 * b4 * b4 * b4;
+    return sqr(0.726 * beta_m + 0.812 * b2 + 3.7 * b20);
+}
+
+// Chiang 2016 eq. 8: azimuthal roughness -> logistic scale, without sqrt(pi/8).
+inline double azimuthal_scale_raw(double beta_n) {
+    const double b2 = beta_n * beta_n, b4 = b2 * b2, b8 = b4 * b4, b16 = b8 * b8;
+    return 0.265 * beta_n + 1.194 * b2 + 5.372 * b16 * b4 * b2;
+}
+// ... and with sqrt(pi/8), the scale N_p uses (Cycles folds it in at setup).
+inline double azimuthal_scale(double beta_n) { return kSqrtPiOver8 * azimuthal_scale_raw(beta_n); }
+
+// Chiang 2016 eq. 9 denominator; Cycles' bsdf_principled_hair_albedo_roughness_scale.
+inline double albedo_roughness_scale(double beta_n) {
+    const double x = beta_n, x2 = x * x, x3 = x2 * x, x4 = x2 * x2, x5 = x4 * x;
+    return 5.969 - 0.215 * x + 2.532 * x2 - 10.73 * x3 + 5.574 * x4 + 0.245 * x5;
+}
+
+// Direct coloring: sigma_a = (ln(max(C, 0)) / P(beta_n))^2 per channel. A black channel
+// gives +inf (fully absorbing), where Cycles before 5.0 took ln of a negative number.
+inline RGB absorption_from_color(RGB color, double radial_roughness) {
+    const double p = albedo_roughness_scale(radial_roughness);
+    auto channel = [p](double c) { return sqr(std::log(std::max(c, 0.0)) / p); };
+    return {channel(color.r), channel(color.g), channel(color.b)};
+}
+
+// Cycles' pigment absorption (per unit melanin quantity), notes §2.3. These differ from
+// pbrt-v3's constants.
+constexpr RGB kEumelaninAbsorption{0.506, 0.841, 1.653};
+constexpr RGB kPheomelaninAbsorption{0.343, 0.733, 1.924};
+
+// Melanin concentration (after Random Color) -> sigma_a, plus the Tint term.
+inline RGB absorption_from_melanin(double melanin, double melanin_redness, RGB tint, double radial_roughness) {
+    const double quantity = -std::log(std::max(1.0 - melanin, 1e-4));
+    const double eumelanin = quantity * (1.0 - melanin_redness);
+    const double pheomelanin = quantity * melanin_redness;
+    return eumelanin * kEumelaninAbsorption + pheomelanin * kPheomelaninAbsorption +
+           absorption_from_color(tint, radial_roughness);
+}
+
+// Blender's node inputs -> the Chiang model, with every clamp Cycles applies (docs/principled_hair.md).
+inline ChiangHairParams chiang_params_from_principled(const PrincipledHairInputs& in,
+                                                      Accuracy accuracy = Accuracy::Cycles,
+                                                      TiltConvention tilt = TiltConvention::Blender42) {
+    // Random Roughness: no clamp on the factor, as in SVM.
+    const double roughness_factor = 1.0 + 2.0 * (in.random - 0.5) * in.random_roughness;
+    const double roughness = in.roughness * roughness_factor;
+    const double radial_roughness = in.radial_roughness * roughness_factor;
+
+    ChiangHairParams p;
+    switch (in.parametrization) {
+        case Parametrization::Absorption:
+            p.sigma_a = in.absorption_coefficient;
+            break;
+        case Parametrization::Melanin: {
+            const double color_factor = 1.0 + 2.0 * (in.random - 0.5) * clamp(in.random_color, 0.0, 1.0);
+            p.sigma_a = absorption_from_melanin(in.melanin * color_factor, in.melanin_redness, in.tint,
+                                                radial_roughness);
+            break;
+        }
+        case Parametrization::Color:
+            p.sigma_a = absorption_from_color(in.color, radial_roughness);
+            break;
+    }
+
+    const double beta_m = clamp(roughness, 0.001, 1.0);
+    const double beta_n = clamp(radial_roughness, 0.001, 1.0);
+    // Coat lowers the R-lobe roughness before the mapping (notes §2.4 step 2).
+    const double beta_coat = clamp((1.0 - clamp(in.coat, 0.0, 1.0)) * beta_m, 0.001, 1.0);
+    const double v = longitudinal_variance(beta_m);
+    const double v_r = longitudinal_variance(beta_coat);
+    p.v = {v_r, 0.25 * v, 4.0 * v, 4.0 * v};
+    p.v_sample = {v, 0.25 * v, 4.0 * v, 4.0 * v};  // Cycles samples R with the un-coated v
+    const double s = azimuthal_scale(beta_n);
+    p.s = {s, s, s};
+    p.eta = in.ior;
+    p.tilt = in.offset;
+    p.accuracy = accuracy;
+    p.tilt_convention = tilt;
+    return p;
+}
+
+}  // namespace hairbsdf

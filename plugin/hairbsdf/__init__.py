@@ -1,0 +1,36 @@
+"""hairbsdf: hair and fur BSDFs that match Blender Cycles' Principled Hair.
+
+    import hairbsdf
+    hair = hairbsdf.principled_hair(parametrization="melanin", melanin=0.5)
+    value = hair.eval(wo, wi, h)          # (N, 3), includes the cosine factor
+    s = hair.sample(wo, h, u)             # s.wi, s.weight, s.pdf, s.lobe
+
+Frames and units: docs/conventions.md in the repository.
+"""
+
+from . import _core
+from .closure import LOBES, Closure, SampleResult
+from .principled import (PRINCIPLED_HAIR_DEFAULTS, absorption_from_color, absorption_from_melanin,
+                         cycles_curve_random, principled_hair)
+from . import materialx
+from .materialx import chiang_hair_bsdf, simple_hair_base
+
+__version__ = "0.1.0"
+
+
+def set_num_threads(n: int) -> None:
+    """Threads used by batch calls (default: all cores)."""
+    if not isinstance(n, int) or n < 1:
+        raise ValueError("n: the number of threads must be an integer >= 1")
+    _core.set_num_threads(n)
+
+
+def get_num_threads() -> int:
+    return _core.get_num_threads()
+
+
+__all__ = [
+    "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
+    "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
+    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS",
+]

@@ -1,0 +1,102 @@
+"""Blender's Principled Hair BSDF: `principled_hair(...)` and its absorption helpers,
+with Cycles' semantics (docs/principled_hair.md lists every clamp)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from . import _validate as check
+from .closure import Closure
+
+PARAMETRIZATIONS = {"color": 0, "melanin": 1, "absorption": 2}
+ACCURACIES = {"cycles": 0, "exact": 1}
+TILTS = {"4.2": 0, "3.4": 1}
+MODELS = ("chiang",)
+
+# Blender 4.5 node defaults (cycles-hair-notes §1). Offset is in radians.
+PRINCIPLED_HAIR_DEFAULTS = {
+    "color": (0.017513, 0.005763, 0.002059),
+    "melanin": 0.8,
+    "melanin_redness": 1.0,
+    "tint": (1.0, 1.0, 1.0),
+    "absorption_coefficient": (0.245531, 0.52, 1.365),
+    "roughness": 0.3,
+    "radial_roughness": 0.3,
+    "coat": 0.0,
+    "ior": 1.55,
+    "offset": 0.0349066,
+    "random_color": 0.0,
+    "random_roughness": 0.0,
+    "random": 0.0,
+}
+_COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
+
+
+def principled_hair(model: str = "chiang", parametrization: str = "color", *, accuracy: str = "cycles",
+                    tilt: str = "4.2", **inputs) -> Closure:
+    """Blender's Principled Hair BSDF as Cycles renders it.
+
+    Keywords are the node's socket names in snake_case (defaults: Blender 4.5):
+    color, melanin, melanin_redness, tint, absorption_coefficient, roughness,
+    radial_roughness, coat, ior, offset (radians), random_color, random_roughness, random.
+    `parametrization` is "color" (Direct Coloring), "melanin" or "absorption".
+    `accuracy="exact"` replaces Cycles' truncated Bessel series by exact special functions;
+    `tilt="3.4"` selects Blender 3.4-4.1's tilt convention and sampler.
+    `random` is the socket value; Cycles uses the per-curve hash when it is unlinked
+    (see `cycles_curve_random`).
+    """
+    if not isinstance(model, str):
+        raise TypeError(f"model: expected a string, one of {list(MODELS)}")
+    if model.lower() == "huang":
+        raise ValueError("model='huang' is not implemented yet; allowed: 'chiang'")
+    check.choice("model", model.lower(), MODELS)
+    if isinstance(parametrization, str):
+        parametrization = parametrization.lower()
+    check.choice("parametrization", parametrization, PARAMETRIZATIONS)
+    check.choice("accuracy", accuracy, ACCURACIES)
+    check.choice("tilt", tilt, TILTS)
+    check.keywords("principled_hair", inputs, PRINCIPLED_HAIR_DEFAULTS)
+
+    values = dict(PRINCIPLED_HAIR_DEFAULTS)
+    for key, value in inputs.items():
+        values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
+
+    core = _core.principled_chiang(
+        PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
+        values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
+        values["coat"], values["ior"], values["offset"], values["random_color"], values["random_roughness"],
+        values["random"], ACCURACIES[accuracy], TILTS[tilt])
+    shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
+    extra = "".join(f", {k}={v!r}" for k, v in (("accuracy", accuracy), ("tilt", tilt))
+                    if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
+    return Closure(core, f"principled_hair(model='chiang', parametrization={parametrization!r}"
+                         f"{', ' + shown if shown else ''}{extra})")
+
+
+def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:
+    """Direct Coloring: sigma_a = (ln(max(color, 0)) / P(radial_roughness))^2 (Chiang 2016 eq. 9).
+    A black channel gives inf (fully absorbing)."""
+    c = check.color("color", color)
+    return np.array(_core.absorption_from_color(c, check.real("radial_roughness", radial_roughness)))
+
+
+def absorption_from_melanin(melanin: float, melanin_redness: float, tint=(1.0, 1.0, 1.0),
+                            radial_roughness: float = 0.3) -> np.ndarray:
+    """The Melanin parametrization of the node: q = -ln(max(1 - melanin, 1e-4)),
+    eumelanin q(1 - redness), pheomelanin q*redness with Cycles' constants, plus the
+    Direct Coloring absorption of `tint` (0 for white)."""
+    return np.array(_core.absorption_from_melanin(
+        check.real("melanin", melanin), check.real("melanin_redness", melanin_redness),
+        check.color("tint", tint), check.real("radial_roughness", radial_roughness)))
+
+
+def cycles_curve_random(curve_index) -> np.ndarray:
+    """Blender's per-curve Hair Info > Random: lookup3 hash of the curve index, in [0, 1]."""
+    idx = np.asarray(curve_index)
+    if not np.issubdtype(idx.dtype, np.integer):
+        raise TypeError("curve_index: expected integers")
+    if np.any(idx < 0) or np.any(idx > 0xFFFFFFFF):
+        raise ValueError("curve_index: must lie in [0, 2**32 - 1]")
+    out = _core.cycles_curve_random(idx.astype(np.int64))
+    return out if out.ndim else float(out)
