@@ -60,7 +60,7 @@ class Closure:
         wi, weight, pdf, lobe = self._core.sample(wo, h, u)
         return SampleResult(wi, weight, pdf, lobe)
 
-    def albedo(self, wo, h, *, panels_per_scale: float = 2.0, max_nodes: int = 4_000_000) -> np.ndarray:
+    def albedo(self, wo, h, *, panels_per_scale: float = 1.0, max_nodes: int = 4_000_000) -> np.ndarray:
         """Directional albedo, the integral of eval over all wi, by deterministic
         composite Gauss-Legendre quadrature sized from the narrowest lobe, (N, 3)."""
         wo, h = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h))

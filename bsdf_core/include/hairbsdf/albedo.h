@@ -7,7 +7,7 @@
 namespace hairbsdf {
 
 struct QuadratureOptions {
-    double panels_per_scale = 2.0;  // panels per narrowest lobe width, 6 Gauss-Legendre nodes each
+    double panels_per_scale = 1.0;  // panels per narrowest lobe width, 6 Gauss-Legendre nodes each
     long max_nodes = 4'000'000;     // cap on theta x phi nodes
 };
 

@@ -87,11 +87,12 @@ public:
             pdf += closures_[i].sample_weight() * e.pdf;
         }
         pdf /= total_sample_weight_;
-        if (!(pdf > 0)) return out;
+        const RGB weight = (1.0 / pdf) * value;
+        if (!(pdf > 0) || !isfinite(weight)) return out;
         out.wi = s.wi;
         out.value = value;
         out.pdf = pdf;
-        out.weight = (1.0 / pdf) * value;
+        out.weight = weight;
         out.lobe = s.lobe;
         return out;
     }

@@ -162,11 +162,12 @@ public:
         }
         const BsdfEval e = eval_local(vt, sin_theta_i, cos_theta_i, phi);
         const RGB value = e.value();
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(value)) return out;
+        const RGB weight = (1.0 / e.pdf) * value;
+        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight)) return out;  // also a denormal pdf
         out.wi = frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi);
         out.value = value;
         out.pdf = e.pdf;
-        out.weight = (1.0 / e.pdf) * value;
+        out.weight = weight;
         out.lobe = p;
         return out;
     }

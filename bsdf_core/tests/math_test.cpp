@@ -1,0 +1,76 @@
+// Special functions and helpers of hairbsdf/math.h.
+#include <gtest/gtest.h>
+
+#include "hairbsdf/math.h"
+#include "test_util.h"
+
+using namespace hairbsdf;
+
+TEST(Bessel, ExactI0MatchesHighPrecisionValues) {
+    // Values from mpmath at 30 digits.
+    const double cases[][2] = {{0.5, 1.0634833707413235},  {1, 1.2660658777520083},
+                               {5, 27.239871823604447},     {10, 2815.7166284662545},
+                               {20, 43558282.559553533},    {30, 781672297823.97749},
+                               {100, 1.0737517071310738e42}};
+    for (const auto& c : cases) EXPECT_LT(test::relative_error(bessel_i0(c[0]), c[1]), 1e-13) << c[0];
+    EXPECT_EQ(bessel_i0(0.0), 1.0);
+    EXPECT_NEAR(log_bessel_i0(1000.0), 995.62730888986946467, 1e-11);
+    EXPECT_NEAR(log_bessel_i0(1e6), 999992.17330631281325, 1e-8);
+}
+
+TEST(Bessel, LogI0IsContinuousAcrossItsBranchSwitch) {
+    for (double x : {24.999999, 25.0, 25.000001}) {
+        EXPECT_LT(std::fabs(log_bessel_i0(x) - std::log(bessel_i0(x))), 1e-13);
+    }
+    EXPECT_LT(std::fabs(log_bessel_i0(std::nextafter(25.0, 0.0)) - log_bessel_i0(std::nextafter(25.0, 30.0))), 1e-12);
+}
+
+TEST(Bessel, CyclesApproximationsHaveTheirKnownErrors) {
+    // The 10-term series is 2.0% low just below the switch at 12 (peer-tests §3.2) ...
+    EXPECT_NEAR(cycles_bessel_i0(12.0) / bessel_i0(12.0), 0.980, 0.002);
+    // ... and exact for small arguments.
+    EXPECT_LT(test::relative_error(cycles_bessel_i0(1.0), bessel_i0(1.0)), 1e-15);
+    // The asymptote above 12 is 0.57% low.
+    EXPECT_NEAR(std::exp(cycles_log_bessel_i0(12.001) - log_bessel_i0(12.001)), 0.9943, 0.0005);
+}
+
+TEST(Fresnel, KnownValues) {
+    EXPECT_NEAR(fresnel_dielectric(1.0, 1.55), 0.046521, 1e-6);
+    EXPECT_DOUBLE_EQ(fresnel_dielectric(0.0, 1.55), 1.0);
+    EXPECT_DOUBLE_EQ(fresnel_dielectric(0.1, 1.0 / 1.55), 1.0);  // total internal reflection
+    EXPECT_NEAR(fresnel_dielectric(1.0, 1.0 / 1.55), 0.046521, 1e-6);
+    EXPECT_DOUBLE_EQ(fresnel_dielectric(0.5, 1.0), 0.0);
+}
+
+TEST(TrimmedLogistic, IntegratesToOneAndInvertsItsCdf) {
+    for (double s : {0.01, 0.05, 0.117, 0.5, 1.0, 5.0}) {
+        const double norm = 1.0 / (logistic_cdf(kPi, s) - logistic_cdf(-kPi, s));
+        double sum = 0;
+        const int n = 200000;
+        for (int i = 0; i < n; ++i) {
+            const double x = -kPi + (i + 0.5) * kTwoPi / n;
+            sum += logistic(x, s) * norm * kTwoPi / n;
+        }
+        EXPECT_NEAR(sum, 1.0, 1e-6) << s;
+        double previous = -kPi;
+        for (double u : {0.0, 0x1p-24, 0.1, 0.37, 0.5, 0.9, 1.0 - 0x1p-24, 1.0}) {
+            const double x = sample_trimmed_logistic(u, s);
+            ASSERT_TRUE(std::isfinite(x));
+            EXPECT_GE(x, previous - 1e-12);
+            previous = x;
+            if (u > 1e-3 && u < 1 - 1e-3) {
+                const double cdf = (logistic_cdf(x, s) - logistic_cdf(-kPi, s)) * norm;
+                EXPECT_NEAR(cdf, u, 1e-6) << "s=" << s << " u=" << u;
+            }
+        }
+    }
+}
+
+TEST(WrapAngle, MapsIntoMinusPiToPi) {
+    for (double a : {-20.0, -7.0, -kPi, -1.0, 0.0, 2.0, kPi, 4.0, 13.0, 100.0}) {
+        const double w = wrap_angle(a);
+        EXPECT_GE(w, -kPi);
+        EXPECT_LE(w, kPi);
+        EXPECT_NEAR(std::remainder(w - a, kTwoPi), 0.0, 1e-12);
+    }
+}
