@@ -12,6 +12,7 @@
 
 #include "hairbsdf/albedo.h"
 #include "hairbsdf/closures.h"
+#include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
 
 namespace py = pybind11;
@@ -271,6 +272,36 @@ PYBIND11_MODULE(_core, m) {
               return chiang_params_dict(std::get<ChiangHair>(c.closures()[0].model).params());
           });
 
+    m.def("materialx_chiang", [](std::array<std::array<double, 3>, 3> tints, double ior,
+                                 std::array<std::array<double, 2>, 3> roughness, double cuticle_angle,
+                                 std::array<double, 3> absorption) {
+        ChiangHairBsdfInputs in;
+        in.tint_R = rgb_from(tints[0]);
+        in.tint_TT = rgb_from(tints[1]);
+        in.tint_TRT = rgb_from(tints[2]);
+        in.ior = ior;
+        in.roughness_R = {roughness[0][0], roughness[0][1]};
+        in.roughness_TT = {roughness[1][0], roughness[1][1]};
+        in.roughness_TRT = {roughness[2][0], roughness[2][1]};
+        in.cuticle_angle = cuticle_angle;
+        in.absorption_coefficient = rgb_from(absorption);
+        return ClosureSum({Closure{RGB(1.0), ChiangHair(chiang_params_from_materialx(in))}});
+    });
+    m.def("materialx_roughness", [](double l, double a, double k_tt, double k_trt) {
+        const ChiangHairRoughness r = chiang_hair_roughness(l, a, k_tt, k_trt);
+        return std::array<std::array<double, 2>, 3>{std::array<double, 2>{r.roughness_R.x, r.roughness_R.y},
+                                                    std::array<double, 2>{r.roughness_TT.x, r.roughness_TT.y},
+                                                    std::array<double, 2>{r.roughness_TRT.x, r.roughness_TRT.y}};
+    });
+    m.def("materialx_absorption_from_color", [](std::array<double, 3> c, double a) {
+        const RGB s = chiang_hair_absorption_from_color(rgb_from(c), a);
+        return std::array<double, 3>{s.r, s.g, s.b};
+    });
+    m.def("materialx_absorption_from_melanin",
+          [](double c, double r, std::array<double, 3> eu, std::array<double, 3> pheo) {
+              const RGB s = deon_hair_absorption_from_melanin(c, r, rgb_from(eu), rgb_from(pheo));
+              return std::array<double, 3>{s.r, s.g, s.b};
+          });
     m.def("absorption_from_color", [](std::array<double, 3> c, double radial_roughness) {
         const RGB s = absorption_from_color(rgb_from(c), radial_roughness);
         return std::array<double, 3>{s.r, s.g, s.b};
