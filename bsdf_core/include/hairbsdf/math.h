@@ -65,16 +65,51 @@ inline double wrap_angle(double a) {
 
 // Exact unpolarised Fresnel reflectance of a dielectric interface, for the cosine of
 // the incident angle `cos_i` and relative IOR `eta`. Returns 1 under total internal reflection.
-double fresnel_dielectric(double cos_i, double eta);
+inline double fresnel_dielectric(double cos_i, double eta) {
+    const double c = std::fabs(cos_i);
+    const double g2 = eta * eta - 1.0 + c * c;
+    if (!(g2 > 0.0)) return 1.0;  // total internal reflection
+    const double g = std::sqrt(g2);
+    const double a = (g - c) / (g + c);
+    const double b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * a * a * (1.0 + b * b);
+}
 
-// Modified Bessel function I0 and its logarithm, to double precision.
-double bessel_i0(double x);
-double log_bessel_i0(double x);
+// Modified Bessel function I0 and its logarithm, to double precision. Below
+// kBesselSeriesLimit the power series is used, above it the asymptotic expansion.
+constexpr double kBesselSeriesLimit = 16.0;
+double bessel_i0_series(double x);
+double log_bessel_i0_asymptotic(double x);
+inline double bessel_i0(double x) {
+    x = std::fabs(x);
+    return x < kBesselSeriesLimit ? bessel_i0_series(x) : std::exp(log_bessel_i0_asymptotic(x));
+}
+inline double log_bessel_i0(double x) {
+    x = std::fabs(x);
+    return x < kBesselSeriesLimit ? std::log(bessel_i0_series(x)) : log_bessel_i0_asymptotic(x);
+}
 
-// Cycles' approximations (cycles-hair-notes §4.3): the 10-term power series and the
+// Cycles' approximations (cycles-hair-notes §4.3): the first 10 terms of the power series
+// (k = 0..9; Cycles stops early only where a term no longer changes a float sum) and the
 // asymptotic log branch above x = 12.
-double cycles_bessel_i0(double x);
-double cycles_log_bessel_i0(double x);
+inline double cycles_bessel_i0(double x) {
+    const double q = 0.25 * x * x;
+    // sum_k q^k / (k!)^2 in Horner form.
+    double sum = 1.0 / 131681894400.0;  // 1 / (9!)^2
+    sum = sum * q + 1.0 / 1625702400.0;
+    sum = sum * q + 1.0 / 25401600.0;
+    sum = sum * q + 1.0 / 518400.0;
+    sum = sum * q + 1.0 / 14400.0;
+    sum = sum * q + 1.0 / 576.0;
+    sum = sum * q + 1.0 / 36.0;
+    sum = sum * q + 1.0 / 4.0;
+    sum = sum * q + 1.0;
+    return sum * q + 1.0;
+}
+inline double cycles_log_bessel_i0(double x) {
+    if (x > 12.0) return x + 0.5 * (1.0 / (8.0 * x) - std::log(kTwoPi) - std::log(x));
+    return std::log(cycles_bessel_i0(x));
+}
 
 // Logistic distribution with scale s, trimmed to [-pi, pi] (Chiang 2016 eq. 11).
 inline double logistic(double x, double s) {

@@ -44,13 +44,19 @@ public:
             norm_ = 1.0 / (std::sinh(inv_v_) * 2.0 * v);
         }
     }
-    // M_p(theta_i, theta_o); both cosines are non-negative.
+    // M_p(theta_i, theta_o); both cosines are non-negative. exp(log I0(a) + y) is
+    // computed as I0(a) exp(y) where I0 comes from a series, which saves a log.
     double eval(double sin_theta_i, double cos_theta_i, double sin_theta_o, double cos_theta_o) const {
         const double a = cos_theta_i * cos_theta_o * inv_v_;
         const double b = sin_theta_i * sin_theta_o * inv_v_;
-        if (accuracy_ == Accuracy::Exact) return std::exp(log_bessel_i0(a) - b + log_norm_);
-        if (log_branch_) return std::exp(cycles_log_bessel_i0(a) - b + log_norm_);
-        return std::exp(-b) * cycles_bessel_i0(a) * norm_;
+        if (accuracy_ == Accuracy::Exact) {
+            if (a < kBesselSeriesLimit) return bessel_i0_series(a) * std::exp(log_norm_ - b);
+            return std::exp(log_bessel_i0_asymptotic(a) - b + log_norm_);
+        }
+        if (!log_branch_) return std::exp(-b) * cycles_bessel_i0(a) * norm_;
+        if (a <= 12.0) return cycles_bessel_i0(a) * std::exp(log_norm_ - b);
+        // Cycles' asymptote: log I0(a) = a + (1/(8a) - ln(2 pi) - ln a) / 2.
+        return std::exp(a + 1.0 / (16.0 * a) - b + log_norm_) / std::sqrt(kTwoPi * a);
     }
     double variance() const { return v_; }
 
@@ -191,7 +197,7 @@ private:
         const double eta = params_.eta;
         vt.sin_theta_o = frame.sin_theta(ctx.wo);
         vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
-        vt.phi_o = frame.phi(ctx.wo);
+        vt.phi_o = -0.5 * kPi;  // by construction of the frame
 
         const double sin_theta_t = vt.sin_theta_o / eta;
         const double cos_theta_t = cos_from_sin(sin_theta_t);
