@@ -43,8 +43,8 @@ int main(int argc, char** argv) {
         wi[i] = normalize(Vec3{g(rng), g(rng), g(rng)});
         u[i] = {uni(rng), uni(rng), uni(rng)};
     }
-    std::printf("%-10s %-8s %12s %12s %12s %14s\n", "beta_m", "accuracy", "eval ns", "sample ns", "pdf ns",
-                "ChiangHair ns");
+    std::printf("%-8s %-8s %10s %10s %10s %14s %16s\n", "beta_m", "accuracy", "eval ns", "sample ns", "pdf ns",
+                "prepare ns", "prepared eval ns");
     for (double beta : {0.05, 0.3, 0.8}) {
         for (Accuracy acc : {Accuracy::Cycles, Accuracy::Exact}) {
             PrincipledHairInputs in;
@@ -56,9 +56,12 @@ int main(int argc, char** argv) {
             const double e = ns_per_call(calls, [&](size_t i) { return bsdf.eval(ctx[i % n], wi[i % n]).lobes[0].r; });
             const double s = ns_per_call(calls, [&](size_t i) { return bsdf.sample(ctx[i % n], u[i % n]).pdf; });
             const double p = ns_per_call(calls, [&](size_t i) { return bsdf.pdf(ctx[i % n], wi[i % n]); });
-            const double m = ns_per_call(calls, [&](size_t i) { return model.eval(ctx[i % n], wi[i % n]).pdf; });
-            std::printf("%-10.2f %-8s %12.1f %12.1f %12.1f %14.1f\n", beta, acc == Accuracy::Cycles ? "cycles" : "exact",
-                        e, s, p, m);
+            std::vector<ClosureSum::ShadingPoint> points(n);
+            for (size_t i = 0; i < n; ++i) points[i] = bsdf.prepare(ctx[i]);
+            const double prep = ns_per_call(calls, [&](size_t i) { return model.prepare(ctx[i % n]).view.gamma_o; });
+            const double prepared = ns_per_call(calls, [&](size_t i) { return bsdf.eval(points[i % n], wi[i % n]).pdf; });
+            std::printf("%-8.2f %-8s %10.1f %10.1f %10.1f %14.1f %16.1f\n", beta,
+                        acc == Accuracy::Cycles ? "cycles" : "exact", e, s, p, prep, prepared);
         }
     }
     return 0;

@@ -53,13 +53,14 @@ RGB directional_albedo(const ClosureSum& bsdf, const ShadingContext& ctx, const 
     const Rule theta = composite_rule(-0.5 * kPi, 0.5 * kPi, n_theta);
     const Rule phi = composite_rule(-kPi, kPi, n_phi);
     const FibreFrame frame(ctx.tangent, ctx.wo);
+    const ClosureSum::ShadingPoint point = bsdf.prepare(ctx);
     RGB sum;
     for (size_t i = 0; i < theta.x.size(); ++i) {
         const double sin_t = std::sin(theta.x[i]), cos_t = std::cos(theta.x[i]);
         RGB row;
         for (size_t j = 0; j < phi.x.size(); ++j) {
             const Vec3 wi = frame.direction(sin_t, cos_t, phi.x[j]);
-            row += phi.w[j] * bsdf.eval(ctx, wi).value();
+            row += phi.w[j] * bsdf.eval(point, wi).value();
         }
         sum += (theta.w[i] * cos_t) * row;
     }

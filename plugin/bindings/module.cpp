@@ -61,6 +61,28 @@ void store(double* out, size_t i, RGB c) {
 
 size_t rows(const Array& a) { return size_t(a.shape(0)); }
 
+// Prepares the closures for row i, reusing the previous row's shading point when the
+// view direction and h repeat (gonio sweeps: one wo, many wi).
+class PointCache {
+public:
+    explicit PointCache(const ClosureSum& bsdf) : bsdf_(bsdf) {}
+    const ClosureSum::ShadingPoint& at(const double* wo, const double* h, size_t i) {
+        const ShadingContext ctx = fibre_context(wo, h, i);
+        if (!valid_ || ctx.wo.x != last_.wo.x || ctx.wo.y != last_.wo.y || ctx.wo.z != last_.wo.z || ctx.h != last_.h) {
+            bsdf_.prepare(ctx, point_);
+            last_ = ctx;
+            valid_ = true;
+        }
+        return point_;
+    }
+
+private:
+    const ClosureSum& bsdf_;
+    ClosureSum::ShadingPoint point_;
+    ShadingContext last_;
+    bool valid_ = false;
+};
+
 py::array_t<double> new_array(std::vector<py::ssize_t> shape) { return py::array_t<double>(shape); }
 
 // Batch methods of a closure sum. Shapes are checked in Python; asserted again here.
@@ -81,8 +103,9 @@ py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Ar
     {
         py::gil_scoped_release release;
         parallel_for(n, 4096, [&](size_t b, size_t e) {
+            PointCache cache(bsdf);
             for (size_t i = b; i < e; ++i) {
-                const BsdfEval r = bsdf.eval(fibre_context(pwo, ph, i), vec_at(pwi, i));
+                const BsdfEval r = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i));
                 if (lobes) {
                     for (int p = 0; p < kLobeCount; ++p) store(o + 3 * kLobeCount * i, size_t(p), r.lobes[p]);
                 } else {
@@ -105,7 +128,8 @@ py::array_t<double> batch_pdf(const ClosureSum& bsdf, const Array& wo, const Arr
     {
         py::gil_scoped_release release;
         parallel_for(n, 4096, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) o[i] = bsdf.pdf(fibre_context(pwo, ph, i), vec_at(pwi, i));
+            PointCache cache(bsdf);
+            for (size_t i = b; i < e; ++i) o[i] = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i)).pdf;
         });
     }
     return out;
@@ -126,8 +150,9 @@ py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, 
     {
         py::gil_scoped_release release;
         parallel_for(n, 2048, [&](size_t b, size_t e) {
+            PointCache cache(bsdf);
             for (size_t i = b; i < e; ++i) {
-                const BsdfSample s = bsdf.sample(fibre_context(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]});
+                const BsdfSample s = bsdf.sample(cache.at(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]});
                 owi[3 * i] = s.wi.x;
                 owi[3 * i + 1] = s.wi.y;
                 owi[3 * i + 2] = s.wi.z;

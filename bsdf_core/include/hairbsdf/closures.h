@@ -1,5 +1,6 @@
 // The closure registry and weighted sums of closures. Adding a model means adding it to
-// `HairModel` below; every model has eval(ctx, wi), pdf(ctx, wi) and sample(ctx, u).
+// `HairModel` and its ShadingPoint to `PreparedModel` below; every model has prepare(ctx),
+// eval(point, wi), sample(point, u), and the convenience forms taking a ShadingContext.
 #pragma once
 
 #include <utility>
@@ -11,6 +12,8 @@
 namespace hairbsdf {
 
 using HairModel = std::variant<ChiangHair>;
+// Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
+using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {
@@ -20,14 +23,24 @@ struct Closure {
     double sample_weight() const { return std::fabs(average(weight)); }
 };
 
-inline BsdfEval eval_model(const HairModel& m, const ShadingContext& ctx, Vec3 wi) {
-    return std::visit([&](const auto& model) { return model.eval(ctx, wi); }, m);
+inline PreparedModel prepare_model(const HairModel& m, const ShadingContext& ctx) {
+    return std::visit([&](const auto& model) { return PreparedModel(model.prepare(ctx)); }, m);
 }
-inline double pdf_model(const HairModel& m, const ShadingContext& ctx, Vec3 wi) {
-    return std::visit([&](const auto& model) { return model.pdf(ctx, wi); }, m);
+inline BsdfEval eval_model(const HairModel& m, const PreparedModel& point, Vec3 wi) {
+    return std::visit(
+        [&](const auto& model) {
+            using Point = typename std::decay_t<decltype(model)>::ShadingPoint;
+            return model.eval(std::get<Point>(point), wi);
+        },
+        m);
 }
-inline BsdfSample sample_model(const HairModel& m, const ShadingContext& ctx, const std::array<double, 3>& u) {
-    return std::visit([&](const auto& model) { return model.sample(ctx, u); }, m);
+inline BsdfSample sample_model(const HairModel& m, const PreparedModel& point, const std::array<double, 3>& u) {
+    return std::visit(
+        [&](const auto& model) {
+            using Point = typename std::decay_t<decltype(model)>::ShadingPoint;
+            return model.sample(std::get<Point>(point), u);
+        },
+        m);
 }
 
 // A weighted sum of closures, evaluated and sampled as Cycles does with several BSDFs:
@@ -40,26 +53,43 @@ public:
     }
     const std::vector<Closure>& closures() const { return closures_; }
 
-    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
+    // The closures prepared for one shading point: view-dependent terms computed once and
+    // shared by every eval, pdf and sample at that point.
+    struct ShadingPoint {
+        std::vector<PreparedModel> models;
+    };
+    ShadingPoint prepare(const ShadingContext& ctx) const {
+        ShadingPoint sp;
+        prepare(ctx, sp);
+        return sp;
+    }
+    // Reuses `sp`'s storage (no allocation once it has grown to the closure count).
+    void prepare(const ShadingContext& ctx, ShadingPoint& sp) const {
+        sp.models.resize(closures_.size());
+        for (size_t i = 0; i < closures_.size(); ++i) sp.models[i] = prepare_model(closures_[i].model, ctx);
+    }
+
+    BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         BsdfEval out;
         if (!(total_sample_weight_ > 0)) return out;
-        for (const Closure& c : closures_) {
-            const BsdfEval e = eval_model(c.model, ctx, wi);
+        for (size_t i = 0; i < closures_.size(); ++i) {
+            const Closure& c = closures_[i];
+            const BsdfEval e = eval_model(c.model, sp.models[i], wi);
             for (int p = 0; p < kLobeCount; ++p) out.lobes[p] += c.weight * e.lobes[p];
             out.pdf += c.sample_weight() * e.pdf;
         }
         out.pdf /= total_sample_weight_;
         return out;
     }
-
+    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
     double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
 
     // u[2] picks the closure and is rescaled for the closure's own use.
-    BsdfSample sample(const ShadingContext& ctx, std::array<double, 3> u) const {
+    BsdfSample sample(const ShadingPoint& sp, std::array<double, 3> u) const {
         BsdfSample out;
         if (!(total_sample_weight_ > 0)) return out;
         if (closures_.size() == 1) {
-            out = sample_model(closures_[0].model, ctx, u);
+            out = sample_model(closures_[0].model, sp.models[0], u);
             out.value = closures_[0].weight * out.value;
             out.weight = closures_[0].weight * out.weight;
             return out;
@@ -75,14 +105,14 @@ public:
             }
             r -= w;
         }
-        const BsdfSample s = sample_model(closures_[picked].model, ctx, u);
+        const BsdfSample s = sample_model(closures_[picked].model, sp.models[picked], u);
         if (s.lobe < 0) return out;
         // Combine with the other closures' values and pdfs at the sampled direction.
         RGB value = closures_[picked].weight * s.value;
         double pdf = closures_[picked].sample_weight() * s.pdf;
         for (size_t i = 0; i < closures_.size(); ++i) {
             if (i == picked) continue;
-            const BsdfEval e = eval_model(closures_[i].model, ctx, s.wi);
+            const BsdfEval e = eval_model(closures_[i].model, sp.models[i], s.wi);
             value += closures_[i].weight * e.value();
             pdf += closures_[i].sample_weight() * e.pdf;
         }
@@ -96,6 +126,7 @@ public:
         out.lobe = s.lobe;
         return out;
     }
+    BsdfSample sample(const ShadingContext& ctx, std::array<double, 3> u) const { return sample(prepare(ctx), u); }
 
 private:
     std::vector<Closure> closures_;

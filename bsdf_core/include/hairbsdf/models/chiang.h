@@ -111,22 +111,43 @@ public:
         return {theta, phi};
     }
 
-    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
+    // Everything that depends only on the view direction and h: computed once per
+    // shading point (Cycles' closure setup), then shared by eval, pdf and sample.
+    struct ViewTerms {
+        double sin_theta_o = 0, cos_theta_o = 0, phi_o = 0;
+        double gamma_o = 0, gamma_t = 0;
+        std::array<RGB, 4> attenuation{};    // A_p with tints
+        std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
+        std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
+        bool valid = false;
+    };
+
+    struct ShadingPoint {
+        FibreFrame frame;
+        ViewTerms view;
+    };
+    ShadingPoint prepare(const ShadingContext& ctx) const {
         const FibreFrame frame(ctx.tangent, ctx.wo);
-        const ViewTerms vt = view_terms(frame, ctx);
-        if (!vt.valid) return {};
-        const double sin_theta_i = frame.sin_theta(wi);
-        return eval_local(vt, sin_theta_i, cos_from_sin(sin_theta_i), frame.phi(wi) - vt.phi_o);
+        return {frame, view_terms(frame, ctx)};
     }
 
+    BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
+        if (!sp.view.valid) return {};
+        const double sin_theta_i = sp.frame.sin_theta(wi);
+        return eval_local(sp.view, sin_theta_i, cos_from_sin(sin_theta_i), sp.frame.phi(wi) - sp.view.phi_o);
+    }
+    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
     double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
 
     // u = (u0, u1, u2): u2 picks the lobe and, rescaled, theta_i; u1 the azimuth of the
     // longitudinal sampler; u0 the azimuthal offset (docs/conventions.md).
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
+        return sample(prepare(ctx), u);
+    }
+    BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u) const {
         BsdfSample out;
-        const FibreFrame frame(ctx.tangent, ctx.wo);
-        const ViewTerms vt = view_terms(frame, ctx);
+        const FibreFrame& frame = sp.frame;
+        const ViewTerms& vt = sp.view;
         if (!vt.valid) return out;
 
         int p = 0;
@@ -179,15 +200,6 @@ public:
     }
 
 private:
-    struct ViewTerms {
-        double sin_theta_o = 0, cos_theta_o = 0, phi_o = 0;
-        double gamma_o = 0, gamma_t = 0;
-        std::array<RGB, 4> attenuation{};    // A_p with tints
-        std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
-        std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
-        bool valid = false;
-    };
-
     static double azimuth_center(int p, const ViewTerms& vt) {
         return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
     }

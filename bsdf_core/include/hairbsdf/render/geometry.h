@@ -1,0 +1,86 @@
+// Ray tracing of curves and triangles with Embree 3, with Cycles' curve semantics
+// (cycles-hair-notes §3): uniform Catmull-Rom strands through the keys with duplicated
+// end keys, radius interpolated the same way; THICK = Embree's round curves with back faces
+// culled (Debian's Embree 3.13 has no curve culling, so an intersection filter rejects hits
+// whose geometric normal faces along the ray); RIBBONS = Embree's ray-facing flat curves
+// (Embree itself ignores flat-curve hits closer than 2 r, as Cycles' build does) with
+// tessellation rate 2^subdivisions + 1 as Cycles passes it. A ray leaving a primitive
+// skips it: all of a curve, or one triangle.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "hairbsdf/render/scene.h"
+
+namespace hairbsdf::render {
+
+struct Ray {
+    Vec3 org, dir;  // dir is a unit vector
+    double tmin = 0, tmax = 1e30;
+};
+
+enum class PrimKind : uint8_t { None, Curve, Triangle };
+
+// The primitive a ray leaves; its hits are ignored (Cycles' self-intersection skip).
+struct SkipPrim {
+    PrimKind kind = PrimKind::None;
+    int id = -1;  // curve index or triangle index
+};
+
+struct Hit {
+    PrimKind kind = PrimKind::None;
+    double t = 0;
+    int prim = -1;     // curve index or triangle index
+    int segment = -1;  // global curve segment index (curves)
+    double u = 0, v = 0;  // Embree's: segment parameter and (flat curves) v in [-1, 1]; barycentrics (triangles)
+    Vec3 ng;           // Embree's geometric normal, not normalised
+    explicit operator bool() const { return kind != PrimKind::None; }
+};
+
+// A point on a curve's centre line: position, radius and their derivatives in u.
+struct CurvePoint {
+    Vec3 p, dp;
+    double r = 0, dr = 0;
+};
+
+class Geometry {
+public:
+    // Builds the Embree scene (inside the caller's TBB arena). Throws std::runtime_error
+    // if Embree fails.
+    explicit Geometry(const SceneDesc& scene);
+    ~Geometry();
+    Geometry(const Geometry&) = delete;
+    Geometry& operator=(const Geometry&) = delete;
+
+    Hit intersect(const Ray& ray, SkipPrim skip) const;
+    bool occluded(const Ray& ray, SkipPrim skip) const;
+
+    CurveShape curve_shape() const { return shape_; }
+    int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }
+    CurvePoint curve_point(int segment, double u) const;
+
+    // Bytes Embree allocated, at most, while this scene existed; plus our own buffers.
+    size_t peak_memory_bytes() const;
+    bool empty() const { return !has_curves_ && !has_triangles_; }
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+    CurveShape shape_ = CurveShape::Thick;
+    bool has_curves_ = false, has_triangles_ = false;
+    std::vector<std::array<float, 4>> control_points_;  // Embree's vertex buffer: per curve n + 2 points
+    std::vector<uint32_t> segment_first_;               // Embree's index buffer: first control point
+    std::vector<int32_t> segment_curve_;                // curve of each segment
+};
+
+// Uniform Catmull-Rom through four control points (position and radius in xyz/w).
+CurvePoint catmull_rom(const std::array<float, 4>* cp, double u);
+
+// Cycles-style origin offset for rays leaving a triangle: pushes `p` along the geometric
+// normal `ng` (pointing to the side the ray leaves on) by a few float ULPs of p.
+Vec3 offset_ray_origin(Vec3 p, Vec3 ng);
+
+}  // namespace hairbsdf::render

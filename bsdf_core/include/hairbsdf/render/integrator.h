@@ -1,0 +1,72 @@
+// Path tracing with next-event estimation and MIS, following Cycles' estimator
+// (kernel/integrator/*.h, 4.5) where it changes the expected value:
+//  * Per surface hit: emission (weight 1: curves and, here, meshes are not light-sampled),
+//    Russian roulette, one light sample (power-heuristic MIS with the BSDF pdf for lights
+//    that BSDF rays can hit), one BSDF sample.
+//  * Russian roulette at a hit after `bounce` scatters, when bounce > min_light_bounces + 1:
+//    survive with q = min(sqrt(max |throughput|), 1), then throughput /= q. Emission of the
+//    hit itself is added before the decision.
+//  * Bounce budgets as path_state.h: after a scatter, bounce (and the diffuse / glossy /
+//    transmission counter of its label) is incremented; reaching budget + 1 marks the path
+//    to end at the next surface, after its emission and after lights / background the ray
+//    meets on the way (so max_bounces 0 is direct lighting). Chiang R counts as glossy,
+//    TT / TRT / TRRT+ as transmission.
+//  * Lights are transparent to rays: each crossed light adds its MIS-weighted radiance and
+//    counts as a transparent bounce (the path ends past transparent_bounces).
+//  * Camera rays see lights and the world with weight 1; with a transparent film a camera
+//    ray that escapes adds average(throughput) to the transparency instead of the world.
+//  * Filter Glossy: at a non-camera hit with min_ray_pdf / filter_glossy < 1 the hair
+//    closures are blurred with roughness sqrt(1 - that) / 2.
+//  * Clamp: per contribution, |r| + |g| + |b| limited to 3 x clamp_direct (light reaching
+//    the camera after at most one scatter) or 3 x clamp_indirect; non-finite components
+//    are zeroed and counted (Cycles' ensure_finite).
+//  * Self-intersection: rays leave curves from the hit point skipping the whole curve;
+//    triangles skip themselves and offset the origin by a few ULPs.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "hairbsdf/render/camera.h"
+#include "hairbsdf/render/film.h"
+#include "hairbsdf/render/lights.h"
+#include "hairbsdf/render/sampler.h"
+#include "hairbsdf/render/shading.h"
+
+namespace hairbsdf::render {
+
+// Everything a path needs, built once per render from a repaired SceneDesc.
+struct PreparedScene {
+    explicit PreparedScene(const SceneDesc& scene);
+    const SceneDesc& desc;
+    Geometry geometry;
+    Camera camera;
+    LightSet lights;
+    std::vector<MaterialShader> materials;
+    FilterTable filter;
+};
+
+struct PathCounters {
+    uint64_t rays = 0;
+    uint64_t nan = 0;
+};
+
+struct PathResult {
+    RGB radiance;
+    double transparent = 0;  // background transparency of a transparent film
+};
+
+// Per-thread scratch state of the integrator (no allocation per sample).
+struct PathScratch {
+    Bsdf bsdf;
+};
+
+// The camera sample of pixel (column, row), row 0 at the top: filter offsets, camera ray, path.
+PathResult trace_pixel_sample(const PreparedScene& scene, int column, int row, uint32_t sample, PathScratch& scratch,
+                              PathCounters& counters);
+
+// One path from a given primary ray.
+PathResult trace_path(const PreparedScene& scene, Ray ray, Sampler& rng, PathScratch& scratch,
+                      PathCounters& counters);
+
+}  // namespace hairbsdf::render

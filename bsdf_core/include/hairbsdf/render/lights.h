@@ -1,0 +1,125 @@
+// Lights with Cycles' units and normalisation (scene/light.cpp, kernel/light/*.h, 4.5).
+//
+// `strength` is Blender's color x energy. Radiance = strength x eval_fac, with
+//   POINT / SPOT: eval_fac = 1 / (pi * area), area = 4 pi r^2 (4 when r = 0), so a light of
+//     P watts has intensity P / (4 pi) W/sr. soft_falloff (Blender's default) makes it a
+//     disk of radius r facing the shading point; otherwise (r > 0) a sphere. SPOT multiplies
+//     by smoothstep((cos_angle - cos(spot_size / 2)) / ((1 - cos(spot_size / 2)) spot_blend)),
+//     the angle measured in the light's local frame (object scale included).
+//   SUN: eval_fac = 1 / (pi sin^2(angle / 2)) on a cone of half-angle angle / 2, so the
+//     irradiance at normal incidence equals strength; a delta light for angle 0.
+//   AREA: eval_fac = 1 / (pi * area), area = |u| |v| (x pi/4 for DISK / ELLIPSE), one-sided
+//     along the light's -Z; spread < pi attenuates by max((tan(spread/2) - tan a) N, 0)
+//     with Cycles' normalisation N.
+//   WORLD: uniform radiance.
+// `normalize = false` drops the 1 / area factor, as Cycles does.
+//
+// Next-event estimation picks one light uniformly (Cycles 4.x uses a light tree, which
+// changes only the noise). A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
+// hit by BSDF rays: POINT / SPOT with r > 0, SUN with angle > 0, AREA with spread > 0, the
+// world; and use_mis is set. Lights are not in the BVH: rays pass through them (Cycles
+// counts each as a transparent bounce) and they cast no shadows.
+#pragma once
+
+#include <vector>
+
+#include "hairbsdf/render/geometry.h"
+
+namespace hairbsdf::render {
+
+struct LightSample {
+    Vec3 wi;            // unit direction from the shading point towards the light
+    double distance = 0;  // to the sampled point; infinity for sun and world
+    RGB radiance;       // strength x eval_fac x attenuation
+    double pdf = 0;     // solid-angle density of this light's sampler (selection excluded)
+    bool use_mis = false;
+};
+
+// A light hit by a ray: where, what it emits towards the ray origin, and the density
+// with which next-event estimation would have sampled this direction.
+struct LightHit {
+    double t = 0;
+    RGB radiance;
+    double pdf = 0;
+    int light = -1;
+};
+
+class Light {
+public:
+    Light(const LightDesc& desc);       // scene light
+    explicit Light(RGB world_radiance);  // uniform world
+    bool is_world() const { return world_; }
+    bool is_distant() const { return world_ || type_ == LightType::Sun; }
+    bool use_mis() const { return use_mis_; }
+    bool has_contribution() const { return contributes_; }
+
+    bool sample(Vec3 p, double u0, double u1, LightSample& out) const;
+    // Finite lights (point, spot, area): the hit along `ray` in (tmin, tmax), if any.
+    bool intersect(const Ray& ray, double tmax, LightHit& out) const;
+    // Sun and world: radiance arriving from direction `dir` (towards the light).
+    bool eval_direction(Vec3 dir, LightHit& out) const;
+
+private:
+    double spot_attenuation(Vec3 from_light) const;
+    double spread_attenuation(Vec3 to_light) const;
+
+    bool world_ = false;
+    bool contributes_ = true;
+    bool use_mis_ = true;
+    LightType type_ = LightType::Point;
+    RGB radiance_;  // strength x eval_fac (before attenuation)
+    Vec3 co_;       // position, or direction towards the sun
+    // point / spot
+    double radius_ = 0;
+    bool sphere_ = false;
+    Vec3 spot_dir_;                   // unit spot axis
+    std::array<double, 9> spot_inv_{};  // inverse of the light's 3x3 matrix
+    double cos_half_spot_ = 0, spot_smooth_ = 0, cos_half_larger_spread_ = 1;
+    // sun
+    double half_angle_ = 0, one_minus_cos_ = 0, sun_pdf_ = 1;
+    // area
+    Vec3 axis_u_, axis_v_, normal_;
+    double len_u_ = 0, len_v_ = 0, area_ = 0;
+    bool ellipse_ = false;
+    double tan_half_spread_ = 0, normalize_spread_ = 0;
+    bool full_spread_ = true;
+};
+
+class LightSet {
+public:
+    LightSet(const SceneDesc& scene);
+    size_t size() const { return lights_.size(); }
+    const Light& light(size_t i) const { return lights_[i]; }
+    double selection_pdf() const { return lights_.empty() ? 0.0 : 1.0 / double(lights_.size()); }
+    bool has_finite_mis_lights(bool camera) const { return camera ? has_finite_camera_ : has_finite_mis_; }
+
+    // Picks a light with u_select and samples it; out.pdf includes the selection probability.
+    bool sample(Vec3 p, double u_select, double u0, double u1, LightSample& out) const;
+
+    // Finite lights crossed by `ray` before `tmax`, sorted by distance. Camera rays see all
+    // lights with a surface; other rays only MIS lights. Returns the number written (<= 8).
+    int intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const;
+    // Sun discs crossed by an escaping ray. Same visibility rule. Returns the number written.
+    int eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const;
+    // The uniform world, if any (index into lights, or -1).
+    int world_index() const { return world_; }
+
+private:
+    std::vector<Light> lights_;
+    int world_ = -1;
+    bool has_finite_camera_ = false, has_finite_mis_ = false;
+};
+
+// Cycles' MIS weight (power heuristic).
+inline double power_heuristic(double a, double b) {
+    const double a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0 ? a2 / (a2 + b2) : 0.0;
+}
+
+// Sampling helpers shared with the integrator.
+Vec3 sample_uniform_cone(Vec3 axis, double one_minus_cos, double u0, double u1);
+Vec3 sample_cos_hemisphere(Vec3 n, double u0, double u1);
+void make_orthonormals(Vec3 n, Vec3& a, Vec3& b);
+void sample_concentric_disk(double u0, double u1, double& x, double& y);
+
+}  // namespace hairbsdf::render

@@ -1,0 +1,124 @@
+// The plain-data scene the renderer reads: the C++ mirror of docs/scene_desc.md.
+// Built from the Python dict by the bindings (or by hand in tests); no Embree, no TBB.
+// `repair_scene` drops or fixes invalid content and reports what it did.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hairbsdf/params/principled_hair.h"
+
+namespace hairbsdf::render {
+
+enum class CurveShape { Ribbons, Thick };
+
+// All strands, concatenated. Curve c owns points [offsets[c], offsets[c+1]).
+struct CurveData {
+    std::vector<std::array<float, 4>> points;  // x, y, z, radius (world space)
+    std::vector<int32_t> offsets;              // C + 1 entries
+    std::vector<float> random;                 // Hair Info > Random per curve
+    std::vector<int32_t> material;             // index into SceneDesc::materials
+    size_t curve_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+};
+
+struct MeshData {
+    std::vector<std::array<float, 3>> vertices;
+    std::vector<std::array<int32_t, 3>> triangles;
+    std::vector<int32_t> material;  // per triangle
+};
+
+// One entry of a material's flat weighted closure sum.
+struct ClosureDesc {
+    enum class Type { PrincipledHair, Diffuse, Emission };
+    Type type = Type::Diffuse;
+    RGB weight{1.0};
+    // principled_hair: node inputs; `random_from_curve` = the Random socket is unlinked
+    // (Cycles then uses the per-curve curve_random; 0 on meshes).
+    PrincipledHairInputs hair;
+    bool random_from_curve = true;
+    // diffuse / emission
+    RGB color{0.8};
+    double strength = 1.0;  // emission only
+};
+
+struct MaterialDesc {
+    std::string name;
+    std::vector<ClosureDesc> closures;
+};
+
+enum class CameraType { Perspective, Orthographic };
+enum class SensorFit { Auto, Horizontal, Vertical };
+
+struct CameraDesc {
+    CameraType type = CameraType::Perspective;
+    std::array<double, 16> matrix_world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // row-major 4x4
+    int width = 64, height = 64;
+    double pixel_aspect = 1.0;  // pixel_aspect_y / pixel_aspect_x
+    SensorFit sensor_fit = SensorFit::Auto;
+    double sensor_width = 36.0, sensor_height = 24.0, lens = 50.0;  // mm
+    double ortho_scale = 1.0;
+    double shift_x = 0.0, shift_y = 0.0;
+    double clip_start = 0.1, clip_end = 100.0;
+};
+
+enum class LightType { Sun, Point, Spot, Area };
+enum class AreaShape { Square, Rectangle, Disk, Ellipse };
+
+// Blender's raw light values (scene_desc.md); Cycles' normalisation happens in lights.h.
+struct LightDesc {
+    LightType type = LightType::Point;
+    RGB strength{1.0};                      // color x energy (x 2^exposure), W or W/m^2 for the sun
+    std::array<double, 3> position{0, 0, 0};
+    std::array<double, 3> direction{0, 0, 1};  // SUN: towards the light; SPOT: the spot axis (light's -Z)
+    std::array<double, 16> matrix_world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // row-major
+    bool has_matrix = false;                // SPOT: use matrix_world for the cone (object scale included)
+    double angle = 0.0;                     // SUN: full angular diameter (rad)
+    double radius = 0.0;                    // POINT / SPOT: shadow_soft_size
+    bool soft_falloff = true;               // POINT / SPOT (Blender 4.x default on)
+    double spot_size = kPi / 4, spot_blend = 0.15;
+    AreaShape shape = AreaShape::Square;
+    double size_x = 1.0, size_y = 1.0;
+    double spread = kPi;
+    bool normalize = true;                  // Blender 4.x Light.normalize
+    bool use_mis = true;                    // Light > Cycles > Multiple Importance
+};
+
+struct IntegratorSettings {
+    int samples = 16;
+    uint32_t seed = 0;
+    int max_bounces = 12, diffuse_bounces = 4, glossy_bounces = 4, transmission_bounces = 12;
+    int transparent_bounces = 8, min_light_bounces = 0;
+    enum class Filter { BlackmanHarris, Gaussian, Box } filter = Filter::BlackmanHarris;
+    double filter_width = 1.5;  // pixels (Box is always 1 px, as Blender's sync forces it)
+    double exposure = 1.0;
+    bool film_transparent = false;
+    double light_sampling_threshold = 0.0;  // unbiased in Cycles; ignored here (noise only)
+    double filter_glossy = 0.0;             // Cycles' blur_glossy; 0 = off
+    double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
+    TiltConvention tilt = TiltConvention::Blender42;
+};
+
+struct SceneDesc {
+    CurveData curves;
+    CurveShape curve_shape = CurveShape::Thick;
+    int curve_subdivisions = 2;
+    MeshData meshes;
+    std::vector<MaterialDesc> materials;
+    CameraDesc camera;
+    std::vector<LightDesc> lights;
+    RGB world{0.0};
+    IntegratorSettings integrator;
+};
+
+// Drops or repairs content the renderer cannot use, in place, and returns one warning per
+// kind of problem: curves with non-finite keys, fewer than two keys, no length or no
+// radius are dropped; negative / non-finite radii become 0; material indices outside the
+// list (e.g. -1) get Cycles' default surface (diffuse 0.8 grey), appended as the last
+// material; triangles with bad indices or non-finite vertices
+// are dropped; non-finite light or world values turn the light off; camera values are
+// clamped to something renderable.
+std::vector<std::string> repair_scene(SceneDesc& scene);
+
+}  // namespace hairbsdf::render

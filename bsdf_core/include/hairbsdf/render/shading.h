@@ -1,0 +1,102 @@
+// Materials at a hit: the flat weighted closure sum of scene_desc.md turned into a BSDF the
+// integrator can evaluate and sample, with Cycles' one-sample closure mixture:
+// a closure is picked with probability |average(weight)| / sum, its sample is combined with
+// the other closures' values and pdfs (surface_shader.h). Closures:
+//   principled_hair -> ChiangHair (params/principled_hair.h, `cycles` accuracy): label GLOSSY,
+//     REFLECT for lobe R, TRANSMIT for TT/TRT/TRRT+ (cycles-hair-notes §6);
+//   diffuse -> Lambert, cosine-sampled, label DIFFUSE REFLECT;
+//   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure).
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "hairbsdf/models/chiang.h"
+#include "hairbsdf/render/scene.h"
+
+namespace hairbsdf::render {
+
+constexpr int kMaxBsdfClosures = 8;
+constexpr double kClosureWeightCutoff = 1e-5;  // Cycles' CLOSURE_WEIGHT_CUTOFF
+
+enum ScatterLabel : uint8_t { LabelNone = 0, LabelReflect = 1, LabelTransmit = 2, LabelDiffuse = 4, LabelGlossy = 8 };
+
+// One material, prepared once per render.
+class MaterialShader {
+public:
+    MaterialShader(const MaterialDesc& desc, TiltConvention tilt);
+    struct HairClosure {
+        RGB weight;
+        PrincipledHairInputs inputs;
+        bool random_from_curve = true;
+        bool depends_on_random = false;
+        std::optional<ChiangHair> fixed;  // when the parameters do not depend on the curve
+    };
+    struct DiffuseClosure {
+        RGB weight;  // weight x color
+    };
+    const std::vector<HairClosure>& hair() const { return hair_; }
+    const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
+    RGB emission() const { return emission_; }
+    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty(); }
+    TiltConvention tilt() const { return tilt_; }
+
+private:
+    std::vector<HairClosure> hair_;
+    std::vector<DiffuseClosure> diffuse_;
+    RGB emission_{0.0};
+    TiltConvention tilt_;
+};
+
+// The local geometry a BSDF needs.
+struct ShadingGeometry {
+    Vec3 wo;        // towards the viewer (-ray direction)
+    Vec3 n;         // shading normal, on the viewer's side for triangles
+    Vec3 ng;        // geometric normal, on the viewer's side (wo for ribbons)
+    Vec3 tangent;   // hair: normalize(dP/du), root to tip
+    double h = 0;   // hair offset, docs/conventions.md
+    double random = 0;  // Hair Info > Random of the curve (0 on meshes)
+};
+
+struct BsdfValue {
+    RGB value;       // sum of weight x eval (cosine included)
+    double pdf = 0;  // mixture density
+};
+
+struct BsdfScatter {
+    Vec3 wi;
+    RGB value;
+    double pdf = 0;
+    uint8_t label = LabelNone;
+};
+
+// The BSDF at one hit. Reused per thread: set() does not allocate.
+class Bsdf {
+public:
+    // blur_roughness > 0 applies Cycles' Filter Glossy to the hair closures.
+    void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness);
+    bool empty() const { return count_ == 0; }
+    BsdfValue eval(Vec3 wi) const;
+    BsdfScatter sample(double u0, double u1, double u2) const;
+
+private:
+    struct Entry {
+        enum class Kind : uint8_t { Hair, Diffuse } kind;
+        RGB weight;
+        double sample_weight;
+        const ChiangHair* hair;
+    };
+    BsdfValue eval_entry(const Entry& e, Vec3 wi) const;
+    std::array<Entry, kMaxBsdfClosures> entries_{};
+    std::array<std::optional<ChiangHair>, kMaxBsdfClosures> storage_;
+    int count_ = 0;
+    double total_sample_weight_ = 0;
+    ShadingContext hair_ctx_;
+    Vec3 n_, ng_;
+};
+
+// Chiang parameters blurred by Filter Glossy: v, s and the R-lobe variance become
+// max(roughness, value) of the already mapped values (cycles-hair-notes §6).
+ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness);
+
+}  // namespace hairbsdf::render

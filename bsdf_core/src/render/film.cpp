@@ -1,0 +1,103 @@
+// Cycles' pixel-filter importance table and film resolve; see render/film.h.
+#include "hairbsdf/render/film.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hairbsdf::render {
+
+namespace {
+
+// Filter profiles as functions of the distance v from the centre and the window width.
+float filter_box(float, float) { return 1.0f; }
+float filter_gaussian(float v, float width) {
+    v *= 6.0f / width;
+    return std::exp(-2.0f * v * v);
+}
+float filter_blackman_harris(float v, float width) {
+    v = float(kTwoPi) * (v / width + 0.5f);
+    return 0.35875f - 0.48829f * std::cos(v) + 0.14128f * std::cos(2.0f * v) - 0.01168f * std::cos(3.0f * v);
+}
+
+}  // namespace
+
+FilterTable::FilterTable(IntegratorSettings::Filter type, double width_in) : table_(kFilterTableSize, 0.0f) {
+    float (*profile)(float, float) = filter_box;
+    float width = float(width_in);
+    switch (type) {
+        case IntegratorSettings::Filter::Box:
+            profile = filter_box;
+            width = 1.0f;  // Blender's sync
+            break;
+        case IntegratorSettings::Filter::Gaussian:
+            profile = filter_gaussian;
+            width *= 3.0f;
+            break;
+        case IntegratorSettings::Filter::BlackmanHarris:
+            profile = filter_blackman_harris;
+            width *= 2.0f;
+            break;
+    }
+    const float range = 0.5f * width;
+
+    // CDF of |profile| on [0, range] sampled at kFilterTableSize - 1 points.
+    const int n = kFilterTableSize - 1;
+    std::vector<float> cdf(size_t(n) + 1, 0.0f);
+    for (int i = 0; i < n; ++i) {
+        const float x = range * float(i) / float(n - 1);
+        cdf[size_t(i) + 1] = cdf[size_t(i)] + std::fabs(profile(x, width));
+    }
+    const float total = cdf[size_t(n)];
+    const float scale = total == 0.0f ? 0.0f : 1.0f / total;
+    for (float& c : cdf) c *= scale;
+    cdf[size_t(n)] = 1.0f;
+
+    // Symmetric inversion around the centre entry; the last entry stays 0 as in Cycles.
+    const int half = (kFilterTableSize - 1) / 2;
+    const int cdf_size = int(cdf.size());
+    for (int i = 0; i <= half; ++i) {
+        const float x = float(i) / float(half);
+        int index = int(std::upper_bound(cdf.begin(), cdf.end(), x) - cdf.begin());
+        float t;
+        if (index < cdf_size - 1) {
+            t = (x - cdf[size_t(index)]) / (cdf[size_t(index) + 1] - cdf[size_t(index)]);
+        } else {
+            t = 0.0f;
+            index = cdf_size - 1;
+        }
+        const float y = ((float(index) + t) / float(kFilterTableSize - 1)) * (2.0f * range);
+        table_[size_t(half + i)] = 0.5f * (1.0f + y);
+        table_[size_t(half - i)] = 0.5f * (1.0f - y);
+    }
+}
+
+double FilterTable::sample(double u) const {
+    // Cycles' lookup_table_read: linear interpolation on a table of kFilterTableSize points.
+    const float x = float(clamp(u, 0.0, 1.0)) * float(kFilterTableSize - 1);
+    const int index = std::min(int(x), kFilterTableSize - 1);
+    const int next = std::min(index + 1, kFilterTableSize - 1);
+    const float t = x - float(index);
+    const float a = table_[size_t(index)];
+    if (t == 0.0f) return a;
+    return (1.0f - t) * a + t * table_[size_t(next)];
+}
+
+void Film::resolve(float* rgba, double exposure, bool film_transparent) const {
+    const size_t n = size_t(width_) * size_t(height_);
+    for (size_t i = 0; i < n; ++i) {
+        const double* s = &sum_[4 * i];
+        const int c = count_[i];
+        float* o = rgba + 4 * i;
+        if (c == 0) {
+            o[0] = o[1] = o[2] = o[3] = 0.0f;
+            continue;
+        }
+        const double inv = 1.0 / double(c);
+        o[0] = float(exposure * s[0] * inv);
+        o[1] = float(exposure * s[1] * inv);
+        o[2] = float(exposure * s[2] * inv);
+        o[3] = film_transparent ? float(clamp(1.0 - s[3] * inv, 0.0, 1.0)) : 1.0f;
+    }
+}
+
+}  // namespace hairbsdf::render

@@ -1,0 +1,266 @@
+// Embree 3 scene of curves and triangles; see render/geometry.h.
+#include "hairbsdf/render/geometry.h"
+
+#include <embree3/rtcore.h>
+
+#include <cfloat>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace hairbsdf::render {
+
+namespace {
+
+// Embree's ray query context, extended with the primitive the ray must skip.
+struct QueryContext {
+    RTCIntersectContext rtc;
+    SkipPrim skip;
+    const int32_t* segment_curve;
+};
+
+struct MemoryCounter {
+    std::atomic<long long> current{0};
+    std::atomic<long long> peak{0};
+};
+
+bool memory_monitor(void* user, ssize_t bytes, bool /*post*/) {
+    auto* m = static_cast<MemoryCounter*>(user);
+    const long long now = m->current.fetch_add(bytes) + bytes;
+    long long peak = m->peak.load();
+    while (now > peak && !m->peak.compare_exchange_weak(peak, now)) {
+    }
+    return true;
+}
+
+// Filters shared by intersect and occluded queries. Only single rays (N = 1) are traced.
+template <bool kCullBackFaces>
+void curve_filter(const RTCFilterFunctionNArguments* args) {
+    if (args->valid[0] == 0) return;
+    const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, 0);
+    if (ctx->skip.kind == PrimKind::Curve && ctx->segment_curve[prim] == ctx->skip.id) {
+        args->valid[0] = 0;
+        return;
+    }
+    if (kCullBackFaces) {
+        const float d = RTCRayN_dir_x(args->ray, args->N, 0) * RTCHitN_Ng_x(args->hit, args->N, 0) +
+                        RTCRayN_dir_y(args->ray, args->N, 0) * RTCHitN_Ng_y(args->hit, args->N, 0) +
+                        RTCRayN_dir_z(args->ray, args->N, 0) * RTCHitN_Ng_z(args->hit, args->N, 0);
+        if (d > 0.0f) args->valid[0] = 0;  // back face: Cycles culls curve back faces
+    }
+}
+
+void triangle_filter(const RTCFilterFunctionNArguments* args) {
+    if (args->valid[0] == 0) return;
+    const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
+    if (ctx->skip.kind == PrimKind::Triangle && int(RTCHitN_primID(args->hit, args->N, 0)) == ctx->skip.id) {
+        args->valid[0] = 0;
+    }
+}
+
+void setup_ray(const Ray& ray, RTCRay& r) {
+    r.org_x = float(ray.org.x);
+    r.org_y = float(ray.org.y);
+    r.org_z = float(ray.org.z);
+    r.dir_x = float(ray.dir.x);
+    r.dir_y = float(ray.dir.y);
+    r.dir_z = float(ray.dir.z);
+    r.tnear = float(ray.tmin);
+    r.tfar = ray.tmax >= double(FLT_MAX) ? FLT_MAX : float(ray.tmax);
+    r.time = 0.0f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+}
+
+}  // namespace
+
+struct Geometry::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    unsigned curve_geom = RTC_INVALID_GEOMETRY_ID;
+    unsigned triangle_geom = RTC_INVALID_GEOMETRY_ID;
+    MemoryCounter memory;
+    size_t own_bytes = 0;
+};
+
+static void check_device(RTCDevice device, const char* what) {
+    const RTCError err = rtcGetDeviceError(device);
+    if (err != RTC_ERROR_NONE) throw std::runtime_error(std::string("Embree error ") + std::to_string(int(err)) + " in " + what);
+}
+
+Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), shape_(scene.curve_shape) {
+    Impl& im = *impl_;
+    im.device = rtcNewDevice("verbose=0");
+    if (!im.device) throw std::runtime_error("Embree: rtcNewDevice failed");
+    rtcSetDeviceMemoryMonitorFunction(im.device, memory_monitor, &im.memory);
+    im.scene = rtcNewScene(im.device);
+    rtcSetSceneFlags(im.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_MEDIUM);
+
+    // Curves: per curve n + 2 control points (end keys duplicated), one index per segment.
+    const CurveData& cd = scene.curves;
+    const size_t n_curves = cd.curve_count();
+    size_t n_segments = 0, n_cp = 0;
+    for (size_t c = 0; c < n_curves; ++c) {
+        const size_t n = size_t(cd.offsets[c + 1] - cd.offsets[c]);
+        if (n < 2) continue;
+        n_segments += n - 1;
+        n_cp += n + 2;
+    }
+    if (n_segments > 0) {
+        control_points_.reserve(n_cp);
+        segment_first_.reserve(n_segments);
+        segment_curve_.reserve(n_segments);
+        for (size_t c = 0; c < n_curves; ++c) {
+            const size_t b = size_t(cd.offsets[c]), e = size_t(cd.offsets[c + 1]);
+            if (e - b < 2) continue;
+            const uint32_t base = uint32_t(control_points_.size());
+            control_points_.push_back(cd.points[b]);
+            for (size_t k = b; k < e; ++k) control_points_.push_back(cd.points[k]);
+            control_points_.push_back(cd.points[e - 1]);
+            for (size_t s = 0; s + 1 < e - b; ++s) {
+                segment_first_.push_back(base + uint32_t(s));
+                segment_curve_.push_back(int32_t(c));
+            }
+        }
+        const bool thick = scene.curve_shape == CurveShape::Thick;
+        RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
+                                                        : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
+        const int subdivisions = std::max(0, std::min(scene.curve_subdivisions, 4));
+        rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
+        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
+                                   sizeof(float) * 4, control_points_.size());
+        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data(), 0,
+                                   sizeof(uint32_t), segment_first_.size());
+        rtcSetGeometryIntersectFilterFunction(g, thick ? curve_filter<true> : curve_filter<false>);
+        rtcSetGeometryOccludedFilterFunction(g, thick ? curve_filter<true> : curve_filter<false>);
+        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+        rtcCommitGeometry(g);
+        im.curve_geom = rtcAttachGeometry(im.scene, g);
+        rtcReleaseGeometry(g);
+        has_curves_ = true;
+    }
+
+    const MeshData& md = scene.meshes;
+    if (!md.triangles.empty()) {
+        RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        // Embree reads vertex buffers with 16-byte loads: copy with one float of padding.
+        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                              sizeof(float) * 4, md.vertices.size()));
+        for (size_t i = 0; i < md.vertices.size(); ++i) {
+            v[4 * i] = md.vertices[i][0];
+            v[4 * i + 1] = md.vertices[i][1];
+            v[4 * i + 2] = md.vertices[i][2];
+            v[4 * i + 3] = 0.0f;
+        }
+        auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                   sizeof(uint32_t) * 3, md.triangles.size()));
+        std::memcpy(idx, md.triangles.data(), md.triangles.size() * sizeof(uint32_t) * 3);
+        rtcSetGeometryIntersectFilterFunction(g, triangle_filter);
+        rtcSetGeometryOccludedFilterFunction(g, triangle_filter);
+        rtcCommitGeometry(g);
+        im.triangle_geom = rtcAttachGeometry(im.scene, g);
+        rtcReleaseGeometry(g);
+        has_triangles_ = true;
+    }
+    rtcCommitScene(im.scene);
+    check_device(im.device, "scene build");
+    im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) +
+                   segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t);
+}
+
+Geometry::~Geometry() {
+    if (impl_) {
+        if (impl_->scene) rtcReleaseScene(impl_->scene);
+        if (impl_->device) rtcReleaseDevice(impl_->device);
+    }
+}
+
+size_t Geometry::peak_memory_bytes() const {
+    return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
+}
+
+Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
+    Hit hit;
+    if (empty()) return hit;
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.skip = skip;
+    ctx.segment_curve = segment_curve_.data();
+    RTCRayHit rh;
+    setup_ray(ray, rh.ray);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+    hit.t = rh.ray.tfar;
+    hit.u = rh.hit.u;
+    hit.v = rh.hit.v;
+    hit.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+    if (rh.hit.geomID == impl_->curve_geom) {
+        hit.kind = PrimKind::Curve;
+        hit.segment = int(rh.hit.primID);
+        hit.prim = segment_curve_[rh.hit.primID];
+    } else {
+        hit.kind = PrimKind::Triangle;
+        hit.prim = int(rh.hit.primID);
+    }
+    return hit;
+}
+
+bool Geometry::occluded(const Ray& ray, SkipPrim skip) const {
+    if (empty()) return false;
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.skip = skip;
+    ctx.segment_curve = segment_curve_.data();
+    RTCRay r;
+    setup_ray(ray, r);
+    rtcOccluded1(impl_->scene, &ctx.rtc, &r);
+    return r.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+}
+
+CurvePoint catmull_rom(const std::array<float, 4>* cp, double u) {
+    const double t = u, t2 = t * t, t3 = t2 * t;
+    // Uniform Catmull-Rom basis and its derivative (Embree's and Cycles' convention).
+    const double b[4] = {0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t),
+                         0.5 * (t3 - t2)};
+    const double d[4] = {0.5 * (-3 * t2 + 4 * t - 1), 0.5 * (9 * t2 - 10 * t), 0.5 * (-9 * t2 + 8 * t + 1),
+                         0.5 * (3 * t2 - 2 * t)};
+    CurvePoint out;
+    for (int i = 0; i < 4; ++i) {
+        const Vec3 p{cp[i][0], cp[i][1], cp[i][2]};
+        out.p = out.p + b[i] * p;
+        out.dp = out.dp + d[i] * p;
+        out.r += b[i] * cp[i][3];
+        out.dr += d[i] * cp[i][3];
+    }
+    return out;
+}
+
+CurvePoint Geometry::curve_point(int segment, double u) const {
+    return catmull_rom(&control_points_[segment_first_[size_t(segment)]], u);
+}
+
+Vec3 offset_ray_origin(Vec3 p, Vec3 ng) {
+    // Integer-ULP offset along the normal (Wächter and Binder, Ray Tracing Gems ch. 6),
+    // the scheme Cycles' ray_offset follows.
+    constexpr float kOrigin = 1.0f / 32.0f, kFloatScale = 1.0f / 65536.0f, kIntScale = 256.0f;
+    const float n[3] = {float(ng.x), float(ng.y), float(ng.z)};
+    const float pf[3] = {float(p.x), float(p.y), float(p.z)};
+    float out[3];
+    for (int i = 0; i < 3; ++i) {
+        const int of = int(kIntScale * n[i]);
+        int32_t bits;
+        std::memcpy(&bits, &pf[i], 4);
+        bits += (pf[i] < 0) ? -of : of;
+        float pi;
+        std::memcpy(&pi, &bits, 4);
+        out[i] = std::fabs(pf[i]) < kOrigin ? pf[i] + kFloatScale * n[i] : pi;
+    }
+    return {out[0], out[1], out[2]};
+}
+
+}  // namespace hairbsdf::render

@@ -1,0 +1,245 @@
+// The path tracer; see render/integrator.h for the Cycles behaviour it follows.
+#include "hairbsdf/render/integrator.h"
+
+#include <cfloat>
+#include <limits>
+
+namespace hairbsdf::render {
+
+namespace {
+
+constexpr int kMaxLightHits = 8;
+
+std::vector<MaterialShader> build_materials(const SceneDesc& scene) {
+    std::vector<MaterialShader> out;
+    out.reserve(scene.materials.size());
+    for (const MaterialDesc& m : scene.materials) out.emplace_back(m, scene.integrator.tilt);
+    return out;
+}
+
+double max_abs(RGB c) { return std::max(std::fabs(c.r), std::max(std::fabs(c.g), std::fabs(c.b))); }
+
+struct SurfacePoint {
+    Vec3 p;
+    ShadingGeometry g;
+    int material = 0;
+    SkipPrim self;
+    Vec3 ng_triangle;  // triangles: geometric normal on the viewer's side (for ray offsets)
+};
+
+// Hit -> position, frame, h and material (cycles-hair-notes §3, geom/curve.h).
+SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit) {
+    SurfacePoint sp;
+    sp.g.wo = -1.0 * ray.dir;
+    if (hit.kind == PrimKind::Curve) {
+        const CurveData& cd = s.desc.curves;
+        const int curve = hit.prim;
+        sp.material = cd.material[size_t(curve)];
+        sp.g.random = cd.random[size_t(curve)];
+        sp.self = {PrimKind::Curve, curve};
+        sp.p = ray.org + hit.t * ray.dir;
+        const CurvePoint cp = s.geometry.curve_point(hit.segment, hit.u);
+        Vec3 x = normalize(cp.dp);
+        if (!(dot(x, x) > 0)) x = normalize(cross(sp.g.wo, std::fabs(sp.g.wo.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        sp.g.tangent = x;
+        Vec3 y = cross(x, sp.g.wo);
+        const double ly = length(y);
+        y = ly > 1e-12 ? (1.0 / ly) * y : normalize(cross(x, std::fabs(x.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        if (s.geometry.curve_shape() == CurveShape::Thick) {
+            const Vec3 d = sp.p - cp.p;
+            const Vec3 n = dot(d, d) > 0 ? normalize(d) : sp.g.wo;
+            sp.g.n = n;
+            sp.g.ng = n;
+            sp.g.h = -dot(n, y);  // = dot(cross(N, X), Z) of Cycles' frame
+        } else {
+            const double sine = clamp(hit.v, -1.0, 1.0);
+            sp.g.h = -sine;
+            sp.g.n = normalize(sine * y - cos_from_sin(sine) * normalize(cross(x, y)));
+            sp.g.ng = sp.g.wo;
+        }
+    } else {
+        const MeshData& md = s.desc.meshes;
+        const auto& tri = md.triangles[size_t(hit.prim)];
+        const auto& a = md.vertices[size_t(tri[0])];
+        const auto& b = md.vertices[size_t(tri[1])];
+        const auto& c = md.vertices[size_t(tri[2])];
+        const Vec3 v0{a[0], a[1], a[2]}, v1{b[0], b[1], b[2]}, v2{c[0], c[1], c[2]};
+        sp.material = md.material[size_t(hit.prim)];
+        sp.self = {PrimKind::Triangle, hit.prim};
+        sp.p = (1.0 - hit.u - hit.v) * v0 + hit.u * v1 + hit.v * v2;
+        Vec3 ng = normalize(cross(v1 - v0, v2 - v0));
+        if (dot(ng, sp.g.wo) < 0) ng = -1.0 * ng;  // back face: Cycles flips N and Ng
+        sp.g.n = ng;
+        sp.g.ng = ng;
+        sp.ng_triangle = ng;
+        // A hair closure on a mesh: Cycles' frame from dP/du of the triangle.
+        const Vec3 x = normalize(v0 - v2);
+        sp.g.tangent = dot(x, x) > 0 ? x : Vec3{1, 0, 0};
+        const Vec3 y = normalize(cross(sp.g.tangent, sp.g.wo));
+        const Vec3 z = normalize(cross(sp.g.tangent, y));
+        sp.g.h = clamp(dot(cross(ng, sp.g.tangent), z), -1.0, 1.0);
+        sp.g.random = 0.0;
+    }
+    return sp;
+}
+
+Ray leaving_ray(const SurfacePoint& sp, Vec3 dir, double tmax) {
+    Ray r;
+    r.dir = dir;
+    r.tmin = 0.0;
+    r.tmax = tmax;
+    if (sp.self.kind == PrimKind::Triangle) {
+        r.org = offset_ray_origin(sp.p, dot(sp.ng_triangle, dir) >= 0 ? sp.ng_triangle : -1.0 * sp.ng_triangle);
+    } else {
+        r.org = sp.p;  // curves: no offset (the whole curve is skipped)
+    }
+    return r;
+}
+
+}  // namespace
+
+PreparedScene::PreparedScene(const SceneDesc& scene)
+    : desc(scene),
+      geometry(scene),
+      camera(scene.camera),
+      lights(scene),
+      materials(build_materials(scene)),
+      filter(scene.integrator.filter, scene.integrator.filter_width) {}
+
+PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters) {
+    const IntegratorSettings& is = s.desc.integrator;
+    const double selection = s.lights.selection_pdf();
+    const double clamp_direct = is.clamp_direct > 0 ? 3.0 * is.clamp_direct : 0.0;
+    const double clamp_indirect = is.clamp_indirect > 0 ? 3.0 * is.clamp_indirect : 0.0;
+
+    PathResult res;
+    RGB throughput(1.0);
+    int bounce = 0, diffuse = 0, glossy = 0, transmission = 0, transparent = 0;
+    bool camera = true;            // no scatter yet: PATH_RAY_CAMERA and MIS_SKIP
+    bool terminate_after = false;  // PATH_RAY_TERMINATE_AFTER_TRANSPARENT
+    double mis_ray_pdf = 0.0;
+    double min_ray_pdf = std::numeric_limits<double>::infinity();
+    SkipPrim skip;
+
+    // Adds a contribution; `light_bounce` < 1 counts as direct light for clamping.
+    auto add = [&](RGB c, int light_bounce) {
+        if (!isfinite(c)) {
+            ++counters.nan;
+            c = RGB(std::isfinite(c.r) ? c.r : 0.0, std::isfinite(c.g) ? c.g : 0.0, std::isfinite(c.b) ? c.b : 0.0);
+        }
+        const double limit = light_bounce > 0 ? clamp_indirect : clamp_direct;
+        if (limit > 0) {
+            const double sum = std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b);
+            if (sum > limit) c = (limit / sum) * c;
+        }
+        res.radiance += c;
+    };
+    auto forward_mis = [&](double light_pdf) { return camera ? 1.0 : power_heuristic(mis_ray_pdf, light_pdf); };
+
+    for (;;) {
+        const Hit hit = s.geometry.intersect(ray, skip);
+        ++counters.rays;
+        const double t_end = hit ? hit.t : ray.tmax;
+
+        // Lights crossed before the surface (transparent to rays, Cycles' shade_light).
+        if (s.lights.has_finite_mis_lights(camera)) {
+            LightHit lh[kMaxLightHits];
+            const int n = s.lights.intersect(ray, t_end, camera, lh, kMaxLightHits);
+            for (int k = 0; k < n; ++k) {
+                add(forward_mis(lh[k].pdf * selection) * (throughput * lh[k].radiance), bounce - 1);
+                if (++transparent >= is.transparent_bounces + 1) return res;
+            }
+        }
+
+        if (!hit) {
+            LightHit sh[kMaxLightHits];
+            const int n = s.lights.eval_suns(ray.dir, camera, sh, kMaxLightHits);
+            for (int k = 0; k < n; ++k) add(forward_mis(sh[k].pdf * selection) * (throughput * sh[k].radiance), bounce - 1);
+            if (camera && is.film_transparent) {
+                res.transparent += average(throughput);
+            } else if (s.lights.world_index() >= 0) {
+                LightHit wh;
+                s.lights.light(size_t(s.lights.world_index())).eval_direction(ray.dir, wh);
+                add(forward_mis(wh.pdf * selection) * (throughput * wh.radiance), bounce - 1);
+            }
+            return res;
+        }
+
+        const SurfacePoint sp = surface_point(s, ray, hit);
+        const MaterialShader& material = s.materials[size_t(sp.material)];
+
+        // Russian roulette (decided before shading, applied after the emission).
+        double q = 1.0;
+        if (bounce > is.min_light_bounces + 1) q = std::min(std::sqrt(max_abs(throughput)), 1.0);
+        const bool killed = q < 1.0 && (q == 0.0 || rng.next() >= q);
+
+        const RGB emission = material.emission();
+        if (emission.r != 0 || emission.g != 0 || emission.b != 0) add(throughput * emission, bounce - 1);
+        if (killed || terminate_after || !material.has_bsdf()) return res;
+        if (q != 1.0) throughput = (1.0 / q) * throughput;
+
+        double blur = 0.0;
+        if (is.filter_glossy > 0 && !camera) {
+            const double blur_pdf = min_ray_pdf / is.filter_glossy;
+            if (blur_pdf < 1.0) blur = 0.5 * std::sqrt(1.0 - blur_pdf);
+        }
+        Bsdf& bsdf = scratch.bsdf;
+        bsdf.set(material, sp.g, blur);
+        if (bsdf.empty()) return res;
+
+        // Next-event estimation.
+        if (s.lights.size() > 0) {
+            const double u_sel = rng.next(), u0 = rng.next(), u1 = rng.next();
+            LightSample ls;
+            if (s.lights.sample(sp.p, u_sel, u0, u1, ls)) {
+                const BsdfValue b = bsdf.eval(ls.wi);
+                const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
+                const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (throughput * b.value * ls.radiance);
+                if (c.r != 0 || c.g != 0 || c.b != 0) {
+                    const double tmax = std::isfinite(ls.distance) ? ls.distance : 1e30;
+                    const Ray shadow = leaving_ray(sp, ls.wi, tmax);
+                    ++counters.rays;
+                    if (!s.geometry.occluded(shadow, sp.self)) add(c, bounce);
+                }
+            }
+        }
+
+        // BSDF sample.
+        const double u0 = rng.next(), u1 = rng.next(), u2 = rng.next();
+        const BsdfScatter sc = bsdf.sample(u0, u1, u2);
+        if (sc.label == LabelNone) return res;
+        throughput = throughput * ((1.0 / sc.pdf) * sc.value);
+        if (!isfinite(throughput)) {
+            ++counters.nan;
+            return res;
+        }
+        mis_ray_pdf = sc.pdf;
+        min_ray_pdf = std::min(min_ray_pdf, sc.pdf);
+        if (++bounce >= is.max_bounces + 1) terminate_after = true;
+        if (sc.label & LabelReflect) {
+            if (sc.label & LabelDiffuse) {
+                if (++diffuse >= is.diffuse_bounces + 1) terminate_after = true;
+            } else if (++glossy >= is.glossy_bounces + 1) {
+                terminate_after = true;
+            }
+        } else if (++transmission >= is.transmission_bounces + 1) {
+            terminate_after = true;
+        }
+        camera = false;
+        ray = leaving_ray(sp, sc.wi, 1e30);
+        skip = sp.self;
+    }
+}
+
+PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint32_t sample, PathScratch& scratch,
+                              PathCounters& counters) {
+    const Camera& cam = s.camera;
+    const uint64_t pixel = uint64_t(row) * uint64_t(cam.width()) + uint64_t(column);
+    Sampler rng(pixel, sample, s.desc.integrator.seed);
+    const double ox = s.filter.sample(rng.next());
+    const double oy = s.filter.sample(rng.next());
+    const Ray ray = cam.generate(double(column) + ox, double(cam.pixel_row_to_raster_y(row)) + oy);
+    return trace_path(s, ray, rng, scratch, counters);
+}
+
+}  // namespace hairbsdf::render

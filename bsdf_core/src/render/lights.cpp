@@ -1,0 +1,459 @@
+// Light sampling and evaluation with Cycles' normalisation; see render/lights.h.
+#include "hairbsdf/render/lights.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <limits>
+
+namespace hairbsdf::render {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Vec3 to_vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+bool is_zero(RGB c) { return c.r == 0 && c.g == 0 && c.b == 0; }
+
+// 1 - cos(asin(sqrt(s2))) without cancellation.
+double sin_sqr_to_one_minus_cos(double s2) { return s2 / (1.0 + std::sqrt(std::max(1.0 - s2, 0.0))); }
+
+double smoothstep(double x) {
+    if (!(x > 0)) return 0.0;  // also NaN (spot_blend = 0 on the cone edge)
+    if (x >= 1) return 1.0;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+// Nearest t in (tmin, tmax) where the ray meets the sphere.
+bool ray_sphere(Vec3 o, Vec3 d, double tmin, double tmax, Vec3 c, double r, double& t) {
+    const Vec3 oc = o - c;
+    const double b = dot(oc, d);
+    const double cc = dot(oc, oc) - r * r;
+    const double disc = b * b - cc;
+    if (disc < 0) return false;
+    const double s = std::sqrt(disc);
+    const double t0 = -b - s, t1 = -b + s;
+    if (t0 > tmin && t0 < tmax) {
+        t = t0;
+        return true;
+    }
+    if (t1 > tmin && t1 < tmax) {
+        t = t1;
+        return true;
+    }
+    return false;
+}
+
+void invert3(const std::array<double, 9>& m, std::array<double, 9>& inv) {
+    const double a = m[0], b = m[1], c = m[2], d = m[3], e = m[4], f = m[5], g = m[6], h = m[7], i = m[8];
+    const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+    const double det = a * A + b * B + c * C;
+    const double s = det != 0 ? 1.0 / det : 0.0;
+    inv = {A * s, -(b * i - c * h) * s, (b * f - c * e) * s, B * s, (a * i - c * g) * s, -(a * f - c * d) * s,
+           C * s, -(a * h - b * g) * s, (a * e - b * d) * s};
+}
+
+}  // namespace
+
+void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
+    if (n.x != n.y || n.x != n.z) {
+        a = Vec3{n.z - n.y, n.x - n.z, n.y - n.x};
+    } else {
+        a = Vec3{n.z - n.y, n.x + n.z, -n.y - n.x};
+    }
+    a = normalize(a);
+    b = cross(n, a);
+}
+
+void sample_concentric_disk(double u0, double u1, double& x, double& y) {
+    const double a = 2.0 * u0 - 1.0, b = 2.0 * u1 - 1.0;
+    if (a == 0 && b == 0) {
+        x = y = 0;
+        return;
+    }
+    double r, phi;
+    if (a * a > b * b) {
+        r = a;
+        phi = (kPi / 4) * (b / a);
+    } else {
+        r = b;
+        phi = kPi / 2 - (kPi / 4) * (a / b);
+    }
+    x = r * std::cos(phi);
+    y = r * std::sin(phi);
+}
+
+Vec3 sample_uniform_cone(Vec3 axis, double one_minus_cos, double u0, double u1) {
+    const double cos_t = 1.0 - u0 * one_minus_cos;
+    const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
+    const double phi = kTwoPi * u1;
+    Vec3 a, b;
+    make_orthonormals(axis, a, b);
+    return normalize((sin_t * std::cos(phi)) * a + (sin_t * std::sin(phi)) * b + cos_t * axis);
+}
+
+Vec3 sample_cos_hemisphere(Vec3 n, double u0, double u1) {
+    double x, y;
+    sample_concentric_disk(u0, u1, x, y);
+    const double z = std::sqrt(std::max(0.0, 1.0 - x * x - y * y));
+    Vec3 a, b;
+    make_orthonormals(n, a, b);
+    return normalize(x * a + y * b + z * n);
+}
+
+static Vec3 sample_uniform_sphere(double u0, double u1) {
+    const double z = 1.0 - 2.0 * u0;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = kTwoPi * u1;
+    return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+Light::Light(RGB world_radiance) : world_(true), radiance_(world_radiance) {
+    contributes_ = !is_zero(world_radiance) && isfinite(world_radiance);
+    use_mis_ = true;
+}
+
+Light::Light(const LightDesc& d) : type_(d.type) {
+    contributes_ = !is_zero(d.strength) && isfinite(d.strength);
+    RGB eval_fac{0.0};
+    switch (d.type) {
+        case LightType::Point:
+        case LightType::Spot: {
+            co_ = to_vec(d.position);
+            radius_ = std::max(0.0, d.radius);
+            sphere_ = !d.soft_falloff && radius_ > 0;
+            const double area = radius_ > 0 ? 4.0 * kPi * radius_ * radius_ : 4.0;
+            eval_fac = RGB((d.normalize ? 1.0 / area : 1.0) / kPi);
+            use_mis_ = d.use_mis && radius_ > 0;
+            if (d.type == LightType::Spot) {
+                // The light's 3x3 matrix (columns u, v, w with w = -Z); without one, an
+                // orthonormal frame around the given axis.
+                std::array<double, 9> m3;
+                Vec3 w = normalize(to_vec(d.direction));
+                if (d.has_matrix) {
+                    const auto& m = d.matrix_world;
+                    m3 = {m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]};
+                    w = normalize(Vec3{-m[2], -m[6], -m[10]});
+                } else {
+                    Vec3 a, b;
+                    make_orthonormals(w, a, b);
+                    // columns: x = a, y = b, z = -w (row-major storage)
+                    m3 = {a.x, b.x, -w.x, a.y, b.y, -w.y, a.z, b.z, -w.z};
+                }
+                spot_dir_ = w;
+                invert3(m3, spot_inv_);
+                const double half = 0.5 * d.spot_size;
+                cos_half_spot_ = std::cos(half);
+                spot_smooth_ = 1.0 / ((1.0 - cos_half_spot_) * d.spot_blend);
+                const double tan_half = std::tan(half);
+                const double lu = m3[0] * m3[0] + m3[3] * m3[3] + m3[6] * m3[6];
+                const double lv = m3[1] * m3[1] + m3[4] * m3[4] + m3[7] * m3[7];
+                const double lw = m3[2] * m3[2] + m3[5] * m3[5] + m3[8] * m3[8];
+                cos_half_larger_spread_ = 1.0 / std::sqrt(1.0 + tan_half * tan_half * std::max(lu, lv) / lw);
+            }
+            break;
+        }
+        case LightType::Sun: {
+            co_ = normalize(to_vec(d.direction));
+            half_angle_ = 0.5 * std::max(0.0, d.angle);
+            if (half_angle_ > 0) {
+                one_minus_cos_ = 2.0 * sqr(std::sin(0.5 * half_angle_));
+                sun_pdf_ = 1.0 / (kTwoPi * one_minus_cos_);
+                eval_fac = RGB(d.normalize ? 1.0 / (kPi * sqr(std::sin(half_angle_))) : 1.0);
+            } else {
+                sun_pdf_ = 1.0;
+                eval_fac = RGB(1.0);
+            }
+            use_mis_ = d.use_mis && half_angle_ > 0;
+            break;
+        }
+        case LightType::Area: {
+            const auto& m = d.matrix_world;
+            co_ = Vec3{m[3], m[7], m[11]};
+            const Vec3 cu{m[0], m[4], m[8]}, cv{m[1], m[5], m[9]}, cw{m[2], m[6], m[10]};
+            const bool square = d.shape == AreaShape::Square || d.shape == AreaShape::Disk;
+            ellipse_ = d.shape == AreaShape::Disk || d.shape == AreaShape::Ellipse;
+            len_u_ = length(cu) * d.size_x;
+            len_v_ = length(cv) * (square ? d.size_x : d.size_y);
+            axis_u_ = normalize(cu);
+            axis_v_ = normalize(cv);
+            normal_ = normalize(-1.0 * cw);
+            area_ = len_u_ * len_v_ * (ellipse_ ? kPi / 4 : 1.0);
+            if (!(area_ > 0)) contributes_ = false;
+            eval_fac = RGB((d.normalize && area_ > 0 ? 1.0 / area_ : 1.0) / kPi);
+            const double half_spread = 0.5 * std::max(0.0, d.spread);
+            full_spread_ = d.spread >= kPi;
+            if (!full_spread_) {
+                tan_half_spread_ = std::tan(half_spread);
+                normalize_spread_ = half_spread > 0.05 ? 1.0 / (tan_half_spread_ - half_spread)
+                                                       : (half_spread > 0 ? 3.0 / std::pow(half_spread, 3.0) : 0.0);
+                if (!(half_spread > 0)) contributes_ = false;  // a collimated light: Cycles' result is ~0
+            }
+            use_mis_ = d.use_mis && d.spread > 0;
+            break;
+        }
+    }
+    radiance_ = d.strength * eval_fac;
+}
+
+double Light::spot_attenuation(Vec3 from_light) const {
+    const auto& m = spot_inv_;
+    Vec3 l{m[0] * from_light.x + m[1] * from_light.y + m[2] * from_light.z,
+           m[3] * from_light.x + m[4] * from_light.y + m[5] * from_light.z,
+           m[6] * from_light.x + m[7] * from_light.y + m[8] * from_light.z};
+    l = normalize(l);
+    return smoothstep((-l.z - cos_half_spot_) * spot_smooth_);
+}
+
+double Light::spread_attenuation(Vec3 to_light) const {
+    if (full_spread_) return 1.0;
+    const double c = -dot(to_light, normal_);
+    if (!(c > 0)) return 0.0;
+    const double tan_a = std::sqrt(std::max(0.0, 1.0 - c * c)) / c;
+    return std::max((tan_half_spread_ - tan_a) * normalize_spread_, 0.0);
+}
+
+bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
+    if (!contributes_) return false;
+    out.use_mis = use_mis_;
+    if (world_) {
+        out.wi = sample_uniform_sphere(u0, u1);
+        out.distance = kInf;
+        out.radiance = radiance_;
+        out.pdf = 1.0 / (4.0 * kPi);
+        return true;
+    }
+    switch (type_) {
+        case LightType::Sun: {
+            out.distance = kInf;
+            out.radiance = radiance_;
+            out.pdf = sun_pdf_;
+            out.wi = half_angle_ > 0 ? sample_uniform_cone(co_, one_minus_cos_, u0, u1) : co_;
+            return true;
+        }
+        case LightType::Point:
+        case LightType::Spot: {
+            const Vec3 to_p = p - co_;
+            const double d2 = dot(to_p, to_p), d = std::sqrt(d2);
+            if (!(d > 0)) return false;
+            const Vec3 light_n = (1.0 / d) * to_p;
+            const double r2 = radius_ * radius_;
+            double attenuation = 1.0;
+            if (sphere_) {
+                if (d2 > r2) {
+                    const double omc_sphere = sin_sqr_to_one_minus_cos(r2 / d2);
+                    const double omc_spread = 1.0 - cos_half_larger_spread_;
+                    if (type_ == LightType::Spot && omc_spread < omc_sphere) {
+                        // The spread cone is narrower than the sphere: sample it, keep hits.
+                        out.wi = sample_uniform_cone(-1.0 * spot_dir_, omc_spread, u0, u1);
+                        double t;
+                        if (!ray_sphere(p, out.wi, 0.0, kInf, co_, radius_, t)) return false;
+                        out.distance = t;
+                        out.pdf = 1.0 / (kTwoPi * omc_spread);
+                    } else {
+                        out.wi = sample_uniform_cone(-1.0 * light_n, omc_sphere, u0, u1);
+                        const double cos_t = -dot(out.wi, light_n);
+                        out.distance = d * cos_t - std::sqrt(std::max(0.0, r2 - d2 + d2 * cos_t * cos_t));
+                        out.pdf = 1.0 / (kTwoPi * omc_sphere);
+                    }
+                    if (type_ == LightType::Spot) attenuation = spot_attenuation(-1.0 * out.wi);
+                } else {
+                    // Inside the sphere: uniform directions (Cycles: cosine or uniform; any
+                    // density gives the same expected value), no spot attenuation.
+                    out.wi = sample_uniform_sphere(u0, u1);
+                    const double cos_t = -dot(out.wi, light_n);
+                    out.distance = d * cos_t + std::sqrt(std::max(0.0, r2 - d2 + d2 * cos_t * cos_t));
+                    out.pdf = 1.0 / (4.0 * kPi);
+                }
+            } else {
+                // Point light, or a disk of radius r facing the shading point.
+                Vec3 pl = co_;
+                if (radius_ > 0) {
+                    double x, y;
+                    sample_concentric_disk(u0, u1, x, y);
+                    Vec3 a, b;
+                    make_orthonormals(light_n, a, b);
+                    pl = pl + (radius_ * x) * a + (radius_ * y) * b;
+                }
+                const Vec3 dv = pl - p;
+                const double t = length(dv);
+                if (!(t > 0)) return false;
+                out.wi = (1.0 / t) * dv;
+                out.distance = t;
+                const double cos_l = dot(light_n, -1.0 * out.wi);
+                if (!(cos_l > 0)) return false;
+                const double invarea = radius_ > 0 ? 1.0 / (kPi * r2) : 1.0;
+                out.pdf = invarea * t * t / cos_l;
+                if (type_ == LightType::Spot) attenuation = spot_attenuation(-1.0 * out.wi);
+            }
+            if (!(attenuation > 0)) return false;
+            out.radiance = attenuation * radiance_;
+            return out.pdf > 0;
+        }
+        case LightType::Area: {
+            if (dot(co_ - p, normal_) > 0) return false;  // behind the one-sided light
+            double x, y;
+            if (ellipse_) {
+                sample_concentric_disk(u0, u1, x, y);
+            } else {
+                x = 2.0 * u0 - 1.0;
+                y = 2.0 * u1 - 1.0;
+            }
+            const Vec3 pl = co_ + (0.5 * len_u_ * x) * axis_u_ + (0.5 * len_v_ * y) * axis_v_;
+            const Vec3 dv = pl - p;
+            const double t = length(dv);
+            if (!(t > 0)) return false;
+            out.wi = (1.0 / t) * dv;
+            out.distance = t;
+            const double cos_l = -dot(normal_, out.wi);
+            if (!(cos_l > 0)) return false;
+            out.pdf = t * t / (cos_l * area_);
+            const double att = spread_attenuation(out.wi);
+            if (!(att > 0)) return false;
+            out.radiance = att * radiance_;
+            return true;
+        }
+    }
+    return false;
+}
+
+bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
+    if (!contributes_ || world_) return false;
+    switch (type_) {
+        case LightType::Sun:
+            return false;
+        case LightType::Point:
+        case LightType::Spot: {
+            if (!(radius_ > 0)) return false;
+            const Vec3 to_o = ray.org - co_;
+            if (type_ == LightType::Spot && dot(ray.dir, to_o) >= 0) return false;  // one-sided
+            const double d2 = dot(to_o, to_o), r2 = radius_ * radius_;
+            double t;
+            if (sphere_) {
+                if (!ray_sphere(ray.org, ray.dir, ray.tmin, tmax, co_, radius_, t)) return false;
+                double att = 1.0;
+                if (d2 > r2) {
+                    double omc = sin_sqr_to_one_minus_cos(r2 / d2);
+                    if (type_ == LightType::Spot) {
+                        omc = std::min(omc, 1.0 - cos_half_larger_spread_);
+                        att = spot_attenuation(-1.0 * ray.dir);
+                    }
+                    out.pdf = 1.0 / (kTwoPi * omc);
+                } else {
+                    out.pdf = 1.0 / (4.0 * kPi);
+                }
+                if (!(att > 0)) return false;
+                out.radiance = att * radiance_;
+            } else {
+                const Vec3 n = normalize(to_o);
+                const double denom = dot(ray.dir, n);
+                if (!(denom < 0)) return false;
+                t = dot(co_ - ray.org, n) / denom;
+                if (!(t > ray.tmin && t < tmax)) return false;
+                const Vec3 hp = ray.org + t * ray.dir;
+                if (dot(hp - co_, hp - co_) > r2) return false;
+                out.pdf = t * t / (kPi * r2 * -denom);
+                const double att = type_ == LightType::Spot ? spot_attenuation(-1.0 * ray.dir) : 1.0;
+                if (!(att > 0)) return false;
+                out.radiance = att * radiance_;
+            }
+            out.t = t;
+            return true;
+        }
+        case LightType::Area: {
+            const double denom = dot(ray.dir, normal_);
+            if (!(denom < 0)) return false;  // one-sided
+            const double t = dot(co_ - ray.org, normal_) / denom;
+            if (!(t > ray.tmin && t < tmax)) return false;
+            const Vec3 hp = ray.org + t * ray.dir - co_;
+            const double x = dot(hp, axis_u_) / (0.5 * len_u_), y = dot(hp, axis_v_) / (0.5 * len_v_);
+            if (ellipse_ ? (x * x + y * y > 1.0) : (std::fabs(x) > 1.0 || std::fabs(y) > 1.0)) return false;
+            const double att = spread_attenuation(ray.dir);
+            if (!(att > 0)) return false;
+            out.t = t;
+            out.pdf = t * t / (-denom * area_);
+            out.radiance = att * radiance_;
+            return true;
+        }
+    }
+    return false;
+}
+
+bool Light::eval_direction(Vec3 dir, LightHit& out) const {
+    if (!contributes_) return false;
+    if (world_) {
+        out.t = kInf;
+        out.radiance = radiance_;
+        out.pdf = 1.0 / (4.0 * kPi);
+        return true;
+    }
+    if (type_ != LightType::Sun || !(half_angle_ > 0)) return false;
+    if (dot(dir, co_) < std::cos(half_angle_)) return false;
+    out.t = kInf;
+    out.radiance = radiance_;
+    out.pdf = sun_pdf_;
+    return true;
+}
+
+LightSet::LightSet(const SceneDesc& scene) {
+    for (const LightDesc& d : scene.lights) {
+        Light l(d);
+        if (!l.has_contribution()) continue;
+        if (d.type != LightType::Sun) {
+            if (l.use_mis()) has_finite_mis_ = true;
+            if ((d.type == LightType::Area) || d.radius > 0) has_finite_camera_ = true;
+        }
+        lights_.push_back(l);
+    }
+    Light world(scene.world);
+    if (world.has_contribution()) {
+        world_ = int(lights_.size());
+        lights_.push_back(world);
+    }
+}
+
+bool LightSet::sample(Vec3 p, double u_select, double u0, double u1, LightSample& out) const {
+    if (lights_.empty()) return false;
+    const size_t n = lights_.size();
+    const size_t i = std::min(size_t(u_select * double(n)), n - 1);
+    if (!lights_[i].sample(p, u0, u1, out)) return false;
+    out.pdf *= selection_pdf();
+    return out.pdf > 0 && std::isfinite(out.pdf);
+}
+
+int LightSet::intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const {
+    int n = 0;
+    for (size_t i = 0; i < lights_.size(); ++i) {
+        const Light& l = lights_[i];
+        if (l.is_distant() || (!camera_ray && !l.use_mis())) continue;
+        LightHit h;
+        if (!l.intersect(ray, tmax, h)) continue;
+        h.light = int(i);
+        if (n < max_hits) {
+            hits[n++] = h;
+        } else {
+            // keep the closest max_hits
+            int far = 0;
+            for (int k = 1; k < n; ++k)
+                if (hits[k].t > hits[far].t) far = k;
+            if (h.t < hits[far].t) hits[far] = h;
+        }
+    }
+    std::sort(hits, hits + n, [](const LightHit& a, const LightHit& b) { return a.t < b.t; });
+    return n;
+}
+
+int LightSet::eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const {
+    int n = 0;
+    for (size_t i = 0; i < lights_.size() && n < max_hits; ++i) {
+        const Light& l = lights_[i];
+        if (l.is_world() || !l.is_distant() || !l.use_mis()) continue;
+        (void)camera_ray;  // Cycles intersects sun discs only for MIS suns, camera rays included
+        LightHit h;
+        if (!l.eval_direction(dir, h)) continue;
+        h.light = int(i);
+        hits[n++] = h;
+    }
+    return n;
+}
+
+}  // namespace hairbsdf::render

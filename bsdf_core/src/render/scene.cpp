@@ -1,0 +1,245 @@
+// Scene repair: see render/scene.h.
+#include "hairbsdf/render/scene.h"
+
+#include <cmath>
+#include <string>
+
+namespace hairbsdf::render {
+
+namespace {
+
+bool finite3(const float* p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
+
+template <class T>
+bool finite_array(const T& a) {
+    for (double v : a)
+        if (!std::isfinite(v)) return false;
+    return true;
+}
+
+std::string plural(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
+}  // namespace
+
+std::vector<std::string> repair_scene(SceneDesc& s) {
+    std::vector<std::string> warnings;
+
+    // Materials: a default surface for out-of-range indices (Cycles' default is diffuse 0.8).
+    int default_material = -1;
+    auto fallback_material = [&]() {
+        if (default_material < 0) {
+            MaterialDesc m;
+            m.name = "__default_surface__";
+            ClosureDesc c;
+            c.type = ClosureDesc::Type::Diffuse;
+            c.weight = RGB(1.0);
+            c.color = RGB(0.8);
+            m.closures.push_back(c);
+            default_material = int(s.materials.size());
+            s.materials.push_back(m);
+        }
+        return default_material;
+    };
+    // Non-finite closure values make the closure black.
+    size_t bad_closures = 0;
+    for (MaterialDesc& m : s.materials) {
+        for (ClosureDesc& c : m.closures) {
+            const PrincipledHairInputs& h = c.hair;
+            bool ok = isfinite(c.weight) && isfinite(c.color) && std::isfinite(c.strength);
+            if (c.type == ClosureDesc::Type::PrincipledHair) {
+                ok = ok && isfinite(h.color) && isfinite(h.tint) && isfinite(h.absorption_coefficient) &&
+                     std::isfinite(h.melanin) && std::isfinite(h.melanin_redness) && std::isfinite(h.roughness) &&
+                     std::isfinite(h.radial_roughness) && std::isfinite(h.coat) && std::isfinite(h.ior) &&
+                     std::isfinite(h.offset) && std::isfinite(h.random_color) && std::isfinite(h.random_roughness) &&
+                     std::isfinite(h.random);
+            }
+            if (!ok) {
+                c.weight = RGB(0.0);
+                c.color = RGB(0.0);
+                c.strength = 0.0;
+                ++bad_closures;
+            }
+        }
+    }
+    if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
+
+    // Curves.
+    CurveData& cd = s.curves;
+    const size_t n_curves = cd.curve_count();
+    if (n_curves > 0) {
+        size_t dropped_nonfinite = 0, dropped_short = 0, dropped_length = 0, dropped_radius = 0, fixed_radius = 0,
+               bad_material = 0, bad_random = 0;
+        CurveData out;
+        out.offsets.push_back(0);
+        out.points.reserve(cd.points.size());
+        for (size_t c = 0; c < n_curves; ++c) {
+            const int32_t b = cd.offsets[c], e = cd.offsets[c + 1];
+            if (b < 0 || e < b || size_t(e) > cd.points.size()) {
+                ++dropped_short;
+                continue;
+            }
+            if (e - b < 2) {
+                ++dropped_short;
+                continue;
+            }
+            bool finite = true;
+            for (int32_t k = b; k < e && finite; ++k) finite = finite3(cd.points[size_t(k)].data());
+            if (!finite) {
+                ++dropped_nonfinite;
+                continue;
+            }
+            double len = 0, rmax = 0;
+            for (int32_t k = b; k < e; ++k) {
+                float& r = cd.points[size_t(k)][3];
+                if (!std::isfinite(r) || r < 0) {
+                    r = 0.0f;
+                    ++fixed_radius;
+                }
+                rmax = std::max(rmax, double(r));
+                if (k > b) {
+                    const auto& p = cd.points[size_t(k)];
+                    const auto& q = cd.points[size_t(k) - 1];
+                    len += std::sqrt(sqr(p[0] - q[0]) + sqr(p[1] - q[1]) + sqr(p[2] - q[2]));
+                }
+            }
+            if (!(len > 0)) {
+                ++dropped_length;
+                continue;
+            }
+            if (!(rmax > 0)) {
+                ++dropped_radius;
+                continue;
+            }
+            for (int32_t k = b; k < e; ++k) out.points.push_back(cd.points[size_t(k)]);
+            out.offsets.push_back(int32_t(out.points.size()));
+            float rnd = c < cd.random.size() ? cd.random[c] : 0.0f;
+            if (!std::isfinite(rnd)) {
+                rnd = 0.0f;
+                ++bad_random;
+            }
+            out.random.push_back(rnd);
+            int32_t mat = c < cd.material.size() ? cd.material[c] : -1;
+            if (mat < 0 || size_t(mat) >= s.materials.size()) {
+                ++bad_material;
+                mat = fallback_material();
+            }
+            out.material.push_back(mat);
+        }
+        if (dropped_nonfinite) warnings.push_back("curves: dropped " + plural(dropped_nonfinite, "curve") + " with NaN/Inf coordinates");
+        if (dropped_short) warnings.push_back("curves: dropped " + plural(dropped_short, "curve") + " with fewer than 2 points");
+        if (dropped_length) warnings.push_back("curves: dropped " + plural(dropped_length, "zero-length curve"));
+        if (dropped_radius) warnings.push_back("curves: dropped " + plural(dropped_radius, "curve") + " with zero radius");
+        if (fixed_radius) warnings.push_back("curves: " + plural(fixed_radius, "negative or NaN radius") + " set to 0");
+        if (bad_random) warnings.push_back("curves: " + plural(bad_random, "NaN curve_random value") + " set to 0");
+        if (bad_material) warnings.push_back("curves: " + plural(bad_material, "curve") + " with a material index outside materials use the default surface");
+        cd = std::move(out);
+    } else {
+        cd = CurveData{};
+    }
+
+    // Triangles.
+    MeshData& md = s.meshes;
+    if (!md.triangles.empty()) {
+        size_t dropped = 0, bad_material = 0;
+        MeshData out;
+        out.vertices = md.vertices;
+        for (size_t t = 0; t < md.triangles.size(); ++t) {
+            const auto& tri = md.triangles[t];
+            bool ok = true;
+            for (int k = 0; k < 3 && ok; ++k) {
+                ok = tri[size_t(k)] >= 0 && size_t(tri[size_t(k)]) < md.vertices.size() &&
+                     finite3(md.vertices[size_t(tri[size_t(k)])].data());
+            }
+            if (ok) {
+                const auto& a = md.vertices[size_t(tri[0])];
+                const auto& b = md.vertices[size_t(tri[1])];
+                const auto& c = md.vertices[size_t(tri[2])];
+                const Vec3 e1{double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
+                const Vec3 e2{double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
+                ok = length(cross(e1, e2)) > 0;
+            }
+            if (!ok) {
+                ++dropped;
+                continue;
+            }
+            out.triangles.push_back(tri);
+            int32_t mat = t < md.material.size() ? md.material[t] : -1;
+            if (mat < 0 || size_t(mat) >= s.materials.size()) {
+                ++bad_material;
+                mat = fallback_material();
+            }
+            out.material.push_back(mat);
+        }
+        if (dropped) warnings.push_back("meshes: dropped " + plural(dropped, "triangle") + " with bad indices, NaN/Inf vertices or no area");
+        if (bad_material) warnings.push_back("meshes: " + plural(bad_material, "triangle") + " with a material index outside materials use the default surface");
+        md = std::move(out);
+    }
+
+    // Lights.
+    std::vector<LightDesc> lights;
+    size_t bad_lights = 0;
+    for (const LightDesc& l : s.lights) {
+        const bool ok = isfinite(l.strength) && finite_array(l.position) && finite_array(l.direction) &&
+                        finite_array(l.matrix_world) && std::isfinite(l.angle) && std::isfinite(l.radius) &&
+                        std::isfinite(l.spot_size) && std::isfinite(l.spot_blend) && std::isfinite(l.size_x) &&
+                        std::isfinite(l.size_y) && std::isfinite(l.spread);
+        const bool dir_ok = (l.type != LightType::Sun && l.type != LightType::Spot) ||
+                            (l.type == LightType::Spot && l.has_matrix) ||
+                            (sqr(l.direction[0]) + sqr(l.direction[1]) + sqr(l.direction[2]) > 0);
+        if (!ok || !dir_ok) {
+            ++bad_lights;
+            continue;
+        }
+        lights.push_back(l);
+    }
+    if (bad_lights) warnings.push_back("lights: removed " + plural(bad_lights, "light") + " with NaN/Inf or zero-length values");
+    s.lights = std::move(lights);
+    if (!isfinite(s.world)) {
+        s.world = RGB(0.0);
+        warnings.push_back("world: NaN/Inf color set to black");
+    }
+    bool any_emission = !(s.world.r == 0 && s.world.g == 0 && s.world.b == 0);
+    for (const LightDesc& l : s.lights) any_emission = any_emission || !(l.strength.r == 0 && l.strength.g == 0 && l.strength.b == 0);
+    for (const MaterialDesc& m : s.materials)
+        for (const ClosureDesc& c : m.closures)
+            any_emission = any_emission || (c.type == ClosureDesc::Type::Emission && c.strength != 0);
+    if (!any_emission) warnings.push_back("scene: no lights, no emission and a black world; the image is black");
+    if (s.curves.curve_count() == 0 && s.meshes.triangles.empty()) warnings.push_back("scene: no geometry");
+
+    // Camera and integrator.
+    CameraDesc& cam = s.camera;
+    if (!finite_array(cam.matrix_world)) {
+        cam.matrix_world = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        warnings.push_back("camera: NaN/Inf matrix_world replaced by the identity");
+    }
+    auto positive = [&](double& v, double fallback, const char* key) {
+        if (!(std::isfinite(v) && v > 0)) {
+            warnings.push_back(std::string("camera: ") + key + " must be > 0; using " + std::to_string(fallback));
+            v = fallback;
+        }
+    };
+    positive(cam.pixel_aspect, 1.0, "pixel_aspect");
+    positive(cam.sensor_width, 36.0, "sensor_width");
+    positive(cam.sensor_height, 24.0, "sensor_height");
+    positive(cam.lens, 50.0, "lens");
+    positive(cam.ortho_scale, 1.0, "ortho_scale");
+    if (!std::isfinite(cam.shift_x)) cam.shift_x = 0;
+    if (!std::isfinite(cam.shift_y)) cam.shift_y = 0;
+    if (!(std::isfinite(cam.clip_start) && cam.clip_start >= 0)) cam.clip_start = 0;
+    if (!(cam.clip_end > cam.clip_start)) {
+        warnings.push_back("camera: clip_end must exceed clip_start; using clip_start + 1e6");
+        cam.clip_end = cam.clip_start + 1e6;
+    }
+    IntegratorSettings& in = s.integrator;
+    if (!(std::isfinite(in.filter_width) && in.filter_width > 0)) {
+        warnings.push_back("integrator: filter_width must be > 0; using 1.5");
+        in.filter_width = 1.5;
+    }
+    if (!std::isfinite(in.exposure)) in.exposure = 1.0;
+    if (!(std::isfinite(in.filter_glossy) && in.filter_glossy >= 0)) in.filter_glossy = 0.0;
+    if (!(std::isfinite(in.clamp_direct) && in.clamp_direct >= 0)) in.clamp_direct = 0.0;
+    if (!(std::isfinite(in.clamp_indirect) && in.clamp_indirect >= 0)) in.clamp_indirect = 0.0;
+    return warnings;
+}
+
+}  // namespace hairbsdf::render

@@ -1,0 +1,179 @@
+// Materials and the per-hit closure mixture; see render/shading.h.
+#include "hairbsdf/render/shading.h"
+
+#include "hairbsdf/render/lights.h"
+
+namespace hairbsdf::render {
+
+namespace {
+
+bool hair_depends_on_random(const PrincipledHairInputs& in) {
+    if (in.random_roughness != 0.0) return true;
+    return in.parametrization == Parametrization::Melanin && in.random_color != 0.0;
+}
+
+}  // namespace
+
+MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt) : tilt_(tilt) {
+    for (const ClosureDesc& c : desc.closures) {
+        switch (c.type) {
+            case ClosureDesc::Type::PrincipledHair: {
+                if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
+                HairClosure h;
+                h.weight = c.weight;
+                h.inputs = c.hair;
+                h.random_from_curve = c.random_from_curve;
+                h.depends_on_random = c.random_from_curve && hair_depends_on_random(c.hair);
+                if (!h.depends_on_random) {
+                    PrincipledHairInputs in = c.hair;
+                    if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
+                    h.fixed.emplace(chiang_params_from_principled(in, Accuracy::Cycles, tilt));
+                }
+                if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
+                break;
+            }
+            case ClosureDesc::Type::Diffuse: {
+                const RGB w = c.weight * c.color;
+                if (std::fabs(average(w)) < kClosureWeightCutoff) break;
+                if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
+                break;
+            }
+            case ClosureDesc::Type::Emission:
+                emission_ += c.strength * (c.weight * c.color);
+                break;
+        }
+    }
+}
+
+ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness) {
+    ChiangHairParams b = p;
+    const double v = std::max(roughness, p.v_sample[0]);
+    const double v_r = std::max(roughness, p.v[0]);
+    const double s = std::max(roughness, p.s[0]);
+    b.v = {v_r, 0.25 * v, 4.0 * v, 4.0 * v};
+    b.v_sample = {v, 0.25 * v, 4.0 * v, 4.0 * v};
+    b.s = {s, s, s};
+    return b;
+}
+
+void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness) {
+    count_ = 0;
+    total_sample_weight_ = 0;
+    hair_ctx_.tangent = g.tangent;
+    hair_ctx_.wo = g.wo;
+    hair_ctx_.h = clamp(g.h, -1.0, 1.0);
+    n_ = g.n;
+    ng_ = g.ng;
+    for (const MaterialShader::HairClosure& h : material.hair()) {
+        const int slot = count_;
+        const ChiangHair* model = nullptr;
+        if (h.fixed && !(blur_roughness > 0)) {
+            model = &*h.fixed;
+        } else {
+            ChiangHairParams params;
+            if (h.fixed) {
+                params = h.fixed->params();
+            } else {
+                PrincipledHairInputs in = h.inputs;
+                in.random = g.random;
+                params = chiang_params_from_principled(in, Accuracy::Cycles, material.tilt());
+            }
+            if (blur_roughness > 0) params = blur_chiang(params, blur_roughness);
+            storage_[size_t(slot)].emplace(params);
+            model = &*storage_[size_t(slot)];
+        }
+        entries_[size_t(slot)] = {Entry::Kind::Hair, h.weight, std::fabs(average(h.weight)), model};
+        total_sample_weight_ += entries_[size_t(slot)].sample_weight;
+        ++count_;
+    }
+    for (const MaterialShader::DiffuseClosure& d : material.diffuse()) {
+        entries_[size_t(count_)] = {Entry::Kind::Diffuse, d.weight, std::fabs(average(d.weight)), nullptr};
+        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
+        ++count_;
+    }
+    if (!(total_sample_weight_ > 0)) count_ = 0;
+}
+
+BsdfValue Bsdf::eval_entry(const Entry& e, Vec3 wi) const {
+    BsdfValue out;
+    if (e.kind == Entry::Kind::Hair) {
+        const BsdfEval r = e.hair->eval(hair_ctx_, wi);
+        out.value = e.weight * r.value();
+        out.pdf = r.pdf;
+    } else {
+        // Cycles' diffuse eval tests only N; its sampler also requires Ng . wi > 0.
+        const double c = dot(n_, wi);
+        if (c > 0) {
+            out.pdf = c / kPi;
+            out.value = out.pdf * e.weight;
+        }
+    }
+    return out;
+}
+
+BsdfValue Bsdf::eval(Vec3 wi) const {
+    BsdfValue out;
+    for (int i = 0; i < count_; ++i) {
+        const Entry& e = entries_[size_t(i)];
+        const BsdfValue v = eval_entry(e, wi);
+        if (v.pdf != 0.0) {  // Cycles accumulates a closure only where its pdf is non-zero
+            out.value += v.value;
+            out.pdf += e.sample_weight * v.pdf;
+        }
+    }
+    out.pdf /= total_sample_weight_;
+    return out;
+}
+
+BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
+    BsdfScatter out;
+    if (count_ == 0) return out;
+    // Pick a closure with u2 and rescale it (Cycles' surface_shader_bsdf_bssrdf_pick).
+    int picked = count_ - 1;
+    if (count_ > 1) {
+        double r = u2 * total_sample_weight_;
+        for (int i = 0; i < count_; ++i) {
+            const double w = entries_[size_t(i)].sample_weight;
+            if (r < w || i + 1 == count_) {
+                picked = i;
+                u2 = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
+                break;
+            }
+            r -= w;
+        }
+    }
+    const Entry& e = entries_[size_t(picked)];
+    BsdfValue own;
+    if (e.kind == Entry::Kind::Hair) {
+        const BsdfSample s = e.hair->sample(hair_ctx_, {u0, u1, u2});
+        if (s.lobe < 0 || !(s.pdf > 0)) return out;
+        out.wi = s.wi;
+        own.value = e.weight * s.value;
+        own.pdf = s.pdf;
+        out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
+    } else {
+        out.wi = sample_cos_hemisphere(n_, u0, u1);
+        const double c = dot(n_, out.wi);
+        if (!(c > 0) || !(dot(ng_, out.wi) > 0)) return out;
+        own.pdf = c / kPi;
+        own.value = own.pdf * e.weight;
+        out.label = uint8_t(LabelDiffuse | LabelReflect);
+    }
+    // Combine with the other closures at the sampled direction.
+    RGB value = own.value;
+    double pdf = e.sample_weight * own.pdf;
+    for (int i = 0; i < count_; ++i) {
+        if (i == picked) continue;
+        const BsdfValue v = eval_entry(entries_[size_t(i)], out.wi);
+        if (v.pdf != 0.0) {
+            value += v.value;
+            pdf += entries_[size_t(i)].sample_weight * v.pdf;
+        }
+    }
+    out.pdf = pdf / total_sample_weight_;
+    out.value = value;
+    if (!(out.pdf > 0) || !std::isfinite(out.pdf)) out.label = LabelNone;
+    return out;
+}
+
+}  // namespace hairbsdf::render
