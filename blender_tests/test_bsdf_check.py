@@ -21,6 +21,7 @@ Environment:
 Run: .venv/bin/python -m pytest blender_tests/test_bsdf_check.py -s [-m "not slow"]
 """
 
+import fcntl
 import hashlib
 import os
 import shutil
@@ -46,6 +47,7 @@ import bsdf_compare as compare  # noqa: E402  (bsdf_check/bsdf_compare.py)
 CASE_SETS = [c for c in os.environ.get("BSDF_CHECK_CASES", "small,full").split(",") if c]
 REFRESH = os.environ.get("BSDF_CHECK_REFRESH", "") not in ("", "0")
 RENDER_TIMEOUT = 1800
+SESSION_START = time.time()
 
 
 # --------------------------------------------------------------------------
@@ -98,18 +100,22 @@ def _render(which, case_set):
         _skip_or_fail("Blender for %s not available: %s" % (which, cmd))
     os.makedirs(CACHE_DIR, exist_ok=True)
     out = os.path.join(CACHE_DIR, "%s-%s-%s.npz" % (version, case_set, _cache_key(version, case_set)))
-    if REFRESH or not os.path.exists(out):
-        log = out[:-4] + ".log"
-        t0 = time.time()
-        with open(log, "w") as f:
-            r = subprocess.run(cmd + ["--out", out, "--cases", case_set], stdout=f,
-                               stderr=subprocess.STDOUT, timeout=RENDER_TIMEOUT, cwd=CHECK_DIR)
-        if r.returncode != 0 or not os.path.exists(out):
-            with open(log) as f:
-                tail = f.read()[-4000:]
-            pytest.fail("render with %s failed (rc %d), log %s:\n%s" % (version, r.returncode, log, tail))
-        print("\n[bsdf_check] rendered %s with %s in %.1fs -> %s"
-              % (case_set, version, time.time() - t0, out))
+    # pytest-xdist workers share the cache: one renders while the others wait on the lock.
+    with open(out + ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        stale = REFRESH and os.path.exists(out) and os.path.getmtime(out) < SESSION_START
+        if stale or not os.path.exists(out):
+            log = out[:-4] + ".log"
+            t0 = time.time()
+            with open(log, "w") as f:
+                r = subprocess.run(cmd + ["--out", out, "--cases", case_set], stdout=f,
+                                   stderr=subprocess.STDOUT, timeout=RENDER_TIMEOUT, cwd=CHECK_DIR)
+            if r.returncode != 0 or not os.path.exists(out):
+                with open(log) as f:
+                    tail = f.read()[-4000:]
+                pytest.fail("render with %s failed (rc %d), log %s:\n%s" % (version, r.returncode, log, tail))
+            print("\n[bsdf_check] rendered %s with %s in %.1fs -> %s"
+                  % (case_set, version, time.time() - t0, out))
     return compare.load(out) + (out,)
 
 

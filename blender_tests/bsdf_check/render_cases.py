@@ -240,7 +240,7 @@ def render_to_npz(out_path, which="small", case_filter=None, probe=True, checks=
         rgb_is="pixel / sun strength",
     )
     arrays["meta"] = np.array(json.dumps(meta))
-    tmp = out_path + ".tmp.npz"
+    tmp = "%s.%d.tmp.npz" % (out_path, os.getpid())
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, out_path)
     if verbose:
