@@ -91,7 +91,7 @@ def test_principled_hair_params_defaults_and_randomization():
     assert params["s"] == pytest.approx(ref.radial_roughness_to_scale(1.0), rel=1e-14)  # 1.26 clamped
     # The colour conversion sees the randomized, unclamped radial roughness 1.26.
     np.testing.assert_allclose(params["sigma_a"],
-                               ref.absorption_from_color((0.017513, 0.005763, 0.002059), 1.26), rtol=1e-14)
+                               ref.absorption_from_color((0.017513, 0.005763, 0.002059), 1.26), rtol=1e-12)
 
     # Coat reduces the R roughness before mapping; clamps on coat and on the result.
     params = ref.principled_hair_params(roughness=0.3, coat=0.5)
@@ -297,7 +297,7 @@ def test_eval_matches_scalar_mpmath_restatement():
     expected = np.array([_scalar_eval_exact(params, wo[k], wi[k], h[k]) for k in range(12)])
     np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-300)
     np.testing.assert_allclose(got, ref.chiang_eval_lobes(params, wo, wi, h, accuracy="exact").sum(axis=1),
-                               rtol=1e-15)
+                               rtol=1e-12)
 
 
 @pytest.mark.parametrize("accuracy", ["cycles", "exact"])
@@ -351,7 +351,7 @@ def test_tilt_variants():
                                                        v, "exact")
             m_untilted = ref.longitudinal_scattering(sin_i, cos_i, sin_o, cos_o, v, "exact")
             np.testing.assert_allclose(ratio[:, lobe], m_tilted / m_untilted, rtol=1e-9)
-        np.testing.assert_allclose(ratio[:, 3], 1.0, rtol=1e-14)
+        np.testing.assert_allclose(ratio[:, 3], 1.0, rtol=1e-12)
     # The R highlight moves toward the root: for small v, M_R peaks near theta_i = -theta_o - 2 offset.
     params = default_params(beta_m=0.1, offset=offset)
     theta_grid = np.linspace(-1.5, 1.5, 30001)
@@ -402,12 +402,12 @@ def test_pdf_variants():
     h = rng.uniform(-1, 1, 300)
     params = default_params(sigma_a=(0.3, 0.6, 1.2), offset=0.05)
     np.testing.assert_allclose(ref.chiang_sampling_density(params, wo, wi, h),
-                               ref.chiang_pdf(params, wo, wi, h, accuracy="exact"), rtol=1e-14)
+                               ref.chiang_pdf(params, wo, wi, h, accuracy="exact"), rtol=1e-12)
     coated = default_params(sigma_a=(0.3, 0.6, 1.2), offset=0.05, coat_beta=0.15)
     assert not np.allclose(ref.chiang_sampling_density(coated, wo, wi, h),
                            ref.chiang_pdf(coated, wo, wi, h, accuracy="exact"))
     np.testing.assert_allclose(ref.chiang_sampling_density(coated, wo, wi, h),
-                               ref.chiang_sampling_density(params, wo, wi, h), rtol=1e-14)
+                               ref.chiang_sampling_density(params, wo, wi, h), rtol=1e-12)
 
 
 def _sample_cycles_42(params, wo, h, u):
