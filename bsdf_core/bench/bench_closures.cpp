@@ -1,6 +1,7 @@
-// Single-thread cost per call of eval, sample and pdf for the Chiang closure.
-// Run by scripts/bench; results go in docs/benchmarks.md.
-#include <chrono>
+// Single-thread cost per call of eval, sample and pdf for the Chiang closure, in thread
+// CPU time (robust to other processes on the machine). Run by scripts/bench; results go in
+// docs/benchmarks.md.
+#include <ctime>
 #include <cstdio>
 #include <random>
 #include <vector>
@@ -13,16 +14,22 @@ using namespace hairbsdf;
 namespace {
 volatile double g_sink = 0;
 
+double thread_cpu_ns() {
+    timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return 1e9 * double(ts.tv_sec) + double(ts.tv_nsec);
+}
+
 template <class Fn>
 double ns_per_call(size_t calls, Fn fn) {
     double best = 1e30;
     for (int repeat = 0; repeat < 5; ++repeat) {
-        const auto t0 = std::chrono::steady_clock::now();
+        const double t0 = thread_cpu_ns();
         double acc = 0;
         for (size_t i = 0; i < calls; ++i) acc += fn(i);
-        const auto t1 = std::chrono::steady_clock::now();
+        const double t1 = thread_cpu_ns();
         g_sink = g_sink + acc;
-        best = std::min(best, std::chrono::duration<double, std::nano>(t1 - t0).count() / double(calls));
+        best = std::min(best, (t1 - t0) / double(calls));
     }
     return best;
 }
