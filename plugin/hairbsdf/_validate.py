@@ -28,14 +28,20 @@ def _check_finite(name: str, arr: np.ndarray) -> None:
         raise ValueError(f"{name}: contains NaN or Inf; all values must be finite")
 
 
-def directions(name: str, value) -> np.ndarray:
-    """(N,3) or (3,) -> (N,3) unit float64 vectors."""
+def _triples(name: str, value) -> np.ndarray:
+    """(N,3) or (3,) finite float64 rows."""
     arr = _as_float_array(name, value)
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise ValueError(f"{name}: shape {tuple(np.shape(value))} is not allowed; pass (N, 3) or (3,)")
     _check_finite(name, arr)
+    return arr
+
+
+def directions(name: str, value) -> np.ndarray:
+    """(N,3) or (3,) -> (N,3) unit float64 vectors."""
+    arr = _triples(name, value)
     norm = np.linalg.norm(arr, axis=1)
     if np.any(norm == 0):
         raise ValueError(f"{name}: contains a zero-length direction; directions must be non-zero")
@@ -56,12 +62,7 @@ def offsets(name: str, value) -> np.ndarray:
 
 def uniforms(name: str, value) -> np.ndarray:
     """(N,3) or (3,) uniform numbers in [0, 1]."""
-    arr = _as_float_array(name, value)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name}: shape {tuple(np.shape(value))} is not allowed; pass (N, 3) or (3,)")
-    _check_finite(name, arr)
+    arr = _triples(name, value)
     if np.any(arr < 0.0) or np.any(arr > 1.0):
         raise ValueError(f"{name}: values must lie in [0, 1]")
     return arr
