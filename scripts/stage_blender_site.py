@@ -17,9 +17,12 @@ SITE = ROOT / "build" / "blender_site"
 
 
 def package_files():
+    """The package's Python files from the source tree, plus every built extension module
+    (hairbsdf._core, hairbsdf._render, ...) from where pip installed them."""
     files = sorted(p for p in PACKAGE.rglob("*") if p.is_file() and "__pycache__" not in p.parts
                    and p.suffix not in (".so", ".pyc"))
-    return files + [Path(core.__file__)]
+    extensions = sorted(Path(core.__file__).parent.glob("_*.so"))
+    return files + extensions
 
 
 def main() -> int:

@@ -47,7 +47,7 @@ void curve_filter(const RTCFilterFunctionNArguments* args) {
         const float d = RTCRayN_dir_x(args->ray, args->N, 0) * RTCHitN_Ng_x(args->hit, args->N, 0) +
                         RTCRayN_dir_y(args->ray, args->N, 0) * RTCHitN_Ng_y(args->hit, args->N, 0) +
                         RTCRayN_dir_z(args->ray, args->N, 0) * RTCHitN_Ng_z(args->hit, args->N, 0);
-        if (d > 0.0f) args->valid[0] = 0;  // back face: Cycles culls curve back faces
+        if (d > 0.0f) args->valid[0] = 0;  // back face
     }
 }
 
@@ -97,7 +97,7 @@ Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), sh
     rtcSetDeviceMemoryMonitorFunction(im.device, memory_monitor, &im.memory);
     im.scene = rtcNewScene(im.device);
     rtcSetSceneFlags(im.scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_MEDIUM);
+    rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);
 
     // Curves: per curve n + 2 control points (end keys duplicated), one index per segment.
     const CurveData& cd = scene.curves;
@@ -126,6 +126,7 @@ Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), sh
             }
         }
         const bool thick = scene.curve_shape == CurveShape::Thick;
+        const bool cull = thick && scene.cull_curve_back_faces;
         RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
                                                         : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
         const int subdivisions = std::max(0, std::min(scene.curve_subdivisions, 4));
@@ -134,9 +135,9 @@ Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), sh
                                    sizeof(float) * 4, control_points_.size());
         rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data(), 0,
                                    sizeof(uint32_t), segment_first_.size());
-        rtcSetGeometryIntersectFilterFunction(g, thick ? curve_filter<true> : curve_filter<false>);
-        rtcSetGeometryOccludedFilterFunction(g, thick ? curve_filter<true> : curve_filter<false>);
-        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+        rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+        rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
         rtcCommitGeometry(g);
         im.curve_geom = rtcAttachGeometry(im.scene, g);
         rtcReleaseGeometry(g);

@@ -127,7 +127,7 @@ void RenderJob::run() {
 
 RenderOutput RenderJob::output() const { return state_->out; }
 
-RenderOutput render(SceneDesc scene, int threads) {
+RenderOutput render_scene(SceneDesc scene, int threads) {
     RenderJob job(std::move(scene), threads);
     job.run();
     return job.output();

@@ -14,7 +14,8 @@ bool hair_depends_on_random(const PrincipledHairInputs& in) {
 
 }  // namespace
 
-MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt) : tilt_(tilt) {
+MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy)
+    : tilt_(tilt), accuracy_(accuracy) {
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
             case ClosureDesc::Type::PrincipledHair: {
@@ -27,7 +28,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt) : 
                 if (!h.depends_on_random) {
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
-                    h.fixed.emplace(chiang_params_from_principled(in, Accuracy::Cycles, tilt));
+                    h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
                 if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
                 break;
@@ -76,12 +77,13 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
             } else {
                 PrincipledHairInputs in = h.inputs;
                 in.random = g.random;
-                params = chiang_params_from_principled(in, Accuracy::Cycles, material.tilt());
+                params = chiang_params_from_principled(in, material.accuracy(), material.tilt());
             }
             if (blur_roughness > 0) params = blur_chiang(params, blur_roughness);
             storage_[size_t(slot)].emplace(params);
             model = &*storage_[size_t(slot)];
         }
+        points_[size_t(slot)].emplace(model->prepare(hair_ctx_));
         entries_[size_t(slot)] = {Entry::Kind::Hair, h.weight, std::fabs(average(h.weight)), model};
         total_sample_weight_ += entries_[size_t(slot)].sample_weight;
         ++count_;
@@ -94,10 +96,11 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
     if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
-BsdfValue Bsdf::eval_entry(const Entry& e, Vec3 wi) const {
+BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
+    const Entry& e = entries_[size_t(i)];
     BsdfValue out;
     if (e.kind == Entry::Kind::Hair) {
-        const BsdfEval r = e.hair->eval(hair_ctx_, wi);
+        const BsdfEval r = e.hair->eval(*points_[size_t(i)], wi);
         out.value = e.weight * r.value();
         out.pdf = r.pdf;
     } else {
@@ -115,7 +118,7 @@ BsdfValue Bsdf::eval(Vec3 wi) const {
     BsdfValue out;
     for (int i = 0; i < count_; ++i) {
         const Entry& e = entries_[size_t(i)];
-        const BsdfValue v = eval_entry(e, wi);
+        const BsdfValue v = eval_entry(i, wi);
         if (v.pdf != 0.0) {  // Cycles accumulates a closure only where its pdf is non-zero
             out.value += v.value;
             out.pdf += e.sample_weight * v.pdf;
@@ -145,7 +148,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
     const Entry& e = entries_[size_t(picked)];
     BsdfValue own;
     if (e.kind == Entry::Kind::Hair) {
-        const BsdfSample s = e.hair->sample(hair_ctx_, {u0, u1, u2});
+        const BsdfSample s = e.hair->sample(*points_[size_t(picked)], {u0, u1, u2});
         if (s.lobe < 0 || !(s.pdf > 0)) return out;
         out.wi = s.wi;
         own.value = e.weight * s.value;
@@ -164,7 +167,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
     double pdf = e.sample_weight * own.pdf;
     for (int i = 0; i < count_; ++i) {
         if (i == picked) continue;
-        const BsdfValue v = eval_entry(entries_[size_t(i)], out.wi);
+        const BsdfValue v = eval_entry(i, out.wi);
         if (v.pdf != 0.0) {
             value += v.value;
             pdf += entries_[size_t(i)].sample_weight * v.pdf;

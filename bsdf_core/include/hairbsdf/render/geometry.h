@@ -1,8 +1,12 @@
 // Ray tracing of curves and triangles with Embree 3, with Cycles' curve semantics
 // (cycles-hair-notes §3): uniform Catmull-Rom strands through the keys with duplicated
-// end keys, radius interpolated the same way; THICK = Embree's round curves with back faces
-// culled (Debian's Embree 3.13 has no curve culling, so an intersection filter rejects hits
-// whose geometric normal faces along the ray); RIBBONS = Embree's ray-facing flat curves
+// end keys, radius interpolated the same way; THICK = Embree's round curves, open at the
+// ends, whose inside is hit too: Cycles' CPU build sets Embree's BACKFACE_CULLING_CURVES,
+// but Embree applies it only to round *linear* curves, not to the Catmull-Rom sweep (a
+// shadow ray entering a tube through its open end is blocked by the far wall in Cycles 4.5
+// renders). SceneDesc::cull_curve_back_faces = true emulates culling with an intersection
+// filter that rejects hits whose geometric normal faces along the ray (Debian's Embree
+// 3.13 has no culling option); RIBBONS = Embree's ray-facing flat curves
 // (Embree itself ignores flat-curve hits closer than 2 r, as Cycles' build does) with
 // tessellation rate 2^subdivisions + 1 as Cycles passes it. A ray leaving a primitive
 // skips it: all of a curve, or one triangle.

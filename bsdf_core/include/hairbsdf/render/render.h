@@ -61,6 +61,6 @@ private:
 };
 
 // Convenience: render synchronously on the calling thread.
-RenderOutput render(SceneDesc scene, int threads = 0);
+RenderOutput render_scene(SceneDesc scene, int threads = 0);
 
 }  // namespace hairbsdf::render

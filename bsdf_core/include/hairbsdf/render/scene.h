@@ -98,12 +98,17 @@ struct IntegratorSettings {
     double filter_glossy = 0.0;             // Cycles' blur_glossy; 0 = off
     double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
     TiltConvention tilt = TiltConvention::Blender42;
+    Accuracy accuracy = Accuracy::Cycles;   // Chiang's special functions: Cycles' or exact
 };
 
 struct SceneDesc {
     CurveData curves;
     CurveShape curve_shape = CurveShape::Thick;
     int curve_subdivisions = 2;
+    // Cull back faces of THICK curves. Off in Cycles: Blender's Embree build flag
+    // BACKFACE_CULLING_CURVES only affects round *linear* curves, not Catmull-Rom sweeps
+    // (checked against Cycles 4.5 renders; docs/scene_desc.md).
+    bool cull_curve_back_faces = false;
     MeshData meshes;
     std::vector<MaterialDesc> materials;
     CameraDesc camera;

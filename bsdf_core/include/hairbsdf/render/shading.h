@@ -24,7 +24,7 @@ enum ScatterLabel : uint8_t { LabelNone = 0, LabelReflect = 1, LabelTransmit = 2
 // One material, prepared once per render.
 class MaterialShader {
 public:
-    MaterialShader(const MaterialDesc& desc, TiltConvention tilt);
+    MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy = Accuracy::Cycles);
     struct HairClosure {
         RGB weight;
         PrincipledHairInputs inputs;
@@ -40,12 +40,14 @@ public:
     RGB emission() const { return emission_; }
     bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty(); }
     TiltConvention tilt() const { return tilt_; }
+    Accuracy accuracy() const { return accuracy_; }
 
 private:
     std::vector<HairClosure> hair_;
     std::vector<DiffuseClosure> diffuse_;
     RGB emission_{0.0};
     TiltConvention tilt_;
+    Accuracy accuracy_;
 };
 
 // The local geometry a BSDF needs.
@@ -86,9 +88,10 @@ private:
         double sample_weight;
         const ChiangHair* hair;
     };
-    BsdfValue eval_entry(const Entry& e, Vec3 wi) const;
+    BsdfValue eval_entry(int i, Vec3 wi) const;
     std::array<Entry, kMaxBsdfClosures> entries_{};
     std::array<std::optional<ChiangHair>, kMaxBsdfClosures> storage_;
+    std::array<std::optional<ChiangHair::ShadingPoint>, kMaxBsdfClosures> points_;  // view terms, once per hit
     int count_ = 0;
     double total_sample_weight_ = 0;
     ShadingContext hair_ctx_;

