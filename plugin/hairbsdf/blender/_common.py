@@ -1,0 +1,124 @@
+"""Helpers shared by the exporter modules: the export report, version checks, socket
+lookup and small conversions.  Imports bpy lazily so the pure helpers can be tested
+without Blender."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ExportError(Exception):
+    """A scene the renderer cannot render at all (no camera, unsupported camera type...).
+    The engine reports it with report({'ERROR'}) and renders nothing."""
+
+
+class ExportReport:
+    """Warnings collected during one export, de-duplicated, in order, plus timings and
+    counts for the stats line and the tests."""
+
+    MAX_WARNINGS = 200
+
+    def __init__(self):
+        self.warnings: list[str] = []
+        self.errors: list[str] = []
+        self.timings: dict[str, float] = {}
+        self.counts: dict[str, int] = {}
+        self._seen: set[str] = set()
+        self._dropped = 0
+
+    def warn(self, message: str) -> None:
+        if message in self._seen:
+            return
+        self._seen.add(message)
+        if len(self.warnings) >= self.MAX_WARNINGS:
+            self._dropped += 1
+            return
+        self.warnings.append(message)
+
+    def error(self, message: str) -> None:
+        self.errors.append(message)
+
+    def add_count(self, key: str, n: int) -> None:
+        self.counts[key] = self.counts.get(key, 0) + int(n)
+
+    def all_warnings(self) -> list[str]:
+        if self._dropped:
+            return self.warnings + [f"... and {self._dropped} more warnings"]
+        return list(self.warnings)
+
+    def as_dict(self) -> dict:
+        return {"warnings": self.all_warnings(), "errors": list(self.errors),
+                "timings": dict(self.timings), "counts": dict(self.counts)}
+
+
+def blender_version() -> tuple:
+    import bpy
+    return tuple(bpy.app.version)
+
+
+def default_tilt() -> str:
+    """Principled Hair tilt convention of the running Blender (cycles-hair-notes §0, §5b)."""
+    return "4.2" if blender_version() >= (4, 2, 0) else "3.4"
+
+
+def matrix_to_numpy(m) -> np.ndarray:
+    """mathutils.Matrix (4x4) -> float64 (4, 4), rows as in Blender (M @ column vector)."""
+    return np.array([tuple(row) for row in m], dtype=np.float64).reshape(4, 4)
+
+
+def transform_points(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply a 4x4 affine matrix to (N, 3) points; float32 math and result, as Cycles
+    transforms keys in float."""
+    m = np.asarray(matrix, dtype=np.float64)
+    out = np.asarray(points, dtype=np.float32) @ m[:3, :3].T.astype(np.float32)
+    out += m[:3, 3].astype(np.float32)
+    return out
+
+
+def radius_scale(matrix: np.ndarray) -> float:
+    """|det M|^(1/3), Cycles' radius scale for an applied object transform (Hair::apply_transform)."""
+    det = float(np.linalg.det(np.asarray(matrix, dtype=np.float64)[:3, :3]))
+    return abs(det) ** (1.0 / 3.0)
+
+
+def find_socket(sockets, name: str):
+    """Socket by identifier, then by name, without `sockets[name]` (in 4.5 that raises
+    KeyError for sockets hidden by the node's current mode)."""
+    for s in sockets:
+        if s.identifier == name:
+            return s
+    for s in sockets:
+        if s.name == name:
+            return s
+    return None
+
+
+def rgb(value, n: int = 3) -> tuple:
+    """First three components of a colour/vector value as floats."""
+    v = tuple(float(c) for c in value)
+    if len(v) == 1:
+        v = v * 3
+    return v[:n]
+
+
+# Luminance of linear Rec.709 (Cycles' rgb_to_y for the default working space); used for
+# Blender's implicit colour -> float socket conversion.
+REC709_Y = (0.2126729, 0.7151522, 0.0721750)
+
+
+def lookup3_hash_uint2(kx: int, ky: int) -> int:
+    """Cycles' hash_uint2 (Bob Jenkins lookup3 'final'), util/hash.h."""
+    def rot(x, k):
+        return ((x << k) | (x >> (32 - k))) & 0xFFFFFFFF
+
+    a = b = c = (0xDEADBEEF + (2 << 2) + 13) & 0xFFFFFFFF
+    a = (a + kx) & 0xFFFFFFFF
+    b = (b + ky) & 0xFFFFFFFF
+    c ^= b; c = (c - rot(b, 14)) & 0xFFFFFFFF
+    a ^= c; a = (a - rot(c, 11)) & 0xFFFFFFFF
+    b ^= a; b = (b - rot(a, 25)) & 0xFFFFFFFF
+    c ^= b; c = (c - rot(b, 16)) & 0xFFFFFFFF
+    a ^= c; a = (a - rot(c, 4)) & 0xFFFFFFFF
+    b ^= a; b = (b - rot(a, 14)) & 0xFFFFFFFF
+    c ^= b; c = (c - rot(b, 24)) & 0xFFFFFFFF
+    return c

@@ -1,0 +1,386 @@
+"""Hair export: Curves objects (foreach_get + NumPy, no per-point Python) and legacy
+particle hair (ParticleSystem.co_hair per key, everything else vectorised), both with
+Cycles' semantics (blender-integration §2.3, cycles-hair-notes §3.1):
+
+* keys are transformed to world space by the instance matrix; radii are scaled by
+  |det M|^(1/3) (Hair::apply_transform);
+* Curves: point-domain `radius` or 0.005 when absent; every curve uses the object's first
+  material slot (Cycles ignores the curve-domain `material_index`, checked with Cycles
+  3.4.1 and 4.5.15);
+* particle hair: 2^render_step + 1 keys (+ kink_extra_steps for spiral kink), only the
+  children when a child type is set, radius rad_scale*0.5*(root..tip) shaped over the
+  normalised object-space arc length, 0 at a closed tip, material slot `material - 1`;
+* Random = lookup3 hash of the curve index within the object (all particle systems of
+  an object counted together), computed before invalid strands are dropped.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+
+import numpy as np
+
+from ._common import radius_scale, transform_points
+
+DEFAULT_CURVES_RADIUS = 0.005
+
+
+class HairBuffer:
+    """All strands of the scene, concatenated."""
+
+    def __init__(self):
+        self.points: list[np.ndarray] = []      # (P_i, 4) float32
+        self.counts: list[np.ndarray] = []      # (C_i,) int64 points per curve
+        self.random: list[np.ndarray] = []      # (C_i,) float32
+        self.material: list[np.ndarray] = []    # (C_i,) int32
+        self.length: list[np.ndarray] = []      # (C_i,) float32
+        self._random_cache = np.zeros(0, np.float32)
+
+    def curve_random(self, n: int) -> np.ndarray:
+        """Cycles' Hair Info > Random of curves 0..n-1 (float32, as Cycles stores it)."""
+        if n > self._random_cache.size:
+            import hairbsdf
+            self._random_cache = np.asarray(
+                hairbsdf.cycles_curve_random(np.arange(max(n, 2 * self._random_cache.size), dtype=np.int64)),
+                dtype=np.float32)
+        return self._random_cache[:n]
+
+    def add(self, points, counts, random, material, length):
+        if counts.size == 0:
+            return
+        self.points.append(points)
+        self.counts.append(counts)
+        self.random.append(random)
+        self.material.append(material)
+        self.length.append(length)
+
+    @property
+    def num_curves(self) -> int:
+        return int(sum(c.size for c in self.counts))
+
+    def finish(self) -> dict:
+        if self.counts:
+            pts = np.ascontiguousarray(np.concatenate(self.points), dtype=np.float32)
+            counts = np.concatenate(self.counts)
+            offsets = np.zeros(counts.size + 1, np.int32)
+            np.cumsum(counts, out=offsets[1:])
+            return {"points": pts, "curve_offsets": offsets,
+                    "curve_random": np.concatenate(self.random).astype(np.float32),
+                    "curve_material": np.concatenate(self.material).astype(np.int32),
+                    "curve_intercept_total": np.concatenate(self.length).astype(np.float32)}
+        return {"points": np.zeros((0, 4), np.float32), "curve_offsets": np.zeros(1, np.int32),
+                "curve_random": np.zeros(0, np.float32), "curve_material": np.zeros(0, np.int32),
+                "curve_intercept_total": np.zeros(0, np.float32)}
+
+
+# ---------------------------------------------------------------------------- validation
+
+def _curve_starts(counts: np.ndarray) -> np.ndarray:
+    starts = np.zeros(counts.size, np.int64)
+    if counts.size > 1:
+        np.cumsum(counts[:-1], out=starts[1:])
+    return starts
+
+
+def curve_lengths(pos: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Polyline length of each curve (float64 sums of float32 segments, like Cycles'
+    float accumulation), from (P, 3) points and per-curve counts."""
+    n = counts.size
+    if n == 0:
+        return np.zeros(0)
+    seg = np.zeros(pos.shape[0], np.float32)
+    if pos.shape[0] > 1:
+        d = np.diff(pos, axis=0)
+        seg[1:] = np.sqrt(np.einsum("ij,ij->i", d, d))
+    starts = _curve_starts(counts)
+    seg[starts[starts < seg.size]] = 0.0  # no segment across curve boundaries
+    if not np.isfinite(seg).all():
+        seg[~np.isfinite(seg)] = 0.0  # keep NaN/Inf out of the running sum (those strands are dropped)
+    csum = np.zeros(pos.shape[0] + 1)
+    np.cumsum(seg, dtype=np.float64, out=csum[1:])
+    return csum[starts + counts] - csum[starts]
+
+
+def _per_curve_max(values: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    out = np.zeros(counts.size, values.dtype)
+    nz = counts > 0
+    if nz.any():
+        out[nz] = np.maximum.reduceat(values, _curve_starts(counts)[nz])
+    return out
+
+
+def clean_strands(name, pts4, counts, random, material, length, report):
+    """Drop strands Cycles would not render sensibly (fewer than two keys, non-finite keys or
+    radii, zero length, zero radius everywhere); clamp negative radii to 0. Warns with
+    counts. Returns the filtered arrays."""
+    n = counts.size
+    if n == 0:
+        return pts4, counts, random, material, length
+    bad_finite = np.zeros(n, bool)
+    if not np.isfinite(pts4).all():  # rare: only then the per-point work
+        bad_pt = ~np.isfinite(pts4).all(axis=1)
+        bad_finite = _per_curve_max(bad_pt.astype(np.uint8), counts) > 0
+        pts4[bad_pt] = 0.0
+    rad = pts4[:, 3]
+    if (rad < 0).any():
+        neg = rad < 0
+        report.warn(f"'{name}': {int(np.count_nonzero(neg))} hair keys have a negative radius; clamped to 0")
+        rad[neg] = 0.0
+    rmax = _per_curve_max(rad, counts)
+    too_short = counts < 2
+    ok = ~(bad_finite | too_short)
+    zero_len = ok & ~(length > 0.0)
+    zero_rad = ok & (rmax <= 0.0)
+    for mask, what in ((bad_finite, "NaN or infinite coordinates"), (too_short, "fewer than 2 keys"),
+                       (zero_len, "zero length"), (zero_rad, "zero radius")):
+        k = int(np.count_nonzero(mask))
+        if k:
+            report.warn(f"'{name}': {k} of {n} strands have {what}; skipped")
+            report.add_count("strands_skipped", k)
+    keep = ~(bad_finite | too_short | zero_len | zero_rad)
+    if keep.all():
+        return pts4, counts, random, material, length
+    keep_pt = np.repeat(keep, counts)
+    return (pts4[keep_pt], counts[keep], random[keep], material[keep], length[keep])
+
+
+# ---------------------------------------------------------------------------- Curves
+
+def curves_local_arrays(data):
+    """(positions (P,3) float32, radius (P,) float32, counts (C,) int64, has_radius) of a
+    Curves datablock, object space."""
+    n_pts = len(data.points)
+    n_cur = len(data.curves)
+    pos = np.empty(n_pts * 3, np.float32)
+    if hasattr(data, "position_data"):
+        data.position_data.foreach_get("vector", pos)
+    else:  # pragma: no cover - older API
+        data.attributes["position"].data.foreach_get("vector", pos)
+    pos = pos.reshape(n_pts, 3)
+    attr = data.attributes.get("radius")
+    has_radius = attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT"
+    if has_radius:
+        rad = np.empty(n_pts, np.float32)
+        attr.data.foreach_get("value", rad)
+    else:
+        rad = np.full(n_pts, DEFAULT_CURVES_RADIUS, np.float32)
+    off = np.empty(n_cur + 1, np.int32)
+    if hasattr(data, "curve_offset_data"):
+        data.curve_offset_data.foreach_get("value", off)
+    else:  # pragma: no cover
+        firsts = np.empty(n_cur, np.int32)
+        data.curves.foreach_get("first_point_index", firsts)
+        off[:-1] = firsts
+        off[-1] = n_pts
+    counts = np.diff(off).astype(np.int64)
+    return pos, rad, counts, has_radius
+
+
+def _material_index_warning(obj, data, report):
+    attr = data.attributes.get("material_index")
+    if attr is None or attr.domain != "CURVE":
+        return
+    mi = np.empty(len(data.curves), np.int32)
+    try:
+        attr.data.foreach_get("value", mi)
+    except Exception:
+        return
+    if mi.size and mi.any():
+        report.warn(f"Curves '{obj.name}': per-curve material_index is ignored; like Cycles, every "
+                    "curve uses the first material slot")
+
+
+class CurvesCache:
+    """Object-space arrays per evaluated Curves datablock, so that N instances of one
+    geometry cost one foreach_get."""
+
+    def __init__(self):
+        self._cache = {}
+
+    def get(self, data):
+        key = (data.as_pointer(), data.name, len(data.points), len(data.curves))
+        hit = self._cache.get(key)
+        if hit is None:
+            pos, rad, counts, _ = curves_local_arrays(data)
+            length = curve_lengths(pos, counts)
+            hit = (pos, rad, counts, length)
+            self._cache[key] = hit
+        return hit
+
+
+def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cache: CurvesCache):
+    """One Curves instance (evaluated object + its world matrix as float64 (4,4))."""
+    data = obj.data
+    if len(data.curves) == 0:
+        return 0
+    t0 = time.perf_counter()
+    pos, rad, counts, length = cache.get(data)
+    _material_index_warning(obj, data, report)
+    n = counts.size
+    world = transform_points(matrix, pos)
+    pts4 = np.empty((pos.shape[0], 4), np.float32)
+    pts4[:, :3] = world
+    pts4[:, 3] = rad * np.float32(radius_scale(matrix))
+    random = buffer.curve_random(n).copy()
+    mat = np.full(n, materials.slot_indices(obj)[0], np.int32)
+    pts4, counts, random, mat, length = clean_strands(obj.name, pts4, counts, random, mat,
+                                                      length.astype(np.float32), report)
+    buffer.add(pts4, counts, random, mat, length)
+    report.add_count("curves_objects", 1)
+    report.timings["curves"] = report.timings.get("curves", 0.0) + time.perf_counter() - t0
+    return int(counts.size)
+
+
+# ---------------------------------------------------------------------------- particle hair
+
+def shape_radius(shape: float, root: float, tip: float, t: np.ndarray) -> np.ndarray:
+    """Cycles' shaperadius() over normalised arc length t in [0, 1] (float32 as Cycles)."""
+    r = (1.0 - t).astype(np.float32)
+    if shape != 0.0:
+        e = (1.0 + shape) if shape < 0.0 else 1.0 / (1.0 - shape)
+        r = np.power(r, np.float32(e))
+    return r * np.float32(root - tip) + np.float32(tip)
+
+
+def _particle_systems(obj, render: bool):
+    for mod in obj.modifiers:
+        if mod.type != "PARTICLE_SYSTEM":
+            continue
+        if not (mod.show_render if render else mod.show_viewport):
+            continue
+        psys = mod.particle_system
+        part = psys.settings
+        if part is None or part.type != "HAIR" or part.render_type != "PATH":
+            continue
+        yield psys, part
+
+
+def has_particle_hair(obj, render: bool) -> bool:
+    if obj.type != "MESH":
+        return False
+    return any(True for _ in _particle_systems(obj, render))
+
+
+CO_HAIR_CHUNK = 8192  # strands per co_hair batch between cancel checks
+
+
+def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, render=True, cancel=None):
+    """All particle hair systems of one evaluated mesh object, as Cycles' ObtainCacheParticleData
+    + ExportCurveSegments.  `matrix`: the instance's world matrix."""
+    if getattr(obj.original, "mode", "OBJECT") in ("PARTICLE_EDIT", "EDIT"):
+        report.warn(f"'{obj.name}' is in edit mode; like Cycles, its particle hair is not rendered")
+        return 0
+    t0 = time.perf_counter()
+    ob_world = np.array([tuple(r) for r in obj.matrix_world], np.float64)
+    try:
+        ob_inv = np.linalg.inv(ob_world)
+    except np.linalg.LinAlgError:
+        report.warn(f"'{obj.name}': singular object matrix; particle hair skipped")
+        return 0
+    slots = materials.slot_indices(obj)
+    all_pts, all_counts, all_len, all_mat = [], [], [], []
+    for psys, part in _particle_systems(obj, render):
+        totpart = len(psys.particles)
+        totchild = len(psys.child_particles)
+        if not render:
+            totchild = int(float(totchild) * float(part.display_percentage) / 100.0)
+        first = totpart if (part.child_type != "NONE" and totchild != 0) else 0
+        ncurves = totpart + totchild - first
+        if ncurves <= 0:
+            continue
+        steps = (1 << (part.render_step if render else part.display_step)) + 1
+        if part.kink == "SPIRAL":
+            steps += part.kink_extra_steps
+        co = psys.co_hair
+        flat = np.empty(ncurves * steps * 3, np.float64)
+        chain = itertools.chain.from_iterable
+        for c0 in range(0, ncurves, CO_HAIR_CHUNK):
+            if cancel is not None and cancel():
+                raise KeyboardInterrupt
+            c1 = min(ncurves, c0 + CO_HAIR_CHUNK)
+            flat[c0 * steps * 3:c1 * steps * 3] = np.fromiter(
+                chain(co(obj, particle_no=p, step=s) for p in range(first + c0, first + c1) for s in range(steps)),
+                np.float64, (c1 - c0) * steps * 3)
+        pw = flat.reshape(ncurves * steps, 3)
+        # Cycles leaves the key at the previous one when co_hair has no data for it; the Python
+        # API returns (0, 0, 0) instead: weld those keys to the previous one (step > 0 only).
+        zero = ~pw.any(axis=1)
+        zero[::steps] = False
+        if zero.any():
+            idx = np.where(zero, 0, np.arange(pw.shape[0]))
+            np.maximum.accumulate(idx, out=idx)
+            pw = pw[idx]
+        # object space, as Cycles (curve length and the radius shape are measured there)
+        po = pw @ ob_inv[:3, :3].T + ob_inv[:3, 3]
+        counts = np.full(ncurves, steps, np.int64)
+        d = np.diff(po.reshape(ncurves, steps, 3), axis=1)
+        seg = np.sqrt(np.einsum("ijk,ijk->ij", d, d))
+        t_along = np.zeros((ncurves, steps))
+        np.cumsum(seg, axis=1, out=t_along[:, 1:])
+        lengths = t_along[:, -1].copy()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.where(lengths[:, None] > 0.0, t_along / lengths[:, None], 0.0)
+        t = np.clip(np.nan_to_num(t, nan=0.0), 0.0, 1.0)
+        rscale = part.radius_scale * 0.5
+        rad = shape_radius(float(part.shape), rscale * part.root_radius, rscale * part.tip_radius, t)
+        if part.use_close_tip:
+            rad[:, -1] = 0.0
+        pts = np.empty((ncurves * steps, 4), np.float32)
+        pts[:, :3] = po  # object space for now
+        pts[:, 3] = rad.reshape(-1)
+        all_pts.append(pts)
+        all_counts.append(counts)
+        all_len.append(lengths.astype(np.float32))
+        slot = min(max(int(part.material) - 1, 0), len(slots) - 1)
+        all_mat.append(np.full(ncurves, slots[slot], np.int32))
+        report.add_count("particle_systems", 1)
+    if not all_counts:
+        return 0
+    pts4 = np.concatenate(all_pts)
+    counts = np.concatenate(all_counts)
+    lengths = np.concatenate(all_len)
+    mat = np.concatenate(all_mat)
+    pts4[:, :3] = transform_points(matrix, pts4[:, :3])
+    pts4[:, 3] *= np.float32(radius_scale(matrix))
+    random = buffer.curve_random(counts.size).copy()  # index over all systems of the object
+    pts4, counts, random, mat, lengths = clean_strands(obj.name, pts4, counts, random, mat, lengths, report)
+    buffer.add(pts4, counts, random, mat, lengths)
+    report.timings["particle_hair"] = report.timings.get("particle_hair", 0.0) + time.perf_counter() - t0
+    return int(counts.size)
+
+
+# ---------------------------------------------------------------------------- checks
+
+def camera_inside_hair(curves: dict, cam_pos: np.ndarray) -> int:
+    """Number of strands whose tube (max radius of the segment's keys) contains the point."""
+    pts = curves["points"]
+    if pts.shape[0] < 2:
+        return 0
+    offsets = curves["curve_offsets"]
+    c = np.asarray(cam_pos, np.float32)
+    xyz = pts[:, :3]
+    d = xyz - c
+    dist = np.sqrt(np.einsum("ij,ij->i", d, d))
+    seg = np.diff(xyz, axis=0)
+    seglen = np.sqrt(np.einsum("ij,ij->i", seg, seg))
+    rmax = float(pts[:, 3].max())
+    # a segment can contain the point only if an end key is within its length + radius
+    near = np.minimum(dist[:-1], dist[1:]) <= seglen + rmax
+    near[offsets[1:-1] - 1] = False  # no segment across curve boundaries
+    idx = np.nonzero(near)[0]
+    if idx.size == 0:
+        return 0
+    a = xyz[idx].astype(np.float64)
+    ab = seg[idx].astype(np.float64)
+    ca = c.astype(np.float64) - a
+    denom = np.einsum("ij,ij->i", ab, ab)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.clip(np.where(denom > 0, np.einsum("ij,ij->i", ca, ab) / denom, 0.0), 0.0, 1.0)
+    diff = ca - ab * t[:, None]
+    r = np.maximum(pts[idx, 3], pts[idx + 1, 3])
+    inside = idx[np.sqrt(np.einsum("ij,ij->i", diff, diff)) < r]
+    if inside.size == 0:
+        return 0
+    curve = np.searchsorted(offsets, inside, side="right") - 1
+    return int(np.unique(curve).size)

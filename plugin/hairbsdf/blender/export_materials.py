@@ -1,0 +1,275 @@
+"""Blender materials -> the closure lists of docs/scene_desc.md.
+
+Supported (everything else is reported with a warning naming the node and socket):
+  * Principled Hair BSDF, Chiang model (Blender 3.4 has no model enum = Chiang), all three
+    parametrizations, every input as its socket value;
+  * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
+  * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
+  * linked inputs driven by a Value or RGB node, through reroutes, and Hair Info > Random
+    into the Principled Hair's Random socket (-> None: per-curve random).
+A material without nodes is a diffuse of its viewport colour and a missing material is
+Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
+"""
+
+from __future__ import annotations
+
+from ._common import REC709_Y, find_socket, rgb
+
+GREY = (0.8, 0.8, 0.8)
+DEFAULT_MATERIAL_NAME = "__default__"
+RANDOM = object()  # sentinel: the value is Hair Info > Random (per curve)
+
+# (key in scene_desc, socket identifier, kind)
+PRINCIPLED_HAIR_INPUTS = (
+    ("color", "Color", "color"),
+    ("melanin", "Melanin", "float"),
+    ("melanin_redness", "Melanin Redness", "float"),
+    ("tint", "Tint", "color"),
+    ("absorption_coefficient", "Absorption Coefficient", "vector"),
+    ("roughness", "Roughness", "float"),
+    ("radial_roughness", "Radial Roughness", "float"),
+    ("coat", "Coat", "float"),
+    ("ior", "IOR", "float"),
+    ("offset", "Offset", "float"),
+    ("random_color", "Random Color", "float"),
+    ("random_roughness", "Random Roughness", "float"),
+)
+MAX_DEPTH = 64
+
+
+def _mul(w, f):
+    if isinstance(f, tuple):
+        return tuple(a * b for a, b in zip(w, f))
+    return tuple(a * f for a in w)
+
+
+class MaterialTranslator:
+    """Translates one material at a time; warnings go to `report` prefixed with the
+    material's name."""
+
+    def __init__(self, report):
+        self.report = report
+        self.material_name = ""
+
+    # ------------------------------------------------------------------ helpers
+    def warn(self, msg: str) -> None:
+        self.report.warn(f"Material '{self.material_name}': {msg}")
+
+    @staticmethod
+    def _link_source(socket, depth=0):
+        """(node, output socket) feeding `socket`, following reroutes and muted links;
+        None when unlinked."""
+        if socket is None or not socket.is_linked or depth > MAX_DEPTH:
+            return None
+        links = [lk for lk in socket.links if not getattr(lk, "is_muted", False)]
+        if not links:
+            return None
+        link = links[0]
+        node, out = link.from_node, link.from_socket
+        if node.type == "REROUTE" or node.bl_idname == "NodeReroute":
+            return MaterialTranslator._link_source(node.inputs[0], depth + 1)
+        return node, out
+
+    def value(self, node, ident: str, kind: str, default=None, allow_random=False):
+        """Value of input `ident` of `node` as Cycles would see it for a constant graph.
+        kind: 'float' | 'color' | 'vector'.  Returns RANDOM for Hair Info > Random when
+        allow_random."""
+        sock = find_socket(node.inputs, ident)
+        if sock is None:
+            return default
+        fallback = self._socket_default(sock, kind, default)
+        src = self._link_source(sock)
+        if src is None:
+            return fallback
+        snode, sout = src
+        t = snode.bl_idname
+        if t == "ShaderNodeValue":
+            return self._convert(float(sout.default_value), "float", kind)
+        if t == "ShaderNodeRGB":
+            return self._convert(rgb(sout.default_value), "color", kind)
+        if t == "ShaderNodeHairInfo" and sout.identifier == "Random":
+            if allow_random:
+                return RANDOM
+        if not getattr(sock, "enabled", True):
+            return fallback  # hidden by the node's mode: Cycles does not read it
+        if snode.mute:
+            self.warn(f"muted node '{snode.name}' drives '{node.name}' > '{sock.name}'; using {fallback!r}")
+            return fallback
+        self.warn(f"'{node.name}' > '{sock.name}' is driven by '{snode.name}' ({_label(snode)} > {sout.name}), "
+                  f"which hairbsdf does not evaluate; using the socket value {_fmt(fallback)}")
+        return fallback
+
+    @staticmethod
+    def _socket_default(sock, kind, default):
+        dv = getattr(sock, "default_value", None)
+        if dv is None:
+            return default
+        if kind == "float":
+            try:
+                return float(dv)
+            except TypeError:
+                return MaterialTranslator._convert(rgb(dv), "color", "float")
+        try:
+            return rgb(dv)
+        except TypeError:
+            return (float(dv),) * 3
+
+    @staticmethod
+    def _convert(v, src_kind, kind):
+        if kind == "float":
+            if src_kind == "float":
+                return v
+            if src_kind == "color":  # Cycles' colour -> float: luminance
+                return sum(a * b for a, b in zip(v, REC709_Y))
+            return sum(v) / 3.0  # vector -> float: average
+        if src_kind == "float":
+            return (v, v, v)
+        return tuple(v)
+
+    # ------------------------------------------------------------------ materials
+    def translate(self, material) -> dict:
+        if material is None:
+            return {"name": DEFAULT_MATERIAL_NAME, "closures": [_diffuse((1.0, 1.0, 1.0), GREY)]}
+        self.material_name = material.name
+        out = {"name": material.name, "closures": []}
+        nt = material.node_tree if getattr(material, "use_nodes", False) else None
+        if nt is None:
+            out["closures"] = [_diffuse((1.0, 1.0, 1.0), rgb(material.diffuse_color))]
+            return out
+        output = None
+        try:
+            output = nt.get_output_node("CYCLES")
+        except Exception:  # pragma: no cover - very old API
+            output = None
+        if output is None:
+            # Cycles renders a node material without an active output as black.
+            self.warn("no active Material Output node; rendered black")
+            return out
+        surface = find_socket(output.inputs, "Surface")
+        volume = find_socket(output.inputs, "Volume")
+        if volume is not None and self._link_source(volume) is not None:
+            self.warn("the Volume output is not supported and is ignored")
+        disp = find_socket(output.inputs, "Displacement")
+        if disp is not None and self._link_source(disp) is not None:
+            self.warn("displacement is not supported and is ignored")
+        src = self._link_source(surface)
+        if src is None:
+            return out
+        closures = []
+        self._shader(src[0], src[1], (1.0, 1.0, 1.0), closures, 0)
+        out["closures"] = [c for c in closures if max(c["weight"]) > 0.0 or min(c["weight"]) < 0.0]
+        return out
+
+    def _shader(self, node, out_socket, weight, closures, depth):
+        if depth > MAX_DEPTH:
+            self.warn("shader graph too deep; truncated")
+            return
+        t = node.bl_idname
+        if node.mute:
+            # A muted node passes its first matching input through (internal links).
+            for link in getattr(node, "internal_links", []):
+                if link.to_socket == out_socket or link.to_socket.identifier == out_socket.identifier:
+                    src = self._link_source(link.from_socket)
+                    if src is not None:
+                        self._shader(src[0], src[1], weight, closures, depth + 1)
+                    return
+            return
+        if t == "ShaderNodeMixShader":
+            fac = self.value(node, "Fac", "float", 0.5)
+            fac = min(max(fac, 0.0), 1.0)  # svm_node_mix_closure clamps
+            shaders = [s for s in node.inputs if s.type == "SHADER"]
+            for sock, f in zip(shaders, (1.0 - fac, fac)):
+                src = self._link_source(sock)
+                if src is not None and f > 0.0:
+                    self._shader(src[0], src[1], _mul(weight, f), closures, depth + 1)
+            return
+        if t == "ShaderNodeAddShader":
+            for sock in (s for s in node.inputs if s.type == "SHADER"):
+                src = self._link_source(sock)
+                if src is not None:
+                    self._shader(src[0], src[1], weight, closures, depth + 1)
+            return
+        if t == "ShaderNodeBsdfHairPrincipled":
+            closures.append(self._principled_hair(node, weight))
+            return
+        if t == "ShaderNodeBsdfDiffuse":
+            rough = self.value(node, "Roughness", "float", 0.0)
+            if rough > 0.0:
+                self.warn(f"'{node.name}': Oren-Nayar roughness {rough:g} is not supported; rendered as Lambert")
+            closures.append(_diffuse(weight, self.value(node, "Color", "color", GREY)))
+            return
+        if t == "ShaderNodeBsdfPrincipled":
+            self.warn(f"'{node.name}' (Principled BSDF) is rendered as a diffuse of its Base Color")
+            closures.append(_diffuse(weight, self.value(node, "Base Color", "color", GREY)))
+            return
+        if t == "ShaderNodeEmission":
+            closures.append({"type": "emission", "weight": weight,
+                             "color": self.value(node, "Color", "color", (1.0, 1.0, 1.0)),
+                             "strength": self.value(node, "Strength", "float", 1.0)})
+            return
+        if t == "ShaderNodeBsdfHair":
+            self.warn(f"'{node.name}' (Hair BSDF) is not supported yet; rendered as 0.8 grey diffuse")
+            closures.append(_diffuse(weight, GREY))
+            return
+        self.warn(f"'{node.name}' ({_label(node)}) is not supported; rendered as 0.8 grey diffuse")
+        closures.append(_diffuse(weight, GREY))
+
+    def _principled_hair(self, node, weight) -> dict:
+        model = getattr(node, "model", "CHIANG")
+        if model != "CHIANG":
+            self.warn(f"'{node.name}': the {model.title()} model is not supported yet; "
+                      "rendered as 0.8 grey diffuse")
+            return _diffuse(weight, GREY)
+        inputs = {}
+        for key, ident, kind in PRINCIPLED_HAIR_INPUTS:
+            inputs[key] = self.value(node, ident, kind)
+        rnd = self.value(node, "Random", "float", 0.0, allow_random=True)
+        sock = find_socket(node.inputs, "Random")
+        if rnd is RANDOM or sock is None or not sock.is_linked:
+            inputs["random"] = None  # per-curve Hair Info > Random (cycles-hair-notes §2.2)
+        else:
+            inputs["random"] = float(rnd)
+        return {"type": "principled_hair", "weight": weight, "model": "CHIANG",
+                "parametrization": node.parametrization, "inputs": inputs}
+
+
+def _label(node):
+    return getattr(node, "bl_label", "") or node.bl_idname
+
+
+def _diffuse(weight, color):
+    return {"type": "diffuse", "weight": tuple(weight), "color": tuple(color)}
+
+
+def _fmt(v):
+    if isinstance(v, tuple):
+        return "(" + ", ".join(f"{c:g}" for c in v) + ")"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return repr(v)
+
+
+class MaterialTable:
+    """The scene's material list; materials are translated once, on first use."""
+
+    def __init__(self, report):
+        self.translator = MaterialTranslator(report)
+        self.materials: list[dict] = []
+        self._index: dict = {}
+
+    def index(self, material) -> int:
+        key = None if material is None else material.name_full
+        idx = self._index.get(key)
+        if idx is None:
+            idx = len(self.materials)
+            self.materials.append(self.translator.translate(material))
+            self._index[key] = idx
+        return idx
+
+    def slot_indices(self, obj) -> list:
+        """Scene material index of each material slot of an evaluated object (at least one
+        entry: the default material when the object has no slots)."""
+        slots = [s.material for s in obj.material_slots]
+        if not slots:
+            slots = [None]
+        return [self.index(m) for m in slots]

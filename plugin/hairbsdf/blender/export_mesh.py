@@ -1,0 +1,100 @@
+"""Mesh export: evaluated triangles (loop_triangles, foreach_get) in world space with a
+scene material index per triangle (the object's slot of the polygon's material_index)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ._common import transform_points
+
+MESH_LIKE = ("MESH", "CURVE", "SURFACE", "META", "FONT")
+
+
+class MeshBuffer:
+    def __init__(self):
+        self.vertices: list[np.ndarray] = []
+        self.triangles: list[np.ndarray] = []
+        self.material: list[np.ndarray] = []
+        self._nverts = 0
+
+    def add(self, verts, tris, mat):
+        if tris.shape[0] == 0:
+            return
+        self.vertices.append(verts)
+        self.triangles.append(tris + self._nverts)
+        self.material.append(mat)
+        self._nverts += verts.shape[0]
+
+    def finish(self) -> dict:
+        if not self.triangles:
+            return {"vertices": np.zeros((0, 3), np.float32), "triangles": np.zeros((0, 3), np.int32),
+                    "triangle_material": np.zeros(0, np.int32)}
+        return {"vertices": np.ascontiguousarray(np.concatenate(self.vertices), np.float32),
+                "triangles": np.ascontiguousarray(np.concatenate(self.triangles), np.int32),
+                "triangle_material": np.concatenate(self.material).astype(np.int32)}
+
+
+class MeshCache:
+    """Object-space triangles per evaluated datablock, shared by instances."""
+
+    def __init__(self):
+        self._cache = {}
+
+    def get(self, obj):
+        data = obj.data
+        key = (data.as_pointer(), data.name, obj.type) if data is not None else None
+        if key is not None and key in self._cache:
+            return self._cache[key]
+        arrays = mesh_local_arrays(obj)
+        if key is not None and obj.type == "MESH":
+            self._cache[key] = arrays
+        return arrays
+
+
+def mesh_local_arrays(obj):
+    """(vertices (V,3) float32, triangles (T,3) int32, material_index (T,) int32) of an
+    evaluated object, object space.  Uses to_mesh() so the evaluated data is not touched."""
+    try:
+        mesh = obj.to_mesh()
+    except RuntimeError:
+        mesh = None
+    if mesh is None:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.int32)
+    try:
+        if hasattr(mesh, "calc_loop_triangles"):  # 3.x; 4.x computes them on access
+            mesh.calc_loop_triangles()
+        nv = len(mesh.vertices)
+        nt = len(mesh.loop_triangles)
+        verts = np.empty(nv * 3, np.float32)
+        mesh.vertices.foreach_get("co", verts)
+        tris = np.empty(nt * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        mat = np.empty(nt, np.int32)
+        mesh.loop_triangles.foreach_get("material_index", mat)
+        return verts.reshape(nv, 3), tris.reshape(nt, 3), mat
+    finally:
+        obj.to_mesh_clear()
+
+
+def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache: MeshCache):
+    t0 = time.perf_counter()
+    verts, tris, mat_idx = cache.get(obj)
+    if tris.shape[0] == 0:
+        return 0
+    slots = materials.slot_indices(obj)
+    lut = np.asarray(slots, np.int32)
+    mat = lut[np.clip(mat_idx, 0, len(slots) - 1)]
+    world = transform_points(matrix, verts)
+    finite = np.isfinite(world).all(axis=1)
+    if not finite.all():
+        bad = ~finite[tris].all(axis=1)
+        report.warn(f"Mesh '{obj.name}': {int(bad.sum())} triangles have NaN or infinite vertices; skipped")
+        tris, mat = tris[~bad], mat[~bad]
+        world = np.where(finite[:, None], world, 0.0).astype(np.float32)
+    buffer.add(world, tris, mat)
+    report.add_count("mesh_objects", 1)
+    report.add_count("triangles", tris.shape[0])
+    report.timings["meshes"] = report.timings.get("meshes", 0.0) + time.perf_counter() - t0
+    return int(tris.shape[0])

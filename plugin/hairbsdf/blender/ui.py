@@ -1,0 +1,245 @@
+"""UI of the HAIRBSDF engine: its own settings (scene.hairbsdf) and panel, Cycles' panels
+for the settings the engine reads from scene.cycles / scene.cycles_curves, Blender's
+generic panels, and small material/world/light panels (Cycles' own ones poll on
+CyclesButtonsPanel, i.e. on 'CYCLES' only)."""
+
+from __future__ import annotations
+
+import bpy
+
+ENGINE_ID = "HAIRBSDF"
+
+# Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
+CYCLES_PANELS = (
+    "CYCLES_RENDER_PT_sampling",
+    "CYCLES_RENDER_PT_sampling_render",
+    "CYCLES_RENDER_PT_sampling_advanced",
+    "CYCLES_RENDER_PT_light_paths",
+    "CYCLES_RENDER_PT_light_paths_max_bounces",
+    "CYCLES_RENDER_PT_film",
+    "CYCLES_RENDER_PT_film_transparency",
+    "CYCLES_RENDER_PT_film_pixel_filter",
+    "CYCLES_RENDER_PT_curves",
+)
+# Generic panels ('BLENDER_RENDER' in COMPAT_ENGINES) that make no sense here.
+GENERIC_EXCLUDE_PREFIXES = ("RENDER_PT_eevee", "RENDER_PT_workbench", "RENDER_PT_simplify", "RENDER_PT_freestyle",
+                            "VIEWLAYER_PT_eevee", "RENDER_PT_gpencil", "RENDER_PT_opengl", "RENDER_PT_hydra",
+                            "DATA_PT_EEVEE", "EEVEE_", "MATERIAL_PT_gpencil", "VIEWLAYER_PT_freestyle",
+                            "MATERIAL_PT_freestyle", "DATA_PT_lightprobe")
+# Replaced by HAIRBSDF_LIGHT_PT_light, which shows what the exporter reads.
+GENERIC_EXCLUDE = ("DATA_PT_light", "DATA_PT_spot")
+
+
+def _all_panel_classes():
+    seen = set()
+    stack = list(bpy.types.Panel.__subclasses__())
+    while stack:
+        cls = stack.pop()
+        if cls in seen:
+            continue
+        seen.add(cls)
+        stack.extend(cls.__subclasses__())
+        yield cls
+
+
+_patched = []  # (cls, had_own_attribute, original value)
+
+
+def _add_engine(cls):
+    own = "COMPAT_ENGINES" in cls.__dict__
+    original = cls.__dict__.get("COMPAT_ENGINES")
+    engines = getattr(cls, "COMPAT_ENGINES", None)
+    if engines is None or ENGINE_ID in engines:
+        return
+    # A per-class copy: Cycles' panels share one set through CyclesButtonsPanel, which
+    # must not change (it would switch on every Cycles panel).
+    cls.COMPAT_ENGINES = set(engines) | {ENGINE_ID}
+    _patched.append((cls, own, original))
+
+
+def patch_panels():
+    for cls in _all_panel_classes():
+        engines = getattr(cls, "COMPAT_ENGINES", None)
+        if not engines:
+            continue
+        name = cls.__name__
+        if name in CYCLES_PANELS and "CYCLES" in engines:
+            _add_engine(cls)
+        elif ("BLENDER_RENDER" in engines and not name.startswith(GENERIC_EXCLUDE_PREFIXES)
+              and name not in GENERIC_EXCLUDE):
+            _add_engine(cls)
+
+
+def unpatch_panels():
+    while _patched:
+        cls, own, original = _patched.pop()
+        try:
+            if own:
+                cls.COMPAT_ENGINES = original
+            else:
+                del cls.COMPAT_ENGINES
+        except Exception:  # pragma: no cover
+            pass
+
+
+def patched_panel_names():
+    return sorted(cls.__name__ for cls, _, _ in _patched)
+
+
+# ---------------------------------------------------------------------------- settings
+
+class HairBsdfSceneSettings(bpy.types.PropertyGroup):
+    threads: bpy.props.IntProperty(
+        name="Threads", description="Render threads (0: Blender's Performance > Threads setting, or all cores)",
+        default=0, min=0, max=1024)
+    tilt: bpy.props.EnumProperty(
+        name="Tilt Convention",
+        description="Principled Hair cuticle tilt convention (cycles-hair-notes §4.3, §5b)",
+        items=(("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4"),
+               ("4.2", "Blender 4.2+", "Tilt applied to the view angle (Cycles 4.2 and later)"),
+               ("3.4", "Blender 3.4-4.1", "Tilt applied to the light angle (Cycles 3.4 to 4.1)")),
+        default="AUTO")
+    accuracy: bpy.props.EnumProperty(
+        name="Accuracy", description="Special functions of the hair model",
+        items=(("CYCLES", "Cycles", "Cycles' truncated Bessel series: matches Cycles"),
+               ("EXACT", "Exact", "Exact special functions (differs from Cycles by up to ~5e-3)")),
+        default="CYCLES")
+
+
+class HAIRBSDF_RENDER_PT_settings(bpy.types.Panel):
+    bl_label = "hairbsdf"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        s = context.scene.hairbsdf
+        layout.prop(s, "threads")
+        layout.prop(s, "tilt")
+        layout.prop(s, "accuracy")
+
+
+def _node_panel(layout, id_data, output_type, input_name):
+    """Cycles' panel_node_draw when importable, else a plain node view."""
+    try:
+        from cycles.ui import panel_node_draw  # type: ignore
+        return panel_node_draw(layout, id_data, output_type, input_name)
+    except Exception:
+        pass
+    if not getattr(id_data, "use_nodes", False):
+        layout.prop(id_data, "use_nodes", icon="NODETREE")
+        return False
+    ntree = id_data.node_tree
+    node = ntree.get_output_node("CYCLES") if hasattr(ntree, "get_output_node") else None
+    if node is None:
+        layout.label(text="No output node")
+        return True
+    sock = next((s for s in node.inputs if s.name == input_name), None)
+    if sock is not None:
+        layout.template_node_view(ntree, node, sock)
+    return True
+
+
+class HAIRBSDF_MATERIAL_PT_surface(bpy.types.Panel):
+    bl_label = "Surface"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        mat = context.material
+        return mat is not None and not getattr(mat, "grease_pencil", None) and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        mat = context.material
+        if not _node_panel(self.layout, mat, "OUTPUT_MATERIAL", "Surface"):
+            self.layout.prop(mat, "diffuse_color")
+
+
+class HAIRBSDF_WORLD_PT_surface(bpy.types.Panel):
+    bl_label = "Surface"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "world"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.world is not None and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        world = context.world
+        if not _node_panel(self.layout, world, "OUTPUT_WORLD", "Surface"):
+            self.layout.prop(world, "color")
+
+
+class HAIRBSDF_LIGHT_PT_light(bpy.types.Panel):
+    bl_label = "Light"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        light = context.light
+        layout = self.layout
+        layout.row().prop(light, "type", expand=True)
+        layout.use_property_split = True
+        col = layout.column()
+        col.prop(light, "color")
+        col.prop(light, "energy")
+        if light.type in ("POINT", "SPOT"):
+            col.prop(light, "shadow_soft_size", text="Radius")
+            if hasattr(light, "use_soft_falloff"):
+                col.prop(light, "use_soft_falloff")
+        elif light.type == "SUN":
+            col.prop(light, "angle")
+        elif light.type == "AREA":
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in ("SQUARE", "DISK"):
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+            if hasattr(light, "spread"):
+                col.prop(light, "spread")
+        if light.type == "SPOT":
+            col.prop(light, "spot_size")
+            col.prop(light, "spot_blend")
+
+
+classes = (HairBsdfSceneSettings, HAIRBSDF_RENDER_PT_settings, HAIRBSDF_MATERIAL_PT_surface,
+           HAIRBSDF_WORLD_PT_surface, HAIRBSDF_LIGHT_PT_light)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.hairbsdf = bpy.props.PointerProperty(type=HairBsdfSceneSettings)
+    patch_panels()
+
+
+def unregister():
+    unpatch_panels()
+    if hasattr(bpy.types.Scene, "hairbsdf"):
+        del bpy.types.Scene.hairbsdf
+    for cls in reversed(classes):
+        try:
+            bpy.utils.unregister_class(cls)
+        except RuntimeError:  # pragma: no cover
+            pass
