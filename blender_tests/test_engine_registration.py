@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import BLENDER_EXE, ROOT, VENV_PY, need_renderer, require, run_snippet
+from blender_env import BLENDER_EXE, ROOT, VENV_PY, need_renderer, require, run_snippet
 
 pytestmark = pytest.mark.blender
 

@@ -9,7 +9,7 @@ built and staged, failed under CI=true)."""
 import numpy as np
 import pytest
 
-from conftest import KINDS, need_renderer, record, run_snippet
+from blender_env import KINDS, need_renderer, record, run_snippet
 
 pytestmark = pytest.mark.blender
 

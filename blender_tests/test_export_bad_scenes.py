@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import hairbsdf
-from conftest import need_renderer
+from blender_env import need_renderer
 from hairbsdf.blender.export_scene import load_scene
 
 pytestmark = pytest.mark.blender

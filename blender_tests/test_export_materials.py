@@ -215,7 +215,11 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert lights["SPOT"]["spot_size"] == pytest.approx(math.radians(40)) and lights["SPOT"]["spot_blend"] == pytest.approx(0.3)
     area = lights["AREA"]
     assert area["shape"] == "ELLIPSE" and area["size_x"] == pytest.approx(0.5) and area["size_y"] == pytest.approx(0.25)
-    assert area["strength"] == pytest.approx((40.0,) * 3 if v >= (4, 0, 0) else (20.0,) * 3)  # 2^exposure
+    # 4.x: 2^exposure; 3.x: Cycles 3.x area radiance power / (4 area) = 4.x's x pi/4 (export_lights.py)
+    assert area["strength"] == pytest.approx((40.0,) * 3 if v >= (4, 0, 0) else (20.0 * math.pi / 4,) * 3)
+    assert lights["SPOT"].get("spot_cosine", False) is (v < (4, 0, 0))
+    assert all(lt["visible_camera"] is False for lt in desc["lights"])  # Blender's default for new lights
+    assert desc["curve_backface_culling"] is (v < (3, 6, 0))
     np.testing.assert_allclose(area["matrix_world"], out["area_matrix"], atol=1e-6)
 
     # camera: resolution x 50 %, scale removed from the matrix, raw lens values

@@ -5,7 +5,7 @@ vary), only the counts.  Target: 100k Curves strands in <= 1 s."""
 
 import pytest
 
-from conftest import KINDS, record
+from blender_env import KINDS, record
 
 pytestmark = pytest.mark.blender
 

@@ -264,3 +264,62 @@ def curve_positions(obj):
 
 def deg(x):
     return math.radians(x)
+
+
+# --------------------------------------------------------------------------- showcase
+
+def showcase_scene(width=240, height=160, spp=64, curve_shape="THICK", children=12):
+    """The side-by-side scene (scripts/engine_side_by_side.py, docs/engine.md): a grey
+    ground plane; a patch of particle hair with interpolated children (melanin) and a
+    Curves object made by geometry nodes (coloured, tilted); lit by a sun, a point light,
+    a rectangular area light and a uniform world. Cycles' default integrator settings
+    (bounces 12/4/4/12, Filter Glossy 1, light threshold 0.01) except: no denoising, no
+    adaptive sampling, Clamp Indirect 0 (docs/engine.md: clamping is where the two
+    estimators differ), opaque film, Standard view transform. Works in 3.4 and 4.x."""
+    scene = reset(width=width, height=height, spp=spp, curve_shape=curve_shape, film_transparent=False)
+    cy = scene.cycles
+    cy.max_bounces, cy.diffuse_bounces, cy.glossy_bounces, cy.transmission_bounces = 12, 4, 4, 12
+    cy.transparent_max_bounces = 8
+    cy.blur_glossy = 1.0
+    cy.light_sampling_threshold = 0.01
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    scene.render.film_transparent = False
+
+    ground = make_plane(size=6.0, location=(0.0, 0.0, 0.0), name="Ground")
+    add_slot(ground, diffuse_material("GroundGrey", (0.35, 0.35, 0.35)))
+
+    patch = make_plane(size=1.2, location=(-0.75, 0.0, 0.001), name="Scalp")
+    add_slot(patch, diffuse_material("ScalpSkin", (0.45, 0.3, 0.25)))
+    hair = hair_material("BrownHair", parametrization="MELANIN", melanin=0.55, melanin_redness=0.6,
+                         roughness=0.3, radial_roughness=0.3, coat=0.1, random_color=0.3)
+    add_slot(patch, hair)
+    psys = add_particle_hair(patch, count=220, length=0.55, render_step=3, display_step=2,
+                             child_type="INTERPOLATED", children_render=children, children_display=children,
+                             radius_scale=0.006, root=1.0, tip=0.3, close_tip=False, material_slot=2, seed=3)
+    st = psys.settings
+    st.use_hair_bspline = False
+    if hasattr(st, "child_length"):
+        st.child_length = 0.9
+    st.clump_factor = 0.3
+    st.roughness_2 = 0.05
+    patch.rotation_euler = (0.0, 0.25, 0.0)
+
+    blond = hair_material("BlondCurves", parametrization="COLOR", color=(0.55, 0.38, 0.2),
+                          roughness=0.25, radial_roughness=0.4, coat=0.0)
+    fur = curves_grid("Curves", nx=14, ny=10, size=0.9, n_points=8, length=0.7, radius=0.006,
+                      material=blond, location=(0.75, 0.1, 0.0))
+    fur.rotation_euler = (0.35, -0.3, 0.2)
+
+    make_camera(location=(0.2, -3.4, 1.55), target=(0.0, 0.0, 0.35), lens=42.0)
+    make_light("SUN", energy=2.5, location=(2.0, -1.0, 3.0), target=(0.0, 0.0, 0.0), name="Sun", angle=0.05)
+    make_light("POINT", energy=120.0, location=(-1.8, -1.6, 1.4), name="Point", shadow_soft_size=0.15,
+               color=(1.0, 0.85, 0.7))
+    area = make_light("AREA", energy=80.0, location=(1.6, -1.8, 1.2), target=(0.3, 0.0, 0.3), name="Area",
+                      shape="RECTANGLE", size=0.8, color=(0.7, 0.8, 1.0))
+    area.data.size_y = 0.4
+    world = bpy.data.worlds.new("SkyGrey")
+    world.use_nodes = False
+    world.color = (0.05, 0.06, 0.08)
+    scene.world = world
+    return scene

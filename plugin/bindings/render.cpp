@@ -307,6 +307,7 @@ void read_lights(const py::dict& scene, SceneDesc& out) {
         };
         flag("normalize", d.normalize);
         flag("use_mis", d.use_mis);
+        flag("visible_camera", d.visible_camera);
         switch (d.type) {
             case LightType::Sun:
                 d.direction = as_vec3(get(l, key, "direction"), sub(key, "direction"));
@@ -321,6 +322,7 @@ void read_lights(const py::dict& scene, SceneDesc& out) {
                     d.direction = as_vec3(get(l, key, "direction"), sub(key, "direction"));
                     real("spot_size", d.spot_size);
                     real("spot_blend", d.spot_blend);
+                    flag("spot_cosine", d.spot_cosine);
                     if (auto o = get_optional(l, "matrix_world")) {
                         d.matrix_world = as_mat4(*o, sub(key, "matrix_world"));
                         d.has_matrix = true;
@@ -440,14 +442,16 @@ py::dict py_render(const py::dict& scene_dict, py::object progress, py::object c
             if (!(poll_cancel || poll_progress) || job.cancelled()) continue;
             py::gil_scoped_acquire acquire;
             try {
+                // Progress first: on a loaded machine one wake-up may be due for both, and a
+                // cancelled render still reports how far it got.
+                if (poll_progress) {
+                    last_progress = now;
+                    progress(job.progress());
+                }
                 if (poll_cancel) {
                     last_cancel = now;
                     if (PyErr_CheckSignals() != 0) throw py::error_already_set();
                     if (!cancel.is_none() && py::bool_(cancel())) job.cancel();
-                }
-                if (poll_progress && !job.cancelled()) {
-                    last_progress = now;
-                    progress(job.progress());
                 }
             } catch (py::error_already_set& e) {
                 callback_error.emplace(std::move(e));

@@ -259,7 +259,7 @@ def _check_lights(scene, out):
         req = lambda name: _Checker.required(key, l, name)  # noqa: E731,B023
         kind = _Checker.choice(f"{key}['type']", req("type"), LIGHT_TYPES)
         d = {"type": kind, "strength": _Checker.vector(f"{key}['strength']", req("strength"), 3)}
-        for name in ("normalize", "use_mis"):
+        for name in ("normalize", "use_mis", "visible_camera"):
             if l.get(name) is not None:
                 d[name] = _Checker.boolean(f"{key}['{name}']", l[name])
         if kind == "SUN":
@@ -276,6 +276,8 @@ def _check_lights(scene, out):
                 d["spot_blend"] = _Checker.real(f"{key}['spot_blend']", req("spot_blend"))
                 if l.get("matrix_world") is not None:
                     d["matrix_world"] = _Checker.matrix4(f"{key}['matrix_world']", l["matrix_world"])
+                if l.get("spot_cosine") is not None:
+                    d["spot_cosine"] = _Checker.boolean(f"{key}['spot_cosine']", l["spot_cosine"])
         else:
             d["matrix_world"] = _Checker.matrix4(f"{key}['matrix_world']", req("matrix_world"))
             d["shape"] = _Checker.choice(f"{key}['shape']", req("shape"), AREA_SHAPES)

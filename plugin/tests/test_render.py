@@ -67,7 +67,10 @@ def _unit(v):
     ((0.6, -0.3, 0.5), (0.1, 0.9, -0.2), {"parametrization": "ABSORPTION", "coat": 0.3, "ior": 1.4,
                                           "random_roughness": 0.5}),
 ])
-def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs):
+@pytest.mark.parametrize("pixel_filter", [("BLACKMAN_HARRIS", 1e-4), ("BLACKMAN_HARRIS", 0.01)], ids=["bh1e-4", "bh0.01"])
+def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs, pixel_filter):
+    """At 1 spp the 0.01 px filter (Blender's minimum) gives the pixel-centre value: sample 0 of every pixel
+    sits at the pixel centre, as in Cycles (integrate_camera_sample)."""
     wo, wi = _unit(wo), _unit(wi)
     height, across = 160, 120  # 120 pixels across the strand diameter
     pixel = 2 * R / across
@@ -76,7 +79,8 @@ def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs):
     scene = {"version": 1, "curves": _straight_strand(), "curve_shape": shape, "curve_subdivisions": 2,
              "materials": [_hair_material(**dict(inputs))], "camera": camera,
              "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
-             "world": {"color": (0, 0, 0)}, "integrator": _integrator()}
+             "world": {"color": (0, 0, 0)},
+             "integrator": _integrator(filter_type=pixel_filter[0], filter_width=pixel_filter[1])}
     out = render(scene)
     img = out["combined"]
     assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
@@ -98,7 +102,7 @@ def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs):
     expected = strength * bsdf.eval(np.tile(frame(wo), (n, 1)), np.tile(frame(wi), (n, 1)), h[inside])
     got = img[inside, 1, :3].astype(np.float64)
     rel = np.abs(got - expected) / np.maximum(np.abs(expected), 1e-12)
-    assert np.median(rel) <= 1e-4, f"median relative error {np.median(rel):.2e}"
+    assert np.median(rel) <= 1e-5, f"median relative error {np.median(rel):.2e}"
     assert np.all(img[inside, 1, 3] == 1.0)  # coverage
     assert np.all(img[np.abs(h) > 1.05, :, 3] == 0.0)
 
@@ -264,6 +268,54 @@ def test_nan_light_and_world_are_removed():
     _check_clean(out)
     assert any("lights" in w for w in out["stats"]["warnings"])
     assert any("world" in w for w in out["stats"]["warnings"])
+
+
+def _plane_scene(light, resolution=(16, 16), ortho_scale=4.0):
+    """A diffuse plane z = 0 (colour 0.5) seen from above by an orthographic camera, 1 spp at
+    the pixel centres, direct light only."""
+    return {"version": 1,
+            "meshes": {"vertices": np.array([[-5, -5, 0], [5, -5, 0], [5, 5, 0], [-5, 5, 0]], np.float32),
+                       "triangles": np.array([[0, 1, 2], [0, 2, 3]], np.int32),
+                       "triangle_material": np.zeros(2, np.int32)},
+            "materials": [{"name": "d", "closures": [{"type": "diffuse", "color": (0.5, 0.5, 0.5)}]}],
+            "camera": {"type": "ORTHO", "matrix_world": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 3],
+                                                                  [0, 0, 0, 1]], float),
+                       "resolution": resolution, "ortho_scale": ortho_scale, "clip_start": 0.01, "clip_end": 10.0},
+            "lights": [light], "world": {"color": (0, 0, 0)}, "integrator": _integrator(film_transparent=False)}
+
+
+def test_spot_cosine_is_cycles_3x_attenuation():
+    """spot_cosine (Blender 3.x export) multiplies the spot's attenuation by the cosine of the
+    angle to the axis: per pixel, exactly, for a delta spot."""
+    spot = {"type": "SPOT", "position": (0.3, -0.2, 2.0), "direction": (0, 0, -1), "strength": (50, 50, 50),
+            "radius": 0.0, "spot_size": 2.0, "spot_blend": 0.2}
+    a = render(_plane_scene(spot))["combined"][..., 0].astype(np.float64)
+    b = render(_plane_scene(dict(spot, spot_cosine=True)))["combined"][..., 0].astype(np.float64)
+    n = 16
+    xy = (np.arange(n) + 0.5) / n * 4.0 - 2.0  # pixel centres; image row 0 = +y
+    px, py = np.meshgrid(xy, xy[::-1])
+    d = np.stack([px - 0.3, py + 0.2, np.full_like(px, -2.0)], -1)
+    cos_axis = -d[..., 2] / np.linalg.norm(d, axis=-1)
+    lit = a > 1e-6
+    assert lit.sum() > 50
+    np.testing.assert_allclose(b[lit], a[lit] * cos_axis[lit], rtol=2e-5)
+
+
+@pytest.mark.parametrize("visible", [True, False])
+def test_lights_visible_to_camera_only_when_set(visible):
+    """An area light between the camera and the plane: seen by camera rays only with
+    visible_camera (Blender's new lights have it off); it lights the plane either way."""
+    m = np.eye(4)
+    m[:3, 3] = (0.0, 0.0, 1.0)  # emits along -Z (down), faces away from the camera above it
+    m[:3, :3] = np.diag([1.0, -1.0, -1.0])  # flipped: emits along +Z, towards the camera
+    area = {"type": "AREA", "matrix_world": m, "shape": "SQUARE", "size_x": 1.0, "strength": (10, 10, 10),
+            "visible_camera": visible}
+    img = render(_plane_scene(area))["combined"][..., 0]
+    centre = float(img[8, 8])
+    if visible:
+        assert centre == pytest.approx(10.0 / np.pi, rel=1e-5)  # radiance = strength / (pi area)
+    else:
+        assert centre == 0.0  # the light faces away from the plane, and the camera does not see it
 
 
 @pytest.mark.parametrize("mutate,error,match", [

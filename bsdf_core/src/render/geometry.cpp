@@ -91,13 +91,21 @@ static void check_device(RTCDevice device, const char* what) {
 }
 
 Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), shape_(scene.curve_shape) {
+    build(scene, nullptr);
+}
+
+Geometry::Geometry(SceneDesc& scene, ReleaseCurvePoints) : impl_(std::make_unique<Impl>()), shape_(scene.curve_shape) {
+    build(scene, &scene.curves.points);
+}
+
+void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* release_points) {
     Impl& im = *impl_;
     im.device = rtcNewDevice("verbose=0");
     if (!im.device) throw std::runtime_error("Embree: rtcNewDevice failed");
     rtcSetDeviceMemoryMonitorFunction(im.device, memory_monitor, &im.memory);
     im.scene = rtcNewScene(im.device);
-    rtcSetSceneFlags(im.scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneFlags(im.scene, RTCSceneFlags(RTC_SCENE_FLAG_COMPACT | RTC_SCENE_FLAG_ROBUST));
+    rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_MEDIUM);
 
     // Curves: per curve n + 2 control points (end keys duplicated), one index per segment.
     const CurveData& cd = scene.curves;
@@ -125,6 +133,7 @@ Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), sh
                 segment_curve_.push_back(int32_t(c));
             }
         }
+        if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
         const bool thick = scene.curve_shape == CurveShape::Thick;
         const bool cull = thick && scene.cull_curve_back_faces;
         RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
@@ -137,7 +146,7 @@ Geometry::Geometry(const SceneDesc& scene) : impl_(std::make_unique<Impl>()), sh
                                    sizeof(uint32_t), segment_first_.size());
         rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
         rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
         rtcCommitGeometry(g);
         im.curve_geom = rtcAttachGeometry(im.scene, g);
         rtcReleaseGeometry(g);

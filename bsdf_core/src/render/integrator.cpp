@@ -51,6 +51,15 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
             sp.g.n = n;
             sp.g.ng = n;
             sp.g.h = -dot(n, y);  // = dot(cross(N, X), Z) of Cycles' frame
+            if (dot(n, sp.g.wo) < 0) {
+                // The inner wall of a tube, hit by a ray that started inside it (not culled
+                // since Blender 3.6). Cycles' shader_setup_from_ray flips Ng, N and dPdu of
+                // every back-facing hit, curves included: the fibre tangent reverses, h stays
+                // (dot(cross(-N, -X), Z) with Z unchanged), so theta and the azimuth change sign.
+                sp.g.tangent = -1.0 * x;
+                sp.g.n = -1.0 * n;
+                sp.g.ng = sp.g.n;
+            }
         } else {
             const double sine = clamp(hit.v, -1.0, 1.0);
             sp.g.h = -sine;
@@ -98,9 +107,9 @@ Ray leaving_ray(const SurfacePoint& sp, Vec3 dir, double tmax) {
 
 }  // namespace
 
-PreparedScene::PreparedScene(const SceneDesc& scene)
+PreparedScene::PreparedScene(SceneDesc& scene)
     : desc(scene),
-      geometry(scene),
+      geometry(scene, Geometry::ReleaseCurvePoints{}),
       camera(scene.camera),
       lights(scene),
       materials(build_materials(scene)),
@@ -236,8 +245,12 @@ PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint3
     const Camera& cam = s.camera;
     const uint64_t pixel = uint64_t(row) * uint64_t(cam.width()) + uint64_t(column);
     Sampler rng(pixel, sample, s.desc.integrator.seed);
-    const double ox = s.filter.sample(rng.next());
-    const double oy = s.filter.sample(rng.next());
+    // Cycles (integrate_camera_sample, 3.0+): sample 0 of every pixel uses the filter random
+    // numbers (0.5, 0.5), i.e. the pixel centre; later samples are importance-sampled offsets.
+    // At 1 spp with a narrow filter this makes a pixel one exact point sample (fibre-gonio).
+    const double u_x = rng.next(), u_y = rng.next();
+    const double ox = s.filter.sample(sample == 0 ? 0.5 : u_x);
+    const double oy = s.filter.sample(sample == 0 ? 0.5 : u_y);
     const Ray ray = cam.generate(double(column) + ox, double(cam.pixel_row_to_raster_y(row)) + oy);
     return trace_path(s, ray, rng, scratch, counters);
 }

@@ -114,6 +114,7 @@ Light::Light(RGB world_radiance) : world_(true), radiance_(world_radiance) {
 
 Light::Light(const LightDesc& d) : type_(d.type) {
     contributes_ = !is_zero(d.strength) && isfinite(d.strength);
+    visible_camera_ = d.visible_camera;
     RGB eval_fac{0.0};
     switch (d.type) {
         case LightType::Point:
@@ -140,6 +141,7 @@ Light::Light(const LightDesc& d) : type_(d.type) {
                     m3 = {a.x, b.x, -w.x, a.y, b.y, -w.y, a.z, b.z, -w.z};
                 }
                 spot_dir_ = w;
+                spot_cosine_ = d.spot_cosine;
                 invert3(m3, spot_inv_);
                 const double half = 0.5 * d.spot_size;
                 cos_half_spot_ = std::cos(half);
@@ -201,7 +203,9 @@ double Light::spot_attenuation(Vec3 from_light) const {
            m[3] * from_light.x + m[4] * from_light.y + m[5] * from_light.z,
            m[6] * from_light.x + m[7] * from_light.y + m[8] * from_light.z};
     l = normalize(l);
-    return smoothstep((-l.z - cos_half_spot_) * spot_smooth_);
+    const double a = smoothstep((-l.z - cos_half_spot_) * spot_smooth_);
+    // Cycles 3.x (spot_light_attenuation): dot(axis, dir) times the smoothstep blend.
+    return spot_cosine_ ? a * std::max(0.0, -l.z) : a;
 }
 
 double Light::spread_attenuation(Vec3 to_light) const {
@@ -400,7 +404,7 @@ LightSet::LightSet(const SceneDesc& scene) {
         if (!l.has_contribution()) continue;
         if (d.type != LightType::Sun) {
             if (l.use_mis()) has_finite_mis_ = true;
-            if ((d.type == LightType::Area) || d.radius > 0) has_finite_camera_ = true;
+            if (((d.type == LightType::Area) || d.radius > 0) && d.visible_camera) has_finite_camera_ = true;
         }
         lights_.push_back(l);
     }
@@ -424,7 +428,7 @@ int LightSet::intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* 
     int n = 0;
     for (size_t i = 0; i < lights_.size(); ++i) {
         const Light& l = lights_[i];
-        if (l.is_distant() || (!camera_ray && !l.use_mis())) continue;
+        if (l.is_distant() || (!camera_ray && !l.use_mis()) || (camera_ray && !l.visible_camera())) continue;
         LightHit h;
         if (!l.intersect(ray, tmax, h)) continue;
         h.light = int(i);
@@ -446,8 +450,8 @@ int LightSet::eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits)
     int n = 0;
     for (size_t i = 0; i < lights_.size() && n < max_hits; ++i) {
         const Light& l = lights_[i];
-        if (l.is_world() || !l.is_distant() || !l.use_mis()) continue;
-        (void)camera_ray;  // Cycles intersects sun discs only for MIS suns, camera rays included
+        // Cycles intersects sun discs only for MIS suns, camera rays included (when visible).
+        if (l.is_world() || !l.is_distant() || !l.use_mis() || (camera_ray && !l.visible_camera())) continue;
         LightHit h;
         if (!l.eval_direction(dir, h)) continue;
         h.light = int(i);

@@ -1,6 +1,7 @@
 // Scene repair: see render/scene.h.
 #include "hairbsdf/render/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -69,11 +70,15 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     if (n_curves > 0) {
         size_t dropped_nonfinite = 0, dropped_short = 0, dropped_length = 0, dropped_radius = 0, fixed_radius = 0,
                bad_material = 0, bad_random = 0;
-        CurveData out;
-        out.offsets.push_back(0);
-        out.points.reserve(cd.points.size());
+        // Compacted in place (kept curves move towards the front; write <= read), so that
+        // 1M strands never hold a second copy of their keys.
+        size_t kept_points = 0, kept_curves = 0;
+        cd.random.resize(n_curves, 0.0f);   // missing entries: random 0, default material
+        cd.material.resize(n_curves, -1);
+        int32_t next_begin = cd.offsets[0];  // offsets[c] before compaction overwrote it
         for (size_t c = 0; c < n_curves; ++c) {
-            const int32_t b = cd.offsets[c], e = cd.offsets[c + 1];
+            const int32_t b = next_begin, e = cd.offsets[c + 1];
+            next_begin = e;
             if (b < 0 || e < b || size_t(e) > cd.points.size()) {
                 ++dropped_short;
                 continue;
@@ -110,21 +115,25 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
                 ++dropped_radius;
                 continue;
             }
-            for (int32_t k = b; k < e; ++k) out.points.push_back(cd.points[size_t(k)]);
-            out.offsets.push_back(int32_t(out.points.size()));
-            float rnd = c < cd.random.size() ? cd.random[c] : 0.0f;
+            if (size_t(b) != kept_points)
+                std::copy(cd.points.begin() + b, cd.points.begin() + e, cd.points.begin() + std::ptrdiff_t(kept_points));
+            kept_points += size_t(e - b);
+            float rnd = cd.random[c];
             if (!std::isfinite(rnd)) {
                 rnd = 0.0f;
                 ++bad_random;
             }
-            out.random.push_back(rnd);
-            int32_t mat = c < cd.material.size() ? cd.material[c] : -1;
+            cd.random[kept_curves] = rnd;
+            int32_t mat = cd.material[c];
             if (mat < 0 || size_t(mat) >= s.materials.size()) {
                 ++bad_material;
                 mat = fallback_material();
             }
-            out.material.push_back(mat);
+            cd.material[kept_curves] = mat;
+            cd.offsets[kept_curves + 1] = int32_t(kept_points);
+            ++kept_curves;
         }
+        cd.offsets[0] = 0;
         if (dropped_nonfinite) warnings.push_back("curves: dropped " + plural(dropped_nonfinite, "curve") + " with NaN/Inf coordinates");
         if (dropped_short) warnings.push_back("curves: dropped " + plural(dropped_short, "curve") + " with fewer than 2 points");
         if (dropped_length) warnings.push_back("curves: dropped " + plural(dropped_length, "zero-length curve"));
@@ -132,7 +141,11 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (fixed_radius) warnings.push_back("curves: " + plural(fixed_radius, "negative or NaN radius") + " set to 0");
         if (bad_random) warnings.push_back("curves: " + plural(bad_random, "NaN curve_random value") + " set to 0");
         if (bad_material) warnings.push_back("curves: " + plural(bad_material, "curve") + " with a material index outside materials use the default surface");
-        cd = std::move(out);
+        cd.points.resize(kept_points);
+        cd.offsets.resize(kept_curves + 1);
+        cd.random.resize(kept_curves);
+        cd.material.resize(kept_curves);
+        if (kept_curves == 0) cd = CurveData{};
     } else {
         cd = CurveData{};
     }

@@ -70,6 +70,8 @@ def transform_points(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply a 4x4 affine matrix to (N, 3) points; float32 math and result, as Cycles
     transforms keys in float."""
     m = np.asarray(matrix, dtype=np.float64)
+    if np.array_equal(m[:3, :3], np.eye(3)):  # translation only (common): the same floats, faster
+        return np.asarray(points, dtype=np.float32) + m[:3, 3].astype(np.float32)
     out = np.asarray(points, dtype=np.float32) @ m[:3, :3].T.astype(np.float32)
     out += m[:3, 3].astype(np.float32)
     return out

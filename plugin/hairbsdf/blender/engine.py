@@ -165,7 +165,7 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
                 spent = now - started
                 self.update_stats(f"Mem: {mem_mb:.1f} MB",
                                   f"hairbsdf | Sample {done}/{n_samples} | Time {spent:.1f} s")
-                self.update_memory_stats(mem_mb, mem_mb)
+                self.update_memory_stats(memory_used=mem_mb, memory_peak=mem_mb)  # 4.x: keywords only
             except Exception as exc:  # pragma: no cover
                 print(f"hairbsdf: progress update failed: {exc}")
 

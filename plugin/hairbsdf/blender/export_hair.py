@@ -61,7 +61,10 @@ class HairBuffer:
 
     def finish(self) -> dict:
         if self.counts:
-            pts = np.ascontiguousarray(np.concatenate(self.points), dtype=np.float32)
+            # One object (the common case of a big groom): no concatenated copy of the keys.
+            pts = self.points[0] if len(self.points) == 1 else np.concatenate(self.points)
+            self.points = []
+            pts = np.ascontiguousarray(pts, dtype=np.float32)
             counts = np.concatenate(self.counts)
             offsets = np.zeros(counts.size + 1, np.int32)
             np.cumsum(counts, out=offsets[1:])
@@ -352,35 +355,53 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
 
 # ---------------------------------------------------------------------------- checks
 
+INSIDE_CHUNK = 1 << 20  # keys per chunk of camera_inside_hair (bounded temporaries)
+
+
 def camera_inside_hair(curves: dict, cam_pos: np.ndarray) -> int:
-    """Number of strands whose tube (max radius of the segment's keys) contains the point."""
+    """Number of strands whose tube (max radius of the segment's keys) contains the point.
+    A camera outside the keys' bounding box (grown by the largest radius) needs no
+    per-segment work; otherwise the keys are processed in chunks of INSIDE_CHUNK."""
     pts = curves["points"]
     if pts.shape[0] < 2:
         return 0
     offsets = curves["curve_offsets"]
     c = np.asarray(cam_pos, np.float32)
-    xyz = pts[:, :3]
-    d = xyz - c
-    dist = np.sqrt(np.einsum("ij,ij->i", d, d))
-    seg = np.diff(xyz, axis=0)
-    seglen = np.sqrt(np.einsum("ij,ij->i", seg, seg))
     rmax = float(pts[:, 3].max())
-    # a segment can contain the point only if an end key is within its length + radius
-    near = np.minimum(dist[:-1], dist[1:]) <= seglen + rmax
-    near[offsets[1:-1] - 1] = False  # no segment across curve boundaries
-    idx = np.nonzero(near)[0]
-    if idx.size == 0:
+    # per column: an axis-0 reduction of the strided (P, 3) view is ~6x slower
+    lo = np.array([pts[:, j].min() for j in range(3)]) - rmax
+    hi = np.array([pts[:, j].max() for j in range(3)]) + rmax
+    if np.any(c < lo) or np.any(c > hi):
         return 0
-    a = xyz[idx].astype(np.float64)
-    ab = seg[idx].astype(np.float64)
-    ca = c.astype(np.float64) - a
-    denom = np.einsum("ij,ij->i", ab, ab)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.clip(np.where(denom > 0, np.einsum("ij,ij->i", ca, ab) / denom, 0.0), 0.0, 1.0)
-    diff = ca - ab * t[:, None]
-    r = np.maximum(pts[idx, 3], pts[idx + 1, 3])
-    inside = idx[np.sqrt(np.einsum("ij,ij->i", diff, diff)) < r]
-    if inside.size == 0:
+    ends = np.zeros(pts.shape[0], bool)  # key k ends a curve: no segment (k, k + 1)
+    ends[offsets[1:] - 1] = True
+    found = []
+    n_seg = pts.shape[0] - 1
+    for k0 in range(0, n_seg, INSIDE_CHUNK):
+        k1 = min(k0 + INSIDE_CHUNK, n_seg)
+        xyz = pts[k0:k1 + 1, :3]
+        d = xyz - c
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))
+        seg = np.diff(xyz, axis=0)
+        seglen = np.sqrt(np.einsum("ij,ij->i", seg, seg))
+        # a segment can contain the point only if an end key is within its length + radius
+        near = np.minimum(dist[:-1], dist[1:]) <= seglen + rmax
+        near &= ~ends[k0:k1]
+        idx = np.nonzero(near)[0]
+        if idx.size == 0:
+            continue
+        a = xyz[idx].astype(np.float64)
+        ab = seg[idx].astype(np.float64)
+        ca = c.astype(np.float64) - a
+        denom = np.einsum("ij,ij->i", ab, ab)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.clip(np.where(denom > 0, np.einsum("ij,ij->i", ca, ab) / denom, 0.0), 0.0, 1.0)
+        diff = ca - ab * t[:, None]
+        r = np.maximum(pts[k0 + idx, 3], pts[k0 + idx + 1, 3])
+        inside = idx[np.sqrt(np.einsum("ij,ij->i", diff, diff)) < r] + k0
+        if inside.size:
+            found.append(inside)
+    if not found:
         return 0
-    curve = np.searchsorted(offsets, inside, side="right") - 1
+    curve = np.searchsorted(offsets, np.concatenate(found), side="right") - 1
     return int(np.unique(curve).size)

@@ -1,13 +1,23 @@
 """Light export (docs/scene_desc.md "lights"): Blender's raw values as Cycles' light sync
 reads them (intern/cycles/blender/light.cpp).  strength = colour x energy, times
 2^exposure and the blackbody colour when those 4.x properties are set (measured against
-Cycles 4.5: both scale the light linearly); Cycles' normalisation is the renderer's job."""
+Cycles 4.5: both scale the light linearly); Cycles' normalisation is the renderer's job.
+
+Blender < 4.0 (Cycles 3.x; measured against Blender 3.4.1 renders of the calibration cases,
+blender_tests/render_units, docs/engine.md):
+  * AREA radiance is power / (4 area), not power / (pi area) (blender/blender#109404,
+    changed in 4.0): strength x pi/4;
+  * SPOT attenuation is cos(angle to the axis) x the smoothstep blend, and the cone ignores
+    the object's scale: "spot_cosine": True and the matrix without its scale;
+  * point and spot lights have no Soft Falloff property and behave as with it on (4.0 has
+    no property either, but sphere lights: soft falloff off; 4.1 added the option).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._common import find_socket, matrix_to_numpy, rgb
+from ._common import blender_version, find_socket, matrix_to_numpy, rgb
 
 
 def _strength(light, report, name):
@@ -56,7 +66,11 @@ def export_light(obj, matrix, report):
     z = m[:3, 2]
     nz = np.linalg.norm(z)
     zdir = z / nz if nz > 0 else np.array([0.0, 0.0, 1.0])
-    soft = bool(getattr(light, "use_soft_falloff", True))  # 3.x: no property (old behaviour)
+    legacy = blender_version() < (4, 0, 0)  # Cycles 3.x light semantics (module docstring)
+    if hasattr(light, "use_soft_falloff"):
+        soft = bool(light.use_soft_falloff)
+    else:
+        soft = legacy  # 3.x: disk lights (soft falloff); 4.0: spheres without the option
     out = None
     if light.type == "SUN":
         out = {"type": "SUN", "direction": tuple(float(c) for c in zdir), "strength": strength,
@@ -68,15 +82,30 @@ def export_light(obj, matrix, report):
         out = {"type": "SPOT", "position": pos, "direction": tuple(float(-c) for c in zdir),
                "strength": strength, "radius": float(light.shadow_soft_size), "soft_falloff": soft,
                "spot_size": float(light.spot_size), "spot_blend": float(light.spot_blend), "matrix_world": m}
+        if legacy:
+            unscaled = m.copy()
+            norms = np.linalg.norm(unscaled[:3, :3], axis=0)
+            unscaled[:3, :3] /= np.where(norms > 0, norms, 1.0)
+            out.update(matrix_world=unscaled, spot_cosine=True)
     elif light.type == "AREA":
         out = {"type": "AREA", "matrix_world": m, "shape": light.shape, "size_x": float(light.size),
                "size_y": float(light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size),
                "strength": strength, "spread": float(getattr(light, "spread", np.pi))}
+        if legacy:
+            out["strength"] = tuple(c * 0.25 * np.pi for c in strength)
     else:
         report.warn(f"light '{obj.name}': type {light.type} is not supported; skipped")
         return None
     if hasattr(light, "normalize"):
         out["normalize"] = bool(light.normalize)
+    # Object > Visibility > Ray Visibility: Camera is off for new lights (3.0+): camera rays
+    # do not see the light. The other ray types are not supported (the light reaches all).
+    out["visible_camera"] = bool(getattr(obj, "visible_camera", True))
+    hidden = [p[len("visible_"):] for p in ("visible_diffuse", "visible_glossy", "visible_transmission")
+              if not getattr(obj, p, True)]
+    if hidden:
+        report.warn(f"light '{obj.name}': ray visibility ({', '.join(hidden)} off) is not supported; it lights "
+                    "all rays")
     cl = getattr(light, "cycles", None)
     if cl is not None and hasattr(cl, "use_multiple_importance_sampling"):
         out["use_mis"] = bool(cl.use_multiple_importance_sampling)

@@ -32,6 +32,11 @@ class _Cancelled(Exception):
     pass
 
 
+# Blender versions before this one cull back faces of 3D curves (their Embree 3 build; 3.6 moved
+# to Embree 4, which reports the inner wall to rays starting inside a tube).
+CURVE_CULLING_BEFORE = (3, 6, 0)
+
+
 def _get(obj, name, default):
     return getattr(obj, name, default) if obj is not None else default
 
@@ -174,15 +179,22 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         report.warn(f"'{parent}' has {n} un-realized geometry-nodes curve instance(s); like Cycles, they are "
                     "not rendered as hair (add a Realize Instances node)")
 
+    curves_cache = mesh_cache = None  # object-space copies are not needed any more (memory)
     curves = hair.finish()
     n_curves = curves["curve_random"].size
+    # Back faces of 3D curves: Blender 3.x's Embree 3 (built with BACKFACE_CULLING_CURVES) culls
+    # them, the Embree 4 of Blender 3.6+ does not (measured with 3.4.1 and 4.5.15; docs/engine.md).
+    cull_curves = blender_version() < CURVE_CULLING_BEFORE
     if n_curves == 0:
         report.warn("the scene has no hair to render (no visible Curves objects or particle hair)")
     else:
         inside = camera_inside_hair(curves, camera["matrix_world"][:3, 3])
-        if inside:
-            report.warn(f"the camera is inside {inside} hair strand(s); 3D curves are back-face culled, so "
-                        "the image will differ from the outside view")
+        if inside and cull_curves:
+            report.warn(f"the camera is inside {inside} hair strand(s); as in this Blender's Cycles, their back "
+                        "faces are culled and the camera sees through them")
+        elif inside:
+            report.warn(f"the camera is inside {inside} hair strand(s); it sees their inner walls (3D curves "
+                        "are open tubes and, as in Cycles 3.6+, not back-face culled)")
     shape = str(_get(getattr(scene, "cycles_curves", None), "shape", "RIBBONS"))
     subdiv = int(_get(getattr(scene, "cycles_curves", None), "subdivisions", 2))
     if shape not in ("RIBBONS", "THICK"):
@@ -195,6 +207,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         "curves": curves,
         "curve_shape": shape,
         "curve_subdivisions": subdiv,
+        "curve_backface_culling": cull_curves,
         "meshes": meshes.finish(),
         "materials": materials.materials,
         "camera": camera,

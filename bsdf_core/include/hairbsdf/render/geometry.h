@@ -53,8 +53,14 @@ struct CurvePoint {
 class Geometry {
 public:
     // Builds the Embree scene (inside the caller's TBB arena). Throws std::runtime_error
-    // if Embree fails.
+    // if Embree fails. BVH settings are Cycles' defaults (Embree build quality MEDIUM:
+    // spatial splits off; compact, robust scene).
     explicit Geometry(const SceneDesc& scene);
+    // The same, but frees scene.curves.points once the keys are copied into Embree's vertex
+    // buffer and before the BVH build, so that the keys are held once, not twice, at the
+    // memory peak (the renderer uses only the per-curve arrays of the SceneDesc afterwards).
+    struct ReleaseCurvePoints {};
+    Geometry(SceneDesc& scene, ReleaseCurvePoints);
     ~Geometry();
     Geometry(const Geometry&) = delete;
     Geometry& operator=(const Geometry&) = delete;
@@ -71,6 +77,7 @@ public:
     bool empty() const { return !has_curves_ && !has_triangles_; }
 
 private:
+    void build(const SceneDesc& scene, std::vector<std::array<float, 4>>* release_points);
     struct Impl;
     std::unique_ptr<Impl> impl_;
     CurveShape shape_ = CurveShape::Thick;

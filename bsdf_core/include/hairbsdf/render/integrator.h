@@ -13,8 +13,11 @@
 //    TT / TRT / TRRT+ as transmission.
 //  * Lights are transparent to rays: each crossed light adds its MIS-weighted radiance and
 //    counts as a transparent bounce (the path ends past transparent_bounces).
-//  * Camera rays see lights and the world with weight 1; with a transparent film a camera
-//    ray that escapes adds average(throughput) to the transparency instead of the world.
+//  * Camera rays see the world and the lights visible to the camera (visible_camera; off
+//    for new Blender lights) with weight 1; with a transparent film a camera ray that
+//    escapes adds average(throughput) to the transparency instead of the world.
+//  * Pixel filter: sample 0 of every pixel is the pixel centre (Cycles' rand_filter = 0.5
+//    for sample 0), later samples importance-sample the filter.
 //  * Filter Glossy: at a non-camera hit with min_ray_pdf / filter_glossy < 1 the hair
 //    closures are blurred with roughness sqrt(1 - that) / 2.
 //  * Clamp: per contribution, |r| + |g| + |b| limited to 3 x clamp_direct (light reaching
@@ -35,9 +38,10 @@
 
 namespace hairbsdf::render {
 
-// Everything a path needs, built once per render from a repaired SceneDesc.
+// Everything a path needs, built once per render from a repaired SceneDesc. The scene's
+// curve keys (scene.curves.points) move into the geometry and are freed in the SceneDesc.
 struct PreparedScene {
-    explicit PreparedScene(const SceneDesc& scene);
+    explicit PreparedScene(SceneDesc& scene);
     const SceneDesc& desc;
     Geometry geometry;
     Camera camera;

@@ -5,7 +5,9 @@
 //     P watts has intensity P / (4 pi) W/sr. soft_falloff (Blender's default) makes it a
 //     disk of radius r facing the shading point; otherwise (r > 0) a sphere. SPOT multiplies
 //     by smoothstep((cos_angle - cos(spot_size / 2)) / ((1 - cos(spot_size / 2)) spot_blend)),
-//     the angle measured in the light's local frame (object scale included).
+//     the angle measured in the light's local frame (object scale included); with
+//     spot_cosine (Cycles < 4.0, set by the exporter for Blender 3.x, which also drops the
+//     scale) times the cosine of the angle to the axis.
 //   SUN: eval_fac = 1 / (pi sin^2(angle / 2)) on a cone of half-angle angle / 2, so the
 //     irradiance at normal incidence equals strength; a delta light for angle 0.
 //   AREA: eval_fac = 1 / (pi * area), area = |u| |v| (x pi/4 for DISK / ELLIPSE), one-sided
@@ -51,6 +53,7 @@ public:
     bool is_world() const { return world_; }
     bool is_distant() const { return world_ || type_ == LightType::Sun; }
     bool use_mis() const { return use_mis_; }
+    bool visible_camera() const { return visible_camera_; }
     bool has_contribution() const { return contributes_; }
 
     bool sample(Vec3 p, double u0, double u1, LightSample& out) const;
@@ -66,6 +69,7 @@ private:
     bool world_ = false;
     bool contributes_ = true;
     bool use_mis_ = true;
+    bool visible_camera_ = true;
     LightType type_ = LightType::Point;
     RGB radiance_;  // strength x eval_fac (before attenuation)
     Vec3 co_;       // position, or direction towards the sun
@@ -75,6 +79,7 @@ private:
     Vec3 spot_dir_;                   // unit spot axis
     std::array<double, 9> spot_inv_{};  // inverse of the light's 3x3 matrix
     double cos_half_spot_ = 0, spot_smooth_ = 0, cos_half_larger_spread_ = 1;
+    bool spot_cosine_ = false;        // Cycles < 4.0: attenuation also x cos(angle to the axis)
     // sun
     double half_angle_ = 0, one_minus_cos_ = 0, sun_pdf_ = 1;
     // area
@@ -96,8 +101,9 @@ public:
     // Picks a light with u_select and samples it; out.pdf includes the selection probability.
     bool sample(Vec3 p, double u_select, double u0, double u1, LightSample& out) const;
 
-    // Finite lights crossed by `ray` before `tmax`, sorted by distance. Camera rays see all
-    // lights with a surface; other rays only MIS lights. Returns the number written (<= 8).
+    // Finite lights crossed by `ray` before `tmax`, sorted by distance. Camera rays see the
+    // lights with a surface that are visible to the camera (visible_camera); other rays only
+    // MIS lights. Returns the number written (<= 8).
     int intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const;
     // Sun discs crossed by an escaping ray. Same visibility rule. Returns the number written.
     int eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const;

@@ -77,12 +77,14 @@ struct LightDesc {
     double angle = 0.0;                     // SUN: full angular diameter (rad)
     double radius = 0.0;                    // POINT / SPOT: shadow_soft_size
     bool soft_falloff = true;               // POINT / SPOT (Blender 4.x default on)
+    bool spot_cosine = false;               // SPOT: Cycles < 4.0's cone, smoothstep x cos(angle to the axis)
     double spot_size = kPi / 4, spot_blend = 0.15;
     AreaShape shape = AreaShape::Square;
     double size_x = 1.0, size_y = 1.0;
     double spread = kPi;
     bool normalize = true;                  // Blender 4.x Light.normalize
     bool use_mis = true;                    // Light > Cycles > Multiple Importance
+    bool visible_camera = true;             // Object > Visibility > Camera (Blender's default for lights: off)
 };
 
 struct IntegratorSettings {

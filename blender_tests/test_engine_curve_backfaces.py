@@ -1,0 +1,99 @@
+"""Rays that start inside a 3D curve (THICK): does the tube's inner wall stop them?
+
+Measured with a camera inside a fat strand (radius 0.5) at several distances from its axis,
+looking out, in, and along a tangent, in front of a green world: Cycles 3.4.1 never sees the
+inner wall (Blender 3.x's Embree 3 is built with BACKFACE_CULLING_CURVES and culls), Cycles
+4.5.15 always does (Embree 4 does not cull the Catmull-Rom sweep), except very close to the
+wall looking out, where both Embrees miss the hit. The exporter sets curve_backface_culling
+for Blender < 3.6 (export_scene.CURVE_CULLING_BEFORE); each configuration must show what
+Cycles shows.
+
+Shading of such an inner-wall hit (4.5): Cycles' shader_setup_from_ray flips Ng, N and dPdu of
+every back-facing hit, curves included, so the Chiang frame's tangent reverses while h stays;
+the renderer does the same (integrator.cpp, surface_point). Checked with a hair material,
+direct light only: the image mean of a camera inside a fat tube must match Cycles'."""
+
+import numpy as np
+import pytest
+
+from blender_env import need_renderer
+
+pytestmark = pytest.mark.blender
+
+INSIDE = r'''
+hb = register_engine()
+scene = hs.reset(width=8, height=6, spp=1, curve_shape="THICK", film_transparent=False)
+scene.hairbsdf.threads = 2
+mat = hs.emission_material("E", (1.0, 0.0, 0.0), 1.0)
+hs.curves_grid("Fat", nx=1, ny=1, n_points=6, length=4.0, radius=0.5, material=mat, location=(0, 0, -2))
+world = bpy.data.worlds.new("W"); world.use_nodes = False; world.color = (0, 1, 0); scene.world = world
+cam = hs.make_camera(location=(0.0, 0.0, 0.0), target=(0.0, 1.0, 0.0), lens=200.0)
+out = {}
+for frac in (0.0, 0.6, 0.9):
+    for name, d in (("out", (0, 1, 0)), ("in", (0, -1, 0)), ("tangent", (1, 0, 0.3))):
+        loc = (0.0, frac * 0.5, 0.0)
+        hs.look_at(cam, loc, tuple(l + c for l, c in zip(loc, d)))
+        seen = []
+        for eng in ("CYCLES", "HAIRBSDF"):
+            scene.render.engine = eng
+            scene.render.filepath = TMP + "/inside.exr"
+            bpy.ops.render.render(write_still=True)
+            px, _ = fg.read_exr_rgba(scene.render.filepath)
+            px = np.asarray(px)
+            seen.append("wall" if px[..., 0].mean() > 0.5 else "world" if px[..., 1].mean() > 0.5 else "mixed")
+        out[f"{frac:.1f} {name}"] = seen
+emit({"version": bpy.app.version_string, "seen": out})
+'''
+
+
+def test_rays_from_inside_a_tube_as_cycles(run_blender, blender_kind, renderer_available, capsys):
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, INSIDE).result
+    with capsys.disabled():
+        print(f"\n[inside a tube] {r['version']}: " + ", ".join(f"{k}: Cycles {v[0]}, ours {v[1]}"
+                                                              for k, v in r["seen"].items()))
+    cycles_sees = {v[0] for v in r["seen"].values()}
+    assert cycles_sees == ({"world"} if blender_kind == "blender" else {"wall"}), r["seen"]
+    bad = {k: v for k, v in r["seen"].items() if v[0] != v[1]}
+    assert not bad, f"{r['version']}: differs from Cycles: {bad}"
+
+
+INNER_WALL = r'''
+import os
+hb = register_engine()
+from hairbsdf.blender import engine
+scene = hs.reset(width=24, height=16, spp=128, curve_shape="THICK", film_transparent=False)
+scene.hairbsdf.threads = 2
+scene.cycles.max_bounces = 0
+mat = hs.hair_material("Hair", parametrization="MELANIN", melanin=0.2, roughness=0.25, offset=0.08)
+hs.curves_grid("Fat", nx=1, ny=1, n_points=6, length=4.0, radius=0.5, material=mat, location=(0, 0, -2))
+world = bpy.data.worlds.new("W"); world.use_nodes = False; world.color = (0, 0, 0); scene.world = world
+hs.make_camera(location=(0.0, 0.3, -0.4), target=(0.6, -0.2, 0.5), lens=18.0)
+hs.make_light("SUN", energy=3.0, location=(0, 0, 0), target=(0.2, 0.4, -1.0))
+out = {}
+for eng in ("CYCLES", "HAIRBSDF"):
+    scene.render.engine = eng
+    scene.render.filepath = os.path.join(TMP, eng + ".exr")
+    bpy.ops.render.render(write_still=True)
+    px, _ = fg.read_exr_rgba(scene.render.filepath)
+    out[eng] = np.asarray(px)[..., :3].mean(axis=2)
+emit({"version": bpy.app.version_string, "images": out, "status": engine.LAST_RENDER.get("status")})
+'''
+
+
+def test_inner_wall_shading_as_cycles(run_blender, renderer_available, capsys):
+    """bpy 4.5 only: Blender 3.4 culls these hits (test above)."""
+    need_renderer("bpy", renderer_available)
+    r = run_blender("bpy", INNER_WALL).result
+    a, b = (np.asarray(r["images"][k]) for k in ("CYCLES", "HAIRBSDF"))
+    lit = a > 0.002 * a.max()
+    ratio = b[lit] / a[lit]
+    med = float(np.median(ratio))
+    with capsys.disabled():
+        print(f"\n[inner wall] {r['version']}: {lit.sum()} lit pixels, median ours/Cycles {med:.4f}, means "
+              f"{b.mean():.4f} / {a.mean():.4f}")
+    assert r["status"] == "ok" and lit.sum() > 50
+    # Sharp highlights: at 16 spp the pixel-filter sampling alone moved the mean by 4 %; at 128
+    # spp both agree within 0.5 %. Without Cycles' back-face flip the mean is 0.44 x Cycles'.
+    assert abs(med - 1.0) < 0.02, med
+    assert b.mean() == pytest.approx(a.mean(), rel=0.02)
