@@ -1,0 +1,82 @@
+"""The comparison harness's scene library: metadata only (no bpy), read by
+``hairbsdf.compare`` outside Blender and by ``build_scene.py`` inside it.
+
+Each entry:
+  module       builder module in this folder; it has ``build(scene, cfg) -> info dict``
+  kind         "deterministic": noise-free renders (1 spp at the pixel centre, delta light),
+               compared per pixel by relative error; "noisy": Monte Carlo renders over several
+               seeds, compared with the Welch test and the image-mean bias
+  model        the hair model the scene exercises ("chiang", "huang")
+  min_blender  oldest Blender that can build it ((4, 0, 0) for 4.x-only features)
+  variants     None, or names of variants that are compared separately (e.g. curve shapes)
+  image_mean   True: also gate |image mean / Cycles' image mean - 1| (the furnace)
+  ci / full    default sizes: res (W, H), spp per render, seeds (independent renders per engine)
+  title, description  for the report and --list-scenes
+"""
+
+DEFAULT_SCENE = "swatch"
+
+SCENES = {
+    "fiber_gonio": dict(
+        module="fiber_gonio_grid", kind="deterministic", model="chiang", min_blender=(3, 4, 0),
+        variants=["front", "back", "side"],
+        ci=dict(res=(256, 192), spp=1, seeds=1), full=dict(res=(640, 480), spp=1, seeds=1),
+        title="Fibre goniometer grid",
+        description="12 straight strands at 4 inclinations x 3 in-plane angles, six materials, an orthographic "
+                    "camera and one delta sun per variant (front-, back- and side-lit): every pixel is one BSDF "
+                    "evaluation, so the render is noise-free and compared per pixel (median and p99 of the "
+                    "relative error)."),
+    "furnace": dict(
+        module="furnace", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None, image_mean=True,
+        ci=dict(res=(64, 64), spp=8, seeds=4), full=dict(res=(192, 192), spp=32, seeds=8),
+        title="White furnace",
+        description="A slab of non-absorbing hair (sigma_a = 0) in a uniform white world, 32 bounces: the image "
+                    "mean must match Cycles' own (not 1: Cycles loses energy to its truncated Bessel series)."),
+    "swatch": dict(
+        module="swatch", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=16, seeds=8),
+        title="Hair swatch",
+        description="160 straight, slightly wavy strands hanging from a bar, an area light plus a dim world, "
+                    "16 bounces (multiple scattering between strands)."),
+    "melanin_sweep": dict(
+        module="melanin_sweep", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(160, 96), spp=8, seeds=4), full=dict(res=(400, 240), spp=32, seeds=8),
+        title="Melanin sweep",
+        description="5 x 3 small swatches from blonde to black (melanin 0.05..0.95) and from neutral to red "
+                    "(redness 0, 0.5, 1), lit by a soft sun and a dim world."),
+    "fur_ball": dict(
+        module="fur_ball", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(96, 96), spp=8, seeds=4), full=dict(res=(256, 256), spp=32, seeds=8),
+        title="Fur ball",
+        description="Particle hair on a diffuse sphere; Random Color, Random Roughness and a Coat driven by "
+                    "Hair Info > Random; a point light and a dim world."),
+    "ribbons_vs_3d": dict(
+        module="ribbons_vs_3d", kind="noisy", model="chiang", min_blender=(3, 4, 0),
+        variants=["RIBBONS", "THICK"],
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        title="Ribbons vs 3D curves",
+        description="Thick wavy strands seen from close by, rendered as Rounded Ribbons and as 3D Curves "
+                    "(one variant each)."),
+    "mixed": dict(
+        module="mixed", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        title="Mixed shaders on a scalp",
+        description="A diffuse mesh scalp with two particle-hair systems: Mix Shader (Principled Hair, Hair BSDF "
+                    "reflection) and Add Shader (Principled Hair, Hair BSDF transmission)."),
+    "huang_ellipse": dict(
+        module="huang_ellipse", kind="noisy", model="huang", min_blender=(4, 0, 0), variants=None,
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        title="Huang model, elliptical fibres",
+        description="Three swatches of the Huang model with aspect ratios 0.5, 0.8 and 1.0; the ellipse axes "
+                    "follow the curve normals (Z Up and Minimum Twist). Blender 4.x only."),
+}
+
+
+def scene_names():
+    return list(SCENES)
+
+
+def case_names(name):
+    """['scene'] or ['scene:variant', ...]."""
+    v = SCENES[name].get("variants")
+    return ["%s:%s" % (name, x) for x in v] if v else [name]

@@ -1,0 +1,207 @@
+"""`hairbsdf compare` end to end, in subprocesses, as a user or CI runs it.
+
+* The CI gate: every library scene at CI size, our engine (-E HAIRBSDF) against Cycles, in
+  bpy 4.5 and in Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
+  Scenes marked pending in blender_tests/thresholds.toml xfail with their reason.  Until the
+  engine is built (`import hairbsdf._render` fails) these xfail with "engine not built yet";
+  when it is built but a Blender cannot load it, they skip locally and fail under CI=true.
+  Reports: build/blender_tests/compare/<blender>/<scene>/index.html (join them with
+  `hairbsdf report merge build/blender_tests/compare/*/* --out out/compare-ci`).
+* The harness itself, without the engine: Cycles against Cycles on other seeds must pass (a
+  null test of the statistics on real renders); a crashing or hanging engine render fails its
+  case and nothing else; shards merge into the full report; the command-line entry points.
+"""
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+PY = str(REPO / ".venv" / "bin" / "python") if (REPO / ".venv" / "bin" / "python").exists() else sys.executable
+REPORTS = REPO / "build" / "blender_tests" / "compare"
+BLENDERS = {"bpy4.5": "bpy", "blender3.4": os.environ.get("HAIRBSDF_BLENDER") or "/usr/bin/blender"}
+BAD = ("FAIL", "CRASH", "NO OUTPUT", "ERROR")
+
+
+def _skip_or_fail(reason):
+    if os.environ.get("CI"):
+        pytest.fail(reason)
+    pytest.skip(reason)
+
+
+def compare(*args, env=None, timeout=1500):
+    """Runs `python -m hairbsdf.compare ARGS`; returns (returncode, output, report.json or None)."""
+    out = None
+    argv = list(args)
+    if "--out" in argv:
+        out = Path(argv[argv.index("--out") + 1])
+    e = dict(os.environ)
+    e.update(env or {})
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "-q"] + argv, capture_output=True, text=True, env=e,
+                       timeout=timeout, cwd=str(REPO))
+    data = None
+    if out is not None and (out / "report.json").exists():
+        data = json.loads((out / "report.json").read_text())
+    return r.returncode, r.stdout + r.stderr, data
+
+
+def _have_blender(label):
+    spec = BLENDERS[label]
+    if spec == "bpy":
+        r = subprocess.run([PY, "-c", "import importlib.util as u; print(u.find_spec('bpy') is not None)"],
+                           capture_output=True, text=True)
+        return r.stdout.strip() == "True"
+    return os.path.exists(spec) or bool(subprocess.run(["which", spec], capture_output=True).returncode == 0)
+
+
+def _catalog():
+    from hairbsdf.compare.runner import load_catalog
+    return load_catalog()[0]
+
+
+# --------------------------------------------------------------------------- the CI gate
+
+def _ci_params():
+    out = []
+    for label in BLENDERS:
+        for name in _catalog():
+            out.append(pytest.param(label, name, id="%s-%s" % (label, name)))
+    return out
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("label,scene", _ci_params())
+def test_ci_comparison(label, scene):
+    """CI-size comparison of one library scene (all its variants) in one Blender; fails on any
+    threshold breach, crash or missing output."""
+    try:
+        importlib.import_module("hairbsdf._render")
+    except ImportError as exc:
+        pytest.xfail("engine not built yet (%s)" % exc)
+    if not _have_blender(label):
+        _skip_or_fail("%s is not installed" % label)
+    out = REPORTS / label / scene
+    rc, log, data = compare("--scene", scene, "--ci", "--blender", BLENDERS[label], "--jobs", "2", "--out", str(out))
+    assert data is not None, "no report (rc %d):\n%s" % (rc, log[-4000:])
+    cases = data["cases"]
+    assert cases, log[-2000:]
+    if all(c["status"] == "SKIPPED" for c in cases):
+        pytest.skip(cases[0]["reason"])
+    unavailable = [c for c in cases if any(r.get("status") == "NOT AVAILABLE" for r in c.get("renders", []))]
+    if unavailable and len(unavailable) == len([c for c in cases if c["status"] != "SKIPPED"]):
+        _skip_or_fail("the engine is not available in %s: %s" % (label, unavailable[0]["reason"]))
+    lines = "\n".join("  %-9s %s  %s" % (c["status"], c["id"], c.get("reason", "")) for c in cases)
+    bad = [c for c in cases if c["status"] in BAD]
+    assert not bad, "%d case(s) need attention (report: %s):\n%s" % (len(bad), out / "index.html", lines)
+    pending = [c for c in cases if c["status"] == "PENDING"]
+    if pending:
+        pytest.xfail("pending: %s (measured %s; report %s)" % (pending[0]["pending"], pending[0].get("pending_status"),
+                                                               out / "index.html"))
+    assert rc == 0, log[-2000:]
+
+
+# --------------------------------------------------------------------------- the harness itself
+
+@pytest.mark.blender
+def test_cycles_against_cycles_passes(tmp_path):
+    """Null test on real renders: Cycles against Cycles on disjoint seeds passes the Welch test
+    and the image-mean bias test (noisy scenes), and the noise-free scene matches exactly."""
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    rc, log, data = compare("--scene", "swatch,furnace,fiber_gonio:back", "--ci", "--engine", "CYCLES", "--jobs", "2",
+                            "--out", str(tmp_path))
+    assert data is not None, log[-3000:]
+    st = {c["id"].split("@")[0]: c for c in data["cases"]}
+    assert set(st) == {"swatch", "furnace", "fiber_gonio-back"}
+    for c in st.values():
+        assert c["status"] == "PASS", (c["id"], c["reason"], c["checks"])
+    assert st["fiber_gonio-back"]["metrics"]["gonio"]["p99"] == 0.0
+    assert st["swatch"]["metrics"]["welch"]["m"] == 128 * 96 * 3
+    assert rc == 0
+    assert (tmp_path / "index.html").exists() and (tmp_path / "junit.xml").exists()
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("fault,status", [("crash", "CRASH"), ("hang", "CRASH")])
+def test_engine_failure_is_contained(fault, status, tmp_path):
+    """A crashing (abort) or hanging engine render fails its case as CRASH; the Cycles renders,
+    the other cases and the report survive."""
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    rc, log, data = compare("--scene", "fiber_gonio:front,swatch", "--ci", "--seeds", "2", "--timeout", "20",
+                            "--jobs", "2", "--out", str(tmp_path), env={"HAIRBSDF_COMPARE_FAULT": fault})
+    assert rc == 1 and data is not None, log[-3000:]
+    assert [c["status"] for c in data["cases"]] == [status, status]
+    for c in data["cases"]:
+        cyc = [r for r in c["renders"] if r["kind"] == "cycles"]
+        ours = [r for r in c["renders"] if r["kind"] == "ours"]
+        assert cyc and all(r["ok"] for r in cyc)
+        assert ours and ours[0]["status"] == ("CRASH" if fault == "crash" else "TIMEOUT")
+    html = (tmp_path / "index.html").read_text()
+    assert html.count('class="badge CRASH"') >= 2
+    junit = (tmp_path / "junit.xml").read_text()
+    assert junit.count("<error ") == 2
+
+
+@pytest.mark.blender
+def test_unknown_engine_is_no_output(tmp_path):
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    rc, log, data = compare("--scene", "fiber_gonio:front", "--ci", "--engine", "NO_SUCH_ENGINE", "--out",
+                            str(tmp_path))
+    assert rc == 1 and data is not None, log[-3000:]
+    (c,) = data["cases"]
+    assert c["status"] == "NO OUTPUT" and "NO_SUCH_ENGINE" in (c["log_tail"] + c["reason"])
+
+
+@pytest.mark.blender
+def test_shards_merge_into_the_full_report(tmp_path):
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    for i in (1, 2):
+        rc, log, data = compare("--scene", "fiber_gonio", "--ci", "--engine", "CYCLES", "--shard", "%d/2" % i,
+                                "--jobs", "2",
+                                "--out", str(tmp_path / ("s%d" % i)))
+        assert rc == 0 and data is not None, log[-3000:]
+        assert len(data["cases"]) == (2 if i == 1 else 1)
+    r = subprocess.run([PY, "-m", "hairbsdf.cli", "report", "merge", str(tmp_path / "s1"), str(tmp_path / "s2"),
+                        "--out", str(tmp_path / "all")], capture_output=True, text=True, cwd=str(REPO))
+    assert r.returncode == 0, r.stdout + r.stderr
+    data = json.loads((tmp_path / "all" / "report.json").read_text())
+    assert sorted(c["id"].split("@")[0] for c in data["cases"]) == ["fiber_gonio-back", "fiber_gonio-front",
+                                                                    "fiber_gonio-side"]
+    assert all((tmp_path / "all" / c["images"]["cycles"]["path"]).exists() for c in data["cases"])
+
+
+def test_command_line_help():
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--help"], capture_output=True, text=True)
+    assert r.returncode == 0
+    for opt in ("--scene", "--blender", "--cycles-osl", "--spp", "--res", "--out", "--ci", "--jobs", "--shard",
+                "--model", "--seeds", "report merge"):
+        assert opt in r.stdout, opt
+    from hairbsdf import cli
+    assert cli.main(["--help"]) == 0
+    script = Path(PY).parent / "hairbsdf"
+    if script.exists():  # the console script ([project.scripts]) after scripts/setup
+        r = subprocess.run([str(script), "compare", "--help"], capture_output=True, text=True)
+        assert r.returncode == 0 and "--shard" in r.stdout
+    assert cli.main(["nonsense"]) == 2
+    r = subprocess.run([str(REPO / "scripts" / "compare"), "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "--scene" in r.stdout
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--model", "plugin:x.so"], capture_output=True, text=True)
+    assert r.returncode == 2 and "reserved" in r.stderr
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--scene", "no_such_scene"], capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown scene" in r.stderr
+
+
+def test_list_scenes():
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--list-scenes"], capture_output=True, text=True)
+    assert r.returncode == 0
+    for name in ("fiber_gonio", "furnace", "swatch", "melanin_sweep", "fur_ball", "huang_ellipse", "ribbons_vs_3d",
+                 "mixed"):
+        assert name in r.stdout

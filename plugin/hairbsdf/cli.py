@@ -1,0 +1,32 @@
+"""The `hairbsdf` command.
+
+    hairbsdf compare [options]         render with Cycles and hairbsdf, compare, write a report
+    hairbsdf report merge DIR... [--out DIR]   join shard reports
+"""
+
+import sys
+
+USAGE = __doc__.strip() + "\n\nRun `hairbsdf compare --help` for the options.\n"
+
+
+def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        sys.stdout.write(USAGE)
+        return 0 if argv else 2
+    cmd, rest = argv[0], argv[1:]
+    if cmd == "compare":
+        from .compare.cli import main as compare_main
+        return compare_main(rest, prog="hairbsdf compare")
+    if cmd == "report":
+        if rest[:1] == ["merge"]:
+            from .compare.cli import run_merge
+            return run_merge(rest[1:])
+        sys.stderr.write("usage: hairbsdf report merge DIR... [--out DIR]\n")
+        return 2
+    sys.stderr.write("hairbsdf: unknown command '%s'\n\n%s" % (cmd, USAGE))
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

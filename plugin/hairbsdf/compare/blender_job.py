@@ -1,0 +1,255 @@
+"""One harness job, run inside Blender (never imported by the harness itself).
+
+    blender -b --factory-startup --python-exit-code 1 --python blender_job.py -- job.json
+    .venv/bin/python blender_job.py job.json                        (the bpy module)
+
+job.json:
+  action "build":  build a library scene (catalog module) into an empty file and save it
+                   {scenes_dir, module, cfg, blend_out, info_out}
+  action "render": open a .blend, set seed / samples / size / engine, render one linear EXR
+                   {blend, engine: CYCLES|HAIRBSDF, accuracy: CYCLES|EXACT, seed, spp, res,
+                    threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites}
+Writes meta_out / info_out (JSON) last, so its presence means the job finished.  Uses only
+bpy and the standard library: Blender 3.4's Python has no access to the venv.
+"""
+
+import json
+import os
+import sys
+import time
+import traceback
+
+import bpy
+
+
+def _argv():
+    if "--" in sys.argv:
+        return sys.argv[sys.argv.index("--") + 1:]
+    return sys.argv[1:]
+
+
+def _write_json(path, data):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=1, default=str)
+    os.replace(tmp, path)
+
+
+def _versions():
+    return dict(blender=bpy.app.version_string, blender_version=list(bpy.app.version),
+                build_hash=getattr(bpy.app, "build_hash", b"").decode() if isinstance(
+                    getattr(bpy.app, "build_hash", b""), bytes) else str(getattr(bpy.app, "build_hash", "")),
+                is_module=not bool(bpy.app.binary_path), python=sys.version.split()[0])
+
+
+def _scene_lib(scenes_dir):
+    if scenes_dir and scenes_dir not in sys.path:
+        sys.path.insert(0, scenes_dir)
+    try:
+        import scene_lib
+        return scene_lib
+    except Exception:  # pragma: no cover - user .blend without the library
+        return None
+
+
+# --------------------------------------------------------------------------- build
+
+def do_build(job):
+    lib = _scene_lib(job["scenes_dir"])
+    import importlib
+    mod = importlib.import_module(job["module"])
+    t0 = time.time()
+    scene = lib.reset_scene()
+    info = mod.build(scene, job["cfg"]) or {}
+    settings, warnings = lib.read_parity_settings(scene)
+    bpy.ops.wm.save_as_mainfile(filepath=job["blend_out"], check_existing=False)
+    _write_json(job["info_out"], dict(ok=True, info=info, settings=settings, parity_warnings=warnings,
+                                      versions=_versions(), seconds=time.time() - t0))
+
+
+# --------------------------------------------------------------------------- engine
+
+def _engines():
+    return [getattr(c, "bl_idname", None) for c in bpy.types.RenderEngine.__subclasses__()]
+
+
+def ensure_hairbsdf(sites):
+    """Registers the HAIRBSDF engine: the installed add-on (scripts/install_blender_addon) or
+    the hairbsdf package (venv for the bpy module, else a staged copy).  Returns (how, errors)."""
+    errors = []
+    if "HAIRBSDF" in _engines():
+        return "already registered", errors
+
+    def from_package():
+        for site in sites or []:
+            if site and os.path.isdir(site) and site not in sys.path:
+                sys.path.insert(0, site)
+        import hairbsdf.blender
+        hairbsdf.blender.register()
+        return "hairbsdf.blender.register() from %s" % os.path.dirname(os.path.dirname(hairbsdf.blender.__file__))
+
+    def from_addon():
+        import addon_utils
+        for name in ("hairbsdf_blender", "bl_ext.user_default.hairbsdf_blender"):
+            try:
+                mod = addon_utils.enable(name, default_set=False, handle_error=lambda exc: errors.append(
+                    "add-on %s: %s" % (name, exc)))
+            except Exception as exc:  # pragma: no cover
+                errors.append("add-on %s: %s" % (name, exc))
+                mod = None
+            if mod is not None and "HAIRBSDF" in _engines():
+                return "add-on " + name
+        raise RuntimeError("no hairbsdf add-on installed (scripts/install_blender_addon)")
+
+    order = (from_package, from_addon) if not bpy.app.binary_path else (from_addon, from_package)
+    for fn in order:
+        try:
+            how = fn()
+            if "HAIRBSDF" in _engines():
+                return how, errors
+            errors.append("%s: engine not registered" % fn.__name__)
+        except Exception as exc:
+            errors.append("%s: %s: %s" % (fn.__name__, type(exc).__name__, exc))
+    return None, errors
+
+
+# --------------------------------------------------------------------------- render
+
+def _fault_hook(job):
+    """Test hook (blender_tests/test_harness_compare.py): HAIRBSDF_COMPARE_FAULT=crash|hang
+    makes every render that is not Cycles abort or hang, to check that the harness survives."""
+    fault = os.environ.get("HAIRBSDF_COMPARE_FAULT")
+    if not fault or job["engine"] == "CYCLES":
+        return
+    sys.stdout.flush()
+    if fault == "crash":
+        os.abort()
+    if fault == "hang":
+        time.sleep(3600)
+
+
+def do_render(job):
+    t0 = time.time()
+    meta = dict(ok=False, engine=job["engine"], accuracy=job.get("accuracy", "CYCLES"), seed=job["seed"],
+                versions=_versions(), job=dict((k, v) for k, v in job.items() if k != "sites"))
+    try:
+        bpy.ops.wm.open_mainfile(filepath=job["blend"], load_ui=False)
+        scene = bpy.context.scene
+        lib = _scene_lib(job.get("scenes_dir"))
+        if job.get("force_parity") and lib is not None:
+            r = scene.render
+            lib.parity_settings(scene, width=r.resolution_x * r.resolution_percentage // 100,
+                                height=r.resolution_y * r.resolution_percentage // 100,
+                                spp=scene.cycles.samples, seed=job["seed"],
+                                curve_shape=scene.cycles_curves.shape,
+                                subdivisions=scene.cycles_curves.subdivisions,
+                                pixel_filter=scene.cycles.pixel_filter_type,
+                                filter_width=scene.cycles.filter_width,
+                                film_transparent=scene.render.film_transparent)
+        cy = scene.cycles
+        cy.seed = int(job["seed"])
+        cy.use_animated_seed = False
+        if job.get("spp"):
+            cy.samples = int(job["spp"])
+        if job.get("res"):
+            scene.render.resolution_x, scene.render.resolution_y = (int(v) for v in job["res"])
+            scene.render.resolution_percentage = 100
+        if job.get("osl") is not None and job["engine"] == "CYCLES":
+            cy.shading_system = bool(job["osl"])
+        cy.device = "CPU"
+        if job.get("threads"):
+            scene.render.threads_mode = "FIXED"
+            scene.render.threads = int(job["threads"])
+        ims = scene.render.image_settings
+        ims.file_format = "OPEN_EXR"
+        ims.color_mode = "RGBA"
+        ims.color_depth = "32"
+        ims.exr_codec = "ZIP"
+        scene.render.use_file_extension = True
+        if lib is not None:
+            meta["settings"], meta["parity_warnings"] = lib.read_parity_settings(scene)
+        meta["resolution"] = [scene.render.resolution_x * scene.render.resolution_percentage // 100,
+                              scene.render.resolution_y * scene.render.resolution_percentage // 100]
+        meta["samples"] = int(cy.samples)
+        engine_report = job["exr_out"] + ".engine.jsonl"
+        if job["engine"] == "HAIRBSDF":
+            how, errors = ensure_hairbsdf(job.get("sites"))
+            meta["engine_registration"] = how
+            meta["engine_registration_errors"] = errors
+            if how is None:
+                meta["error"] = "the HAIRBSDF engine is not available in this Blender: " + "; ".join(errors)
+                meta["status"] = "NOT AVAILABLE"
+                return meta
+            scene.render.engine = "HAIRBSDF"
+            if hasattr(scene, "hairbsdf"):
+                scene.hairbsdf.accuracy = job.get("accuracy", "CYCLES")
+                if job.get("threads"):
+                    scene.hairbsdf.threads = int(job["threads"])
+            elif job.get("accuracy", "CYCLES") != "CYCLES":
+                meta["error"] = "the engine has no accuracy setting"
+                meta["status"] = "NOT AVAILABLE"
+                return meta
+            if os.path.exists(engine_report):
+                os.remove(engine_report)
+            os.environ["HAIRBSDF_REPORT_FILE"] = engine_report
+        else:
+            try:
+                scene.render.engine = job["engine"]
+            except (TypeError, ValueError) as exc:
+                meta["error"] = "render engine %s is not available in this Blender: %s" % (job["engine"], exc)
+                meta["status"] = "NOT AVAILABLE"
+                return meta
+        if os.path.exists(job["exr_out"]):
+            os.remove(job["exr_out"])
+        scene.render.filepath = job["exr_out"]
+        _fault_hook(job)
+        t1 = time.time()
+        res = bpy.ops.render.render(write_still=True)
+        meta["render_seconds"] = time.time() - t1
+        meta["operator_result"] = sorted(res) if res else None
+        if job["engine"] == "HAIRBSDF":
+            lines = []
+            if os.path.exists(engine_report):
+                with open(engine_report) as f:
+                    lines = [json.loads(l) for l in f if l.strip()]
+            meta["engine_report"] = lines[-1] if lines else None
+            status = (lines[-1].get("status") if lines else None)
+            if status != "ok":
+                errs = (lines[-1].get("errors") if lines else None) or ["the engine wrote no report"]
+                meta["error"] = "engine status %s: %s" % (status, "; ".join(str(e) for e in errs))
+                meta["status"] = "NO OUTPUT"
+                return meta
+        if not os.path.exists(job["exr_out"]):
+            meta["error"] = "Blender wrote no image (operator returned %s)" % meta["operator_result"]
+            meta["status"] = "NO OUTPUT"
+            return meta
+        meta["ok"] = True
+        meta["status"] = "OK"
+        return meta
+    finally:
+        meta["seconds"] = time.time() - t0
+
+
+def main():
+    args = _argv()
+    with open(args[0]) as f:
+        job = json.load(f)
+    out = job.get("meta_out") or job.get("info_out")
+    try:
+        if job["action"] == "build":
+            do_build(job)
+        else:
+            meta = do_render(job)
+            _write_json(job["meta_out"], meta)
+    except Exception as exc:
+        traceback.print_exc()
+        _write_json(out, dict(ok=False, status="ERROR", error="%s: %s" % (type(exc).__name__, exc),
+                              traceback=traceback.format_exc(), versions=_versions()))
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # The bpy module can hang at exit with classes registered; Blender itself exits too.
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,228 @@
+"""`hairbsdf compare` / `python -m hairbsdf.compare`: does our engine match Cycles, and where not?"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import shlex
+import sys
+from pathlib import Path
+
+EPILOG = """\
+examples:
+  hairbsdf compare                                  the swatch scene, bpy 4.5, full size -> out/compare/
+  hairbsdf compare --scene all --ci                 every library scene at CI size
+  hairbsdf compare --scene fiber_gonio --blender /usr/bin/blender
+  hairbsdf compare --scene my_groom.blend --seeds 8 --spp 64
+  hairbsdf compare --scene all --blender bpy --blender blender --ci --shard 2/4 --out out/shard2
+  hairbsdf report merge out/shard1 out/shard2 out/shard3 out/shard4 --out out/compare
+  hairbsdf compare --scene swatch --engine CYCLES   null test: Cycles against itself on other seeds
+
+how it judges (details: docs/compare.md):
+  noise-free scenes (fiber_gonio): per-pixel relative error, median <= 1e-4 and p99 <= 2e-3
+  noisy scenes: several independent renders (seeds) per engine; a per-pixel Welch t-test with a
+    Sidak correction (family-wise 1%%) must find no biased pixel, and the image-mean bias must be
+    within 2 sigma and within 0.5%%; the furnace's image mean within 0.5%% of Cycles'
+  informational: mean/RMS/max absolute and relative error, PSNR, the idiff rule, FLIP, and the
+    effect of exact special functions (our engine rendered with accuracy EXACT)
+  thresholds: blender_tests/thresholds.toml (may tighten the fixed floors, never loosen them)
+
+exit status: 0 when no case FAILs, CRASHes or has NO OUTPUT / ERROR (PENDING and SKIPPED are fine),
+  1 otherwise, 2 for bad arguments.
+"""
+
+
+def build_parser(prog="hairbsdf compare"):
+    from .runner import default_cache_dir, default_thresholds, load_catalog
+
+    catalog, default_scene = load_catalog()
+    scenes = ", ".join(catalog) if catalog else "(library not found: set HAIRBSDF_SCENES)"
+    p = argparse.ArgumentParser(
+        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Render scenes with Blender's Cycles and with the hairbsdf engine (-E HAIRBSDF in the same "
+                    "Blender), compare them with noise-aware statistics and write an HTML/JSON/JUnit report.")
+    p.add_argument("--scene", action="append", metavar="NAME|FILE.blend",
+                   help="library scene (%s; NAME:VARIANT for one variant; 'all'), or any .blend file; repeat or "
+                        "comma-separate (default: %s)" % (scenes, default_scene))
+    p.add_argument("--blender", action="append", metavar="bpy|PATH",
+                   help="'bpy' (the bpy module from pip, e.g. 4.5 LTS in .venv) or a Blender executable such as "
+                        "Debian's /usr/bin/blender (3.4); repeat for several (default: bpy)")
+    p.add_argument("--cycles-osl", action="store_true",
+                   help="render the Cycles reference with its OSL backend (its hair path differs slightly from "
+                        "SVM, cycles-hair-notes.md 2.6)")
+    p.add_argument("--spp", type=int, help="samples per render (default: the scene's, per size)")
+    p.add_argument("--res", metavar="WxH", help="resolution, e.g. 320x240 (default: the scene's)")
+    p.add_argument("--seeds", type=int, help="independent renders per engine for the statistics (default: the "
+                                             "scene's; >= 2 for the Welch test)")
+    p.add_argument("--ci", action="store_true", help="small sizes for CI (the scenes' 'ci' sizes; no exact renders)")
+    p.add_argument("--exact-seeds", type=int, metavar="N",
+                   help="also render the engine with exact special functions on N seeds (default: 2, 0 with --ci, "
+                        "1 for noise-free scenes)")
+    p.add_argument("--no-exact", action="store_true", help="skip the exact-accuracy renders")
+    p.add_argument("--out", default=None, help="report folder (default: out/compare)")
+    p.add_argument("--jobs", "-j", type=int, default=None,
+                   help="renders in parallel, each in its own process (default: the number of cores; threads are "
+                        "split between them)")
+    p.add_argument("--threads", type=int, default=0, help="threads per render (default: cores / jobs)")
+    p.add_argument("--shard", metavar="I/N", help="render only shard I of N of the sorted case list (CI matrices; "
+                                                  "join the reports with `hairbsdf report merge`)")
+    p.add_argument("--model", metavar="plugin:PATH",
+                   help="reserved: compare a BSDF plugin instead of the built-in model (not implemented yet)")
+    p.add_argument("--engine", default="HAIRBSDF",
+                   help="engine under test (default HAIRBSDF; CYCLES renders Cycles on other seeds, a null test of "
+                        "the statistics)")
+    p.add_argument("--force-parity", action="store_true",
+                   help="for user .blend files: apply the parity settings (no denoising, clamps 0, ...) before "
+                        "rendering; without it they are only reported")
+    p.add_argument("--thresholds", default=None, help="thresholds TOML (default: %s)" % default_thresholds())
+    p.add_argument("--cache", default=None, help="cache folder for built scenes and Cycles renders (default: %s)"
+                                                 % default_cache_dir())
+    p.add_argument("--no-cache", action="store_true", help="render Cycles again and do not store it")
+    p.add_argument("--refresh", action="store_true", help="re-render cached Cycles images and rebuild scenes")
+    p.add_argument("--timeout", type=int, default=900, help="seconds per render process (default 900)")
+    p.add_argument("--no-flip", action="store_true", help="skip FLIP")
+    p.add_argument("--list-scenes", action="store_true", help="list the scene library and exit")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    p.add_argument("--exit-zero", action="store_true", help="exit 0 even when cases fail")
+    return p
+
+
+def parse_res(s):
+    if not s:
+        return None
+    try:
+        w, h = s.lower().split("x")
+        w, h = int(w), int(h)
+        assert w > 0 and h > 0
+        return (w, h)
+    except Exception:
+        raise SystemExit("error: --res takes WxH, e.g. 320x240")
+
+
+def default_out():
+    from .runner import REPO
+    return (REPO / "out" / "compare") if REPO else Path("out/compare")
+
+
+def run_compare(args, argv_text=""):
+    from . import report
+    from .runner import (Options, Runner, TargetError, default_cache_dir, default_thresholds, expand_cases,
+                         load_catalog, resolve_target, shard)
+    from .thresholds import ThresholdError, Thresholds
+
+    catalog, default_scene = load_catalog()
+    if args.list_scenes:
+        for name, m in catalog.items():
+            v = (" variants: " + ", ".join(m["variants"])) if m.get("variants") else ""
+            print("%-14s %-13s %s+  %s.%s\n%16s%s" % (name, m["kind"], ".".join(map(str, m["min_blender"][:2])),
+                                                      m["title"], v, "", m["description"]))
+        return 0
+    if args.model:
+        print("error: --model %s: plugin models are reserved for a later version; the built-in engine is compared"
+              % args.model, file=sys.stderr)
+        return 2
+    try:
+        thr = Thresholds.load(args.thresholds or default_thresholds())
+    except ThresholdError as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 2
+    targets = []
+    for spec in (args.blender or ["bpy"]):
+        try:
+            targets.append(resolve_target(spec))
+        except TargetError as exc:
+            print("error: --blender %s: %s" % (spec, exc), file=sys.stderr)
+            return 2
+    try:
+        exact = 0 if args.no_exact else args.exact_seeds
+        cases = expand_cases(args.scene or [default_scene], targets, ci=args.ci, spp=args.spp,
+                             res=parse_res(args.res), seeds=args.seeds, exact_seeds=exact, catalog=catalog)
+        cases = shard(cases, args.shard)
+    except ValueError as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 2
+    for c in cases:
+        if c.kind == "noisy" and not c.skip and c.seeds < 2:
+            print("note: %s has %d seed; the Welch test and the mean-bias check need >= 2 (--seeds)" % (c.id, c.seeds),
+                  file=sys.stderr)
+    out = Path(args.out) if args.out else default_out()
+    jobs = args.jobs or max(1, min(os.cpu_count() or 1, 8))
+    opts = Options(out=out, cache=Path(args.cache) if args.cache else default_cache_dir(), jobs=jobs,
+                   threads=args.threads, timeout=args.timeout, use_cache=not args.no_cache, refresh=args.refresh,
+                   osl=args.cycles_osl, engine=args.engine.upper(), force_parity=args.force_parity, thresholds=thr,
+                   flip=not args.no_flip, ci=args.ci, progress=not args.quiet, argv=sys.argv)
+    runner = Runner(cases, opts)
+    if not args.quiet:
+        print("hairbsdf compare: %d case%s (%s) -> %s" % (len(cases), "" if len(cases) == 1 else "s",
+                                                          ", ".join(t.label for t in targets), out), file=sys.stderr)
+
+    def on_case(res, maps):
+        if res["status"] not in ("SKIPPED",) and maps:
+            report.write_case_assets(out, res, maps)
+        elif res["status"] not in ("SKIPPED",):
+            (out / "cases" / res["dir"]).mkdir(parents=True, exist_ok=True)
+
+    results = runner.run(on_case=on_case)
+    try:
+        import hairbsdf
+        ver = "hairbsdf %s" % hairbsdf.__version__
+    except Exception:  # pragma: no cover
+        ver = "hairbsdf"
+    run = dict(created=datetime.datetime.now().astimezone().isoformat(timespec="seconds"), git=_git_describe(),
+               command=argv_text or " ".join(shlex.quote(a) for a in sys.argv), hairbsdf=ver,
+               host=platform.node(), python=sys.version.split()[0], seconds=round(runner.seconds, 1),
+               shard=args.shard, targets=[t.as_dict() for t in targets], engine=opts.engine,
+               thresholds=thr.source, cache=str(opts.cache))
+    index = report.write_report(out, results, run)
+    summ = report.summarize(results)
+    print("\nhairbsdf compare: %s in %.0f s" % (", ".join("%d %s" % (n, s) for s, n in summ["counts"].items()),
+                                                runner.seconds))
+    for line in report.summary_lines(results):
+        print(line)
+    print("report: %s" % index.resolve())
+    return 0 if (summ["bad"] == 0 or args.exit_zero) else 1
+
+
+def _git_describe():
+    from .runner import REPO
+    if not REPO:
+        return None
+    try:
+        import subprocess
+        r = subprocess.run(["git", "-C", str(REPO), "describe", "--always", "--dirty"], capture_output=True,
+                           text=True, timeout=10)
+        return r.stdout.strip() or None
+    except Exception:
+        return None
+
+
+def run_merge(argv):
+    from . import report
+    p = argparse.ArgumentParser(prog="hairbsdf report merge",
+                                description="Join the reports of several `hairbsdf compare --shard` runs into one.")
+    p.add_argument("dirs", nargs="+", help="report folders (each with report.json)")
+    p.add_argument("--out", default=None, help="merged report folder (default: out/compare)")
+    p.add_argument("--exit-zero", action="store_true", help="exit 0 even when cases fail")
+    a = p.parse_args(argv)
+    try:
+        path, notes = report.merge(a.dirs, Path(a.out) if a.out else default_out())
+    except (OSError, ValueError) as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 2
+    for n in notes:
+        print("note: " + n, file=sys.stderr)
+    data = report.load_report(path.parent)
+    for line in report.summary_lines(data["cases"]):
+        print(line)
+    print("report: %s" % path.resolve())
+    return 0 if (data["summary"]["bad"] == 0 or a.exit_zero) else 1
+
+
+def main(argv=None, prog="hairbsdf compare"):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["merge"] or argv[:2] == ["report", "merge"]:
+        return run_merge(argv[2:] if argv[0] == "report" else argv[1:])
+    args = build_parser(prog).parse_args(argv)
+    return run_compare(args, argv_text="%s %s" % (prog, " ".join(shlex.quote(a) for a in argv)))

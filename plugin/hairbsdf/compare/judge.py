@@ -1,0 +1,147 @@
+"""Turns the renders of one case into checks (gating and informational) and maps for the
+report.  No Blender and no files: stacks in, dicts and arrays out (unit-testable)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import metrics as M
+
+
+def check(name, label, value, limit, op, gate, detail="", passed=None):
+    if passed is None:
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            passed = False
+        elif op == "<=":
+            passed = value <= limit
+        elif op == ">=":
+            passed = value >= limit
+        else:
+            raise ValueError(op)
+    return dict(name=name, label=label, value=value, limit=limit, op=op, gate=bool(gate), passed=bool(passed),
+                detail=detail)
+
+
+def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True, roi=None, ci=False):
+    """kind: 'deterministic' or 'noisy'; cycles/ours/exact: stacks (n, H, W, C).
+    ci: CI sizes; the relative image-mean bound gates only where the noise resolves it
+    (2 sigma <= bound); at full size an unresolved bound fails.
+    roi: optional (H, W) mask of the pixels a deterministic scene compares (metrics.gonio_roi).
+    Returns (checks, metrics, maps)."""
+    cycles = np.asarray(cycles, np.float32)
+    ours = np.asarray(ours, np.float32)
+    if cycles.shape[1:3] != ours.shape[1:3]:
+        c = check("size", "image sizes match", None, None, "<=", True,
+                  "Cycles %s vs hairbsdf %s" % (cycles.shape[1:3], ours.shape[1:3]), passed=False)
+        return [c], {}, {}
+    ref, test = cycles.mean(axis=0), ours.mean(axis=0)
+    checks, mets, maps = [], {}, dict(cycles=ref, ours=test, diff=M.luminance(test) - M.luminance(ref))
+
+    if kind == "deterministic":
+        g = M.gonio_errors(ref, test, erode=int(limits.get("gonio_erode", 2)), roi=roi)
+        maps["rel"] = g.pop("rel_map")
+        maps["mask"] = g.pop("mask")
+        mets["gonio"] = g
+        det = "%d pixels in %d strands (covered in both, eroded by %d px%s)" % (
+            g["n_pixels"], g["n_strands"], int(limits.get("gonio_erode", 2)),
+            ", strand ends excluded" if roi is not None else "")
+        checks.append(check("median_rel", "median per-pixel relative error", g["median"], limits["median_rel"], "<=",
+                            True, det))
+        checks.append(check("p99_rel", "p99 per-pixel relative error", g["p99"], limits["p99_rel"], "<=", True, det))
+        checks.append(check("coverage", "pixels covered in one image only", g["coverage_mismatch_fraction"], 1e-3,
+                            "<=", False, "%d pixels" % g["coverage_mismatch"]))
+        if g["n_pixels"] == 0:
+            checks.append(check("pixels", "compared pixels", 0, 1, ">=", True, "nothing to compare"))
+    else:
+        n_a, n_b = cycles.shape[0], ours.shape[0]
+        if n_a >= 2 and n_b >= 2:
+            w = M.welch(cycles, ours, alpha=limits["welch_alpha"], floor_abs=limits["welch_floor_abs"],
+                        floor_rel=limits["welch_floor_rel"])
+            maps["z"], maps["zfail"] = w.pop("t_map"), w.pop("fail_map")
+            w.pop("p")
+            mets["welch"] = w
+            checks.append(check(
+                "welch", "per-pixel Welch test: failing pixel-channels", w["n_fail"], limits["welch_max_failures"],
+                "<=", True,
+                "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f, max |t| %.2f "
+                "(critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
+                                          w["t_critical_median_df"])))
+            b = M.mean_bias(cycles, ours)
+            mets["mean_bias"] = b
+            det = "bias %+.3e of %.4g (%+.3f%%), sigma %.2e (%.3f%%), z %+.2f; worst channel %+.3f%%" % (
+                b["bias"], b["mean_a"], 100 * b["rel"], b["sigma"], 100 * b["rel_sigma"], b["z"],
+                100 * max((c["rel"] for c in b["channels"]), key=abs))
+            checks.append(check("mean_bias_sigma", "image-mean bias in standard errors |z|", abs(b["z"]),
+                                limits["mean_bias_sigma"], "<=", True, det))
+            lim_rel = limits["mean_bias_rel"]
+            if 2.0 * b["rel_sigma"] <= lim_rel:
+                checks.append(check("mean_bias_rel", "image-mean bias |relative|", abs(b["rel"]), lim_rel, "<=", True,
+                                    det))
+            elif ci:
+                # CI sizes cannot resolve the bound; the z test above is the gate there.
+                checks.append(check("mean_bias_rel", "image-mean bias |relative| (not resolved at CI size)",
+                                    abs(b["rel"]), lim_rel, "<=", False,
+                                    det + "; 2 sigma = %.2f%% > %.2f%%, so at CI size this is informational"
+                                    % (200 * b["rel_sigma"], 100 * lim_rel)))
+            else:
+                checks.append(check("mean_bias_rel", "image-mean bias |relative|", abs(b["rel"]), lim_rel, "<=", True,
+                                    det + "; the noise (2 sigma = %.2f%%) is too large to verify %.2f%%: render more "
+                                    "seeds or samples" % (200 * b["rel_sigma"], 100 * lim_rel), passed=False))
+        else:
+            checks.append(check("welch", "per-pixel Welch test", None, None, "<=", False,
+                                "needs at least 2 seeds per engine (--seeds)", passed=False))
+        if image_mean:
+            ma, mb = float(M.rgb(ref).mean()), float(M.rgb(test).mean())
+            rel = abs(mb / ma - 1.0) if ma else float("inf")
+            mets["image_mean"] = dict(cycles=ma, ours=mb, rel=rel)
+            checks.append(check("image_mean_rel", "furnace: image mean vs Cycles' image mean", rel,
+                                limits["image_mean_rel"], "<=", True,
+                                "hairbsdf %.5f, Cycles %.5f (1 - Cycles = %+.4f)" % (mb, ma, 1.0 - ma)))
+
+    # informational, on the mean images
+    e = M.error_stats(ref, test)
+    mets["errors"] = e
+    checks.append(check("psnr", "PSNR (dB, peak = image maximum)", e["psnr"], limits["psnr_min"], ">=",
+                        limits["psnr_gate"],
+                        "mean |d| %.3e, RMS %.3e, max %.3e; relative: mean %.3e, RMS %.3e, max %.3e" % (
+                            e["mean_abs"], e["rms_abs"], e["max_abs"], e["mean_rel"], e["rms_rel"], e["max_rel"])))
+    idf = M.idiff_rule(ref, test, limits["idiff_failthresh"], limits["idiff_failpercent"])
+    mets["idiff"] = idf
+    checks.append(check("idiff", "idiff rule: pixels over %.3g (display) %%" % idf["failthresh"], idf["percent"],
+                        idf["failpercent"], "<=", limits["idiff_gate"],
+                        "%d of %d pixels fail, max error %.4f (%s)" % (idf["nfail"], idf["npix"], idf["maxerror"],
+                                                                      idf["via"]), passed=idf["passed"]))
+    if flip:
+        fm, fmap, why = M.flip(ref, test)
+        mets["flip"] = dict(mean=fm, note=why)
+        if fm is not None:
+            maps["flip"] = fmap
+            checks.append(check("flip", "FLIP mean (HDR)", fm, limits["flip_max"], "<=", limits["flip_gate"],
+                                "flip-evaluator"))
+        else:
+            checks.append(check("flip", "FLIP mean (HDR)", None, limits["flip_max"], "<=", False, why, passed=False))
+    if exact is not None and len(exact):
+        exact = np.asarray(exact, np.float32)
+        pe = M.paired_effect(ours[:exact.shape[0]], exact)
+        mets["exact_effect"] = pe
+        det = "exact accuracy minus Cycles accuracy, same seeds (n=%d)" % pe["n"]
+        if pe["rel_sigma"] is not None:
+            det += ", sigma %.2e" % pe["rel_sigma"]
+        if kind == "deterministic":
+            g2 = M.gonio_errors(ref, exact.mean(axis=0), roi=roi)
+            mets["exact_gonio"] = {k: v for k, v in g2.items() if k not in ("rel_map", "mask")}
+            det += "; per pixel vs Cycles: median %.2e, p99 %.2e" % (g2["median"], g2["p99"])
+        checks.append(check("exact_effect", "exact special functions: image-mean change", pe["rel"], None, "<=",
+                            False, det, passed=True))
+    return checks, mets, maps
+
+
+def status_of(checks, pending=None):
+    gates = [c for c in checks if c["gate"]]
+    if pending:
+        return "PENDING"
+    if not gates:
+        return "INFO"
+    return "PASS" if all(c["passed"] for c in gates) else "FAIL"

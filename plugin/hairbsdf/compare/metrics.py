@@ -1,0 +1,382 @@
+"""Image metrics for the comparison harness.  NumPy only, with OpenImageIO, SciPy and FLIP
+used when importable, so every function runs on synthetic arrays in unit tests.
+
+Images are float arrays (H, W, C), linear, row 0 at the top.  A *stack* is (n, H, W, C): n
+independent renders (seeds) of one engine.
+
+* ``error_stats``    mean / RMS / max of the absolute and relative error, PSNR
+* ``idiff_rule``     OpenImageIO's idiff / ``oiiotool --fail --failpercent`` verdict
+* ``flip``           NVIDIA FLIP (flip-evaluator), HDR mode on linear images
+* ``welch``          per-pixel Welch t-test between two stacks (or summary statistics, e.g.
+                     variance passes) with a Sidak correction over all tested pixel-channels:
+                     tells bias from Monte Carlo noise
+* ``mean_bias``      bias of the image mean, with its standard error from the seeds
+* ``gonio_errors``   per-pixel relative error on noise-free goniometer renders
+* ``paired_effect``  size of a change rendered with the same seeds (exact vs Cycles accuracy)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:  # optional
+    from scipy import special as _sp_special
+    from scipy import stats as _sp_stats
+except Exception:  # pragma: no cover
+    _sp_stats = _sp_special = None
+
+
+# --------------------------------------------------------------------------- images
+
+def load_image(path) -> np.ndarray:
+    """(H, W, C) float32 from any file OpenImageIO reads (EXR for the renders)."""
+    import OpenImageIO as oiio
+
+    buf = oiio.ImageBuf(str(path))
+    if buf.has_error:
+        raise IOError("cannot read %s: %s" % (path, buf.geterror()))
+    px = buf.get_pixels(oiio.FLOAT)
+    if px is None or px.size == 0:
+        raise IOError("cannot read %s: %s" % (path, buf.geterror()))
+    px = np.asarray(px, dtype=np.float32)
+    if px.ndim == 2:
+        px = px[..., None]
+    return px
+
+
+def rgb(img):
+    img = np.asarray(img)
+    return img[..., :3] if img.shape[-1] >= 3 else np.repeat(img[..., :1], 3, axis=-1)
+
+
+def luminance(img):
+    c = rgb(img).astype(np.float64)
+    return 0.2126 * c[..., 0] + 0.7152 * c[..., 1] + 0.0722 * c[..., 2]
+
+
+def srgb_oetf(x):
+    """Blender's 'Standard' view transform (sRGB OETF), clamped to [0, 1]."""
+    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+# --------------------------------------------------------------------------- basic errors
+
+def rel_floor(ref, frac=1e-3):
+    """Per-channel denominator floor for relative errors: frac times the 99.9th percentile
+    of |ref| in that channel (a robust peak), so dark pixels are judged on the image's scale."""
+    r = np.abs(rgb(ref)).reshape(-1, 3).astype(np.float64)
+    peak = np.percentile(r, 99.9, axis=0) if r.shape[0] else np.zeros(3)
+    return np.maximum(frac * peak, 1e-12)
+
+
+def error_stats(ref, test, floor_frac=1e-3):
+    """Mean, RMS and max of |test - ref| and of the relative error |test - ref| / max(|ref|, floor),
+    over the RGB channels, and PSNR = 20 log10(peak / RMS) with peak the largest value of the
+    two images (OpenImageIO's ImageBufAlgo.compare convention)."""
+    a = rgb(ref).astype(np.float64)
+    b = rgb(test).astype(np.float64)
+    if a.shape != b.shape:
+        raise ValueError("image sizes differ: %s vs %s" % (a.shape, b.shape))
+    d = np.abs(b - a)
+    rel = d / np.maximum(np.abs(a), rel_floor(a, floor_frac))
+    rms = float(np.sqrt(np.mean(d * d))) if d.size else 0.0
+    return dict(mean_abs=float(d.mean()) if d.size else 0.0, rms_abs=rms, max_abs=float(d.max()) if d.size else 0.0,
+                mean_rel=float(rel.mean()) if d.size else 0.0,
+                rms_rel=float(np.sqrt(np.mean(rel * rel))) if d.size else 0.0,
+                max_rel=float(rel.max()) if d.size else 0.0,
+                psnr=float("inf") if rms == 0 else float(20.0 * math.log10(max(float(np.abs(a).max()),
+                                                                              float(np.abs(b).max()), 1e-30) / rms)))
+
+
+def oiio_compare(ref, test, failthresh, warnthresh=None):
+    """OpenImageIO's ImageBufAlgo.compare on two arrays (None when OIIO is missing)."""
+    try:
+        import OpenImageIO as oiio
+    except Exception:  # pragma: no cover
+        return None
+    a = np.ascontiguousarray(ref, dtype=np.float32)
+    b = np.ascontiguousarray(test, dtype=np.float32)
+    bufs = []
+    for x in (a, b):
+        spec = oiio.ImageSpec(x.shape[1], x.shape[0], x.shape[2], oiio.FLOAT)
+        buf = oiio.ImageBuf(spec)
+        buf.set_pixels(oiio.ROI(), x)
+        bufs.append(buf)
+    r = oiio.ImageBufAlgo.compare(bufs[0], bufs[1], float(failthresh),
+                                  float(failthresh if warnthresh is None else warnthresh))
+    return dict(meanerror=float(r.meanerror), rms_error=float(r.rms_error), PSNR=float(r.PSNR),
+                maxerror=float(r.maxerror), maxx=int(r.maxx), maxy=int(r.maxy), maxc=int(r.maxc),
+                nfail=int(r.nfail), nwarn=int(r.nwarn))
+
+
+def idiff_rule(ref, test, failthresh=0.016, failpercent=1.0, hardfail=float("inf"), display=True):
+    """idiff's verdict (OIIO src/idiff): a pixel fails when any channel differs by more than
+    failthresh; the image fails when more than failpercent % of the pixels fail or the max
+    error exceeds hardfail.  display=True compares the Standard-view (sRGB) images, which is
+    what Blender's render tests compare (8-bit PNGs); False compares linear values."""
+    a, b = rgb(ref).astype(np.float64), rgb(test).astype(np.float64)
+    if display:
+        a, b = srgb_oetf(a), srgb_oetf(b)
+    npix = a.shape[0] * a.shape[1]
+    res = oiio_compare(a, b, failthresh)
+    if res is not None:
+        nfail, maxerr, via = res["nfail"], res["maxerror"], "OpenImageIO ImageBufAlgo.compare"
+    else:  # pragma: no cover - same rule in NumPy
+        d = np.abs(a - b)
+        nfail = int(np.count_nonzero(d.max(axis=-1) > failthresh))
+        maxerr, via = float(d.max()) if d.size else 0.0, "numpy"
+    pct = 100.0 * nfail / max(npix, 1)
+    ok = not (nfail > failpercent / 100.0 * npix or maxerr > hardfail)
+    return dict(nfail=nfail, npix=npix, percent=pct, maxerror=maxerr, failthresh=failthresh,
+                failpercent=failpercent, hardfail=hardfail, passed=ok, via=via, display=display)
+
+
+def flip(ref, test):
+    """Mean HDR-FLIP of test against ref (linear images) and the error map; (None, None, reason)
+    when flip-evaluator is not installed or fails."""
+    try:
+        import flip_evaluator
+    except Exception as exc:
+        return None, None, "flip-evaluator not installed (%s)" % exc
+    a = np.ascontiguousarray(np.maximum(rgb(ref), 0.0), dtype=np.float32)
+    b = np.ascontiguousarray(np.maximum(rgb(test), 0.0), dtype=np.float32)
+    try:
+        err, mean, _params = flip_evaluator.evaluate(a, b, "HDR", inputsRGB=False, applyMagma=False,
+                                                     computeMeanError=True)
+    except SystemExit as exc:  # it calls sys.exit on bad arguments
+        return None, None, "flip-evaluator exited (%s)" % exc
+    except Exception as exc:  # pragma: no cover
+        return None, None, "flip-evaluator failed: %s" % exc
+    err = np.asarray(err, dtype=np.float32)
+    if err.ndim == 3:
+        err = err[..., 0]
+    return float(mean), err, None
+
+
+# --------------------------------------------------------------------------- statistics
+
+def t_sf(t, df):
+    """Upper tail P(T > t) of Student's t (normal where df is infinite)."""
+    t = np.asarray(t, dtype=np.float64)
+    df = np.broadcast_to(np.asarray(df, dtype=np.float64), t.shape)
+    out = np.empty_like(t)
+    inf = ~np.isfinite(df)
+    if _sp_stats is not None:
+        if np.any(~inf):
+            out[~inf] = _sp_stats.t.sf(t[~inf], df[~inf])
+        out[inf] = _sp_stats.norm.sf(t[inf])
+        return out
+    # pragma: no cover - without SciPy: the normal tail (conservative only for large df)
+    from math import erfc, sqrt
+    return np.vectorize(lambda x: 0.5 * erfc(x / sqrt(2.0)))(t)
+
+
+def t_isf(p, df):
+    """Critical value t with P(T > t) = p."""
+    if _sp_stats is not None:
+        return float(_sp_stats.t.isf(p, df) if np.isfinite(df) else _sp_stats.norm.isf(p))
+    # pragma: no cover
+    lo, hi = 0.0, 1e6
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if t_sf(np.array([mid]), np.array([df]))[0] > p:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def sidak(alpha, m):
+    """Per-test level giving family-wise level alpha over m independent tests."""
+    return float(-np.expm1(np.log1p(-alpha) / max(int(m), 1)))
+
+
+def stack_stats(stack):
+    """(mean, variance with ddof=1, n) over axis 0 of an (n, H, W, C) stack."""
+    s = np.asarray(stack, dtype=np.float64)
+    n = s.shape[0]
+    mean = s.mean(axis=0)
+    var = s.var(axis=0, ddof=1) if n > 1 else np.zeros_like(mean)
+    return mean, var, n
+
+
+def welch_from_stats(mean_a, var_a, n_a, mean_b, var_b, n_b, alpha=0.01, floor_abs=1e-6, floor_rel=1e-4,
+                     mask=None):
+    """Per-pixel, per-channel Welch t-test of E[b] = E[a] from means and variances of the
+    per-render estimates (n renders each; variance passes give the same numbers).
+
+    The standard error gets a floor (floor_abs + floor_rel |mean_a|), so pixels without noise
+    (an empty background, a constant world) are not failed for float rounding.  The p-values
+    use the Welch-Satterthwaite degrees of freedom; a pixel-channel fails when p < the Sidak
+    level for a family-wise alpha over all m tested pixel-channels.  Under the null hypothesis
+    the whole image fails with probability about alpha; a bias fails it when it stands out of
+    the per-pixel noise."""
+    ma, va = np.asarray(mean_a, np.float64), np.asarray(var_a, np.float64)
+    mb, vb = np.asarray(mean_b, np.float64), np.asarray(var_b, np.float64)
+    if n_a < 2 or n_b < 2:
+        raise ValueError("the Welch test needs at least 2 renders per engine (got %d and %d)" % (n_a, n_b))
+    ea, eb = va / n_a, vb / n_b
+    floor = (floor_abs + floor_rel * np.abs(ma)) ** 2
+    se2 = ea + eb + floor
+    t = (mb - ma) / np.sqrt(se2)
+    denom = ea * ea / (n_a - 1) + eb * eb / (n_b - 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        df = np.where(denom > 0, se2 * se2 / np.where(denom > 0, denom, 1.0), np.inf)
+    df = np.maximum(df, min(n_a, n_b) - 1.0)  # Welch-Satterthwaite is never below min(n)-1
+    if mask is None:
+        sel = np.ones(t.shape, dtype=bool)
+    else:
+        sel = np.broadcast_to(np.asarray(mask, bool)[..., None] if np.ndim(mask) == t.ndim - 1 else mask, t.shape)
+    m = int(np.count_nonzero(sel))
+    p = np.ones_like(t)
+    p[sel] = np.minimum(1.0, 2.0 * t_sf(np.abs(t[sel]), df[sel]))
+    level = sidak(alpha, m)
+    fail = (p < level) & sel
+    n_fail = int(np.count_nonzero(fail))
+    # map: signed t of the channel with the largest |t| per pixel; fail mask per pixel
+    idx = np.argmax(np.abs(t), axis=-1)
+    tmap = np.take_along_axis(t, idx[..., None], axis=-1)[..., 0]
+    min_p = float(p[sel].min()) if m else 1.0
+    df_sel = df[sel]
+    df_fin = df_sel[np.isfinite(df_sel)]  # pixels with noise (noise-free ones have df = inf)
+    med_df = float(np.median(df_fin)) if df_fin.size else float("inf")
+    return dict(n_fail=n_fail, m=m, alpha=alpha, level=level, min_p=min_p,
+                max_abs_t=float(np.abs(t[sel]).max()) if m else 0.0,
+                fail_fraction=n_fail / max(m, 1), n_a=int(n_a), n_b=int(n_b), median_df=med_df,
+                t_critical_median_df=t_isf(level / 2.0, med_df) if m else float("inf"),
+                passed=n_fail == 0, t_map=tmap, fail_map=fail.any(axis=-1), p=p)
+
+
+def welch(stack_a, stack_b, alpha=0.01, floor_abs=1e-6, floor_rel=1e-4, mask=None):
+    """welch_from_stats on two stacks (n, H, W, C); only RGB is tested."""
+    ma, va, na = stack_stats(rgb(stack_a))
+    mb, vb, nb = stack_stats(rgb(stack_b))
+    return welch_from_stats(ma, va, na, mb, vb, nb, alpha=alpha, floor_abs=floor_abs, floor_rel=floor_rel, mask=mask)
+
+
+def _image_means(stack, mask=None):
+    """(n, 3) mean RGB of each render (over the mask's pixels)."""
+    s = rgb(np.asarray(stack, dtype=np.float64))
+    if mask is None:
+        return s.reshape(s.shape[0], -1, 3).mean(axis=1)
+    m = np.asarray(mask, bool)
+    return s[:, m, :].mean(axis=1)
+
+
+def mean_bias(stack_a, stack_b, mask=None):
+    """Bias of the image mean of b against a, estimated over the renders (seeds).
+
+    Per render, the image mean over RGB (and per channel); bias = mean_b - mean_a,
+    sigma = sqrt(var_a / n_a + var_b / n_b) from the spread between renders, rel = bias /
+    mean_a, z = bias / sigma.  Returned for the all-channel mean and per channel."""
+    A, B = _image_means(stack_a, mask), _image_means(stack_b, mask)
+    na, nb = A.shape[0], B.shape[0]
+
+    def one(a, b):
+        ma, mb = float(a.mean()), float(b.mean())
+        va = float(a.var(ddof=1)) if na > 1 else 0.0
+        vb = float(b.var(ddof=1)) if nb > 1 else 0.0
+        sigma = math.sqrt(va / na + vb / nb)
+        bias = mb - ma
+        return dict(mean_a=ma, mean_b=mb, bias=bias, sigma=sigma,
+                    rel=bias / ma if ma != 0 else (0.0 if bias == 0 else float("inf")),
+                    rel_sigma=sigma / abs(ma) if ma != 0 else float("inf"),
+                    z=bias / sigma if sigma > 0 else (0.0 if bias == 0 else float("inf")))
+
+    out = one(A.mean(axis=1), B.mean(axis=1))
+    out["channels"] = [one(A[:, c], B[:, c]) for c in range(3)]
+    out["n_a"], out["n_b"] = int(na), int(nb)
+    return out
+
+
+def paired_effect(stack_base, stack_variant, mask=None):
+    """Relative change of the image mean from base to variant, both rendered with the same
+    seeds (so most of the noise cancels): rel = mean(variant - base) / mean(base), with the
+    standard error of the paired differences (None with one pair)."""
+    A, B = _image_means(stack_base, mask).mean(axis=1), _image_means(stack_variant, mask).mean(axis=1)
+    n = min(A.size, B.size)
+    A, B = A[:n], B[:n]
+    d = B - A
+    base = float(A.mean())
+    rel = float(d.mean()) / base if base else 0.0
+    sig = float(d.std(ddof=1) / math.sqrt(n)) / abs(base) if n > 1 and base else None
+    return dict(n=int(n), rel=rel, rel_sigma=sig, mean_base=base, mean_variant=float(B.mean()))
+
+
+# --------------------------------------------------------------------------- goniometer
+
+def _erode(mask, r):
+    m = mask.copy()
+    for _ in range(int(r)):
+        p = np.pad(m, 1, constant_values=False)
+        m = (p[1:-1, 1:-1] & p[:-2, 1:-1] & p[2:, 1:-1] & p[1:-1, :-2] & p[1:-1, 2:]
+             & p[:-2, :-2] & p[:-2, 2:] & p[2:, :-2] & p[2:, 2:])
+    return m
+
+
+def _components(mask):
+    """Connected components (8-neighbour) of a boolean mask: (labels, count)."""
+    try:
+        from scipy import ndimage
+        lab, n = ndimage.label(mask, structure=np.ones((3, 3), int))
+        return lab, int(n)
+    except Exception:  # pragma: no cover
+        return mask.astype(int), int(mask.any())
+
+
+def gonio_roi(shape, roi):
+    """Boolean (H, W) mask of the pixels to compare in an orthographic goniometer render:
+    roi = {image_width (world units across the image, centred on the origin), end_margin_px,
+    strands: [{centre [x, y], axis [ux, uy] (unit, projected), half_length, radius}]}; a
+    pixel is kept when its centre lies within some strand's radius of its axis and within
+    half_length - end_margin_px of its centre along it."""
+    h, w = shape[:2]
+    px = roi["image_width"] / float(w)
+    xs = (np.arange(w) + 0.5) * px - roi["image_width"] / 2.0
+    ys = h * px / 2.0 - (np.arange(h) + 0.5) * px  # row 0 at the top
+    X, Y = np.meshgrid(xs, ys)
+    keep = np.zeros((h, w), bool)
+    margin = roi.get("end_margin_px", 2) * px
+    for s in roi["strands"]:
+        dx, dy = X - s["centre"][0], Y - s["centre"][1]
+        a = dx * s["axis"][0] + dy * s["axis"][1]
+        b = -dx * s["axis"][1] + dy * s["axis"][0]
+        keep |= (np.abs(a) <= s["half_length"] - margin) & (np.abs(b) <= s["radius"])
+    return keep
+
+
+def gonio_errors(ref, test, erode=2, floor_frac=1e-3, alpha_threshold=0.9999, roi=None):
+    """Per-pixel relative error of a noise-free goniometer render (bsdf_check/README.md's
+    metric, per strand): pixels fully covered in both images (alpha), eroded by `erode` pixels
+    to drop the silhouettes, grouped into strands (connected components); in each strand and
+    channel rel = |test - ref| / max(|ref|, floor_frac * strand peak).  Returns median, p99,
+    max over all kept pixel-channels, the pixel counts and a per-pixel map (max over RGB)."""
+    a, b = np.asarray(ref, np.float64), np.asarray(test, np.float64)
+    if a.shape[-1] >= 4 and b.shape[-1] >= 4:
+        cov_a, cov_b = a[..., 3] >= alpha_threshold, b[..., 3] >= alpha_threshold
+    else:
+        cov_a = cov_b = np.ones(a.shape[:2], bool)
+    cover = _erode(cov_a & cov_b, erode)
+    if roi is not None:
+        cover &= np.asarray(roi, bool)
+    lab, n = _components(cover)
+    A, B = rgb(a), rgb(b)
+    relmap = np.zeros(a.shape[:2])
+    vals = []
+    for k in range(1, n + 1):
+        sel = lab == k
+        pa, pb = A[sel], B[sel]
+        floor = np.maximum(floor_frac * np.abs(pa).max(axis=0), 1e-12)
+        rel = np.abs(pb - pa) / np.maximum(np.abs(pa), floor)
+        vals.append(rel.reshape(-1))
+        relmap[sel] = rel.max(axis=1)
+    allv = np.concatenate(vals) if vals else np.zeros(0)
+    mismatch = int(np.count_nonzero(cov_a != cov_b))
+    return dict(median=float(np.median(allv)) if allv.size else float("nan"),
+                p99=float(np.percentile(allv, 99)) if allv.size else float("nan"),
+                max=float(allv.max()) if allv.size else float("nan"), n_pixels=int(cover.sum()),
+                n_strands=int(n), coverage_mismatch=mismatch,
+                coverage_mismatch_fraction=mismatch / max(int(cov_a.sum()), 1), rel_map=relmap, mask=cover)

@@ -1,0 +1,624 @@
+"""Runs the comparison matrix: builds the library scenes, renders Cycles (cached) and our
+engine, each render in its own Blender process, then judges every case and writes the report.
+
+A case is one scene (or scene variant, or user .blend) in one Blender.  Per case:
+  build   library scenes only: the builder makes a .blend (cached per Blender)
+  cycles  n seeds with Cycles (cached by scene hash, settings, seed and Blender version)
+  ours    n seeds with the engine under test (HAIRBSDF by default), never cached
+  exact   the engine with exact special functions, on the first seeds (the size of the
+          effect of Cycles' truncated series; informational)
+A crash, timeout or missing image in one render fails that case only.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import fcntl
+import hashlib
+import json
+import os
+import re
+import runpy
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import judge, metrics
+from .progress import Progress
+from .thresholds import Thresholds
+
+HERE = Path(__file__).resolve().parent
+JOB_SCRIPT = HERE / "blender_job.py"
+
+
+def find_repo():
+    p = HERE.parents[2]
+    return p if (p / "blender_tests").is_dir() else None
+
+
+REPO = find_repo()
+
+
+def scenes_dir():
+    env = os.environ.get("HAIRBSDF_SCENES")
+    if env:
+        return Path(env)
+    return REPO / "blender_tests" / "scenes" if REPO else None
+
+
+def default_cache_dir():
+    env = os.environ.get("HAIRBSDF_COMPARE_CACHE")
+    if env:
+        return Path(env)
+    if REPO:
+        return REPO / "build" / "compare_cache"
+    return Path(os.path.expanduser("~/.cache/hairbsdf/compare"))
+
+
+def default_thresholds():
+    env = os.environ.get("HAIRBSDF_THRESHOLDS")
+    if env:
+        return Path(env)
+    return REPO / "blender_tests" / "thresholds.toml" if REPO else None
+
+
+def load_catalog(sdir=None):
+    sdir = Path(sdir or scenes_dir() or "")
+    path = sdir / "catalog.py"
+    if not path.exists():
+        return {}, None
+    ns = runpy.run_path(str(path))
+    return ns["SCENES"], ns.get("DEFAULT_SCENE", "swatch")
+
+
+def _sha(*parts):
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p if isinstance(p, bytes) else str(p).encode())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def file_hash(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()[:16]
+
+
+def safe(s):
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", s)
+
+
+# --------------------------------------------------------------------------- Blenders
+
+class TargetError(RuntimeError):
+    pass
+
+
+@dataclasses.dataclass
+class Target:
+    spec: str
+    kind: str            # "bpy" (a Python with the bpy module) or "exe" (a Blender executable)
+    path: str
+    label: str           # e.g. bpy-4.5.15, blender-3.4.1
+    version: tuple
+
+    def command(self, job_json):
+        if self.kind == "bpy":
+            return [self.path, str(JOB_SCRIPT), str(job_json)]
+        return [self.path, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(JOB_SCRIPT), "--",
+                str(job_json)]
+
+    def as_dict(self):
+        return dict(spec=self.spec, kind=self.kind, path=self.path, label=self.label, version=list(self.version))
+
+
+def _parse_version(s):
+    nums = [int(x) for x in re.findall(r"\d+", s)[:3]]
+    return tuple(nums + [0] * (3 - len(nums)))
+
+
+def _bpy_pythons():
+    env = os.environ.get("HAIRBSDF_BPY_PYTHON")
+    if env:
+        yield env
+    yield sys.executable
+    if REPO:
+        yield str(REPO / ".venv" / "bin" / "python")
+
+
+def resolve_target(spec):
+    """'bpy' (the bpy module: this Python or the repository's .venv), a Blender executable,
+    or a Python interpreter that has bpy."""
+    if spec == "bpy" or os.path.basename(spec).startswith("python"):
+        cands = list(_bpy_pythons()) if spec == "bpy" else [spec]
+        for py in cands:
+            if not py or not os.path.exists(py):
+                continue
+            r = subprocess.run([py, "-c", "import importlib.metadata as m; print(m.version('bpy'))"],
+                               capture_output=True, text=True)
+            if r.returncode == 0 and r.stdout.strip():
+                v = r.stdout.strip()
+                return Target(spec, "bpy", py, "bpy-" + v, _parse_version(v))
+        raise TargetError("no Python with the bpy module found (tried %s); run scripts/setup or pip install bpy"
+                          % ", ".join(c for c in cands if c))
+    exe = shutil.which(spec) or (spec if os.path.exists(spec) else None)
+    if not exe:
+        raise TargetError("Blender executable '%s' not found" % spec)
+    try:
+        r = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=120)
+    except Exception as exc:
+        raise TargetError("`%s --version` failed: %s" % (exe, exc))
+    first = next((l for l in r.stdout.splitlines() if l.startswith("Blender")), None)
+    if r.returncode != 0 or not first:
+        raise TargetError("`%s --version` did not print a Blender version" % exe)
+    v = first.split()[1]
+    return Target(spec, "exe", exe, "blender-" + v, _parse_version(v))
+
+
+# --------------------------------------------------------------------------- cases
+
+@dataclasses.dataclass
+class Case:
+    id: str
+    scene: str
+    variant: str | None
+    file: str | None
+    target: Target
+    kind: str
+    meta: dict
+    res: tuple | None
+    spp: int | None
+    seeds: int
+    exact_seeds: int
+    skip: str | None = None
+
+    @property
+    def dirname(self):
+        return safe(self.id.replace("@", "__"))
+
+
+def expand_cases(scene_args, targets, *, ci=False, spp=None, res=None, seeds=None, exact_seeds=None, catalog=None):
+    """All cases of the matrix, sorted by id (the order --shard slices)."""
+    catalog = catalog if catalog is not None else load_catalog()[0]
+    names = []
+    for s in scene_args:
+        for part in s.split(","):
+            part = part.strip()
+            if part == "all":
+                names.extend(catalog)
+            elif part:
+                names.append(part)
+    profile = "ci" if ci else "full"
+    cases = []
+    for name in names:
+        for t in targets:
+            if name.endswith(".blend"):
+                if not os.path.exists(name):
+                    raise ValueError("no such .blend file: %s" % name)
+                n = seeds or (4 if ci else 8)
+                cases.append(Case("%s@%s" % (Path(name).stem, t.label), Path(name).stem, None,
+                                  str(Path(name).resolve()), t, "noisy" if n >= 2 else "info",
+                                  dict(title=Path(name).name, description="user file %s" % name), res, spp, n,
+                                  exact_seeds if exact_seeds is not None else 0))
+                continue
+            scene, _, variant = name.partition(":")
+            if scene not in catalog:
+                raise ValueError("unknown scene '%s' (library: %s; or give a .blend file)"
+                                 % (scene, ", ".join(catalog)))
+            meta = catalog[scene]
+            variants = [variant] if variant else (meta.get("variants") or [None])
+            for v in variants:
+                if v is not None and v not in (meta.get("variants") or []):
+                    raise ValueError("scene %s has no variant '%s' (variants: %s)" % (scene, v, meta.get("variants")))
+                size = meta[profile]
+                det = meta["kind"] == "deterministic"
+                n = 1 if det else (seeds or size["seeds"])
+                if exact_seeds is not None:
+                    ex = min(exact_seeds, n)
+                else:
+                    ex = 1 if det else (0 if ci else min(n, 2))
+                skip = None
+                if t.version < tuple(meta.get("min_blender", (0, 0, 0))):
+                    skip = "needs Blender %s+ (this is %s)" % (".".join(map(str, meta["min_blender"][:2])), t.label)
+                cid = "%s%s@%s" % (scene, "-" + v if v else "", t.label)
+                cases.append(Case(cid, scene, v, None, t, meta["kind"], meta,
+                                  tuple(res or size["res"]), int(spp or size["spp"]), int(n), int(ex), skip))
+    seen = set()
+    out = []
+    for c in sorted(cases, key=lambda c: c.id):
+        if c.id not in seen:
+            seen.add(c.id)
+            out.append(c)
+    return out
+
+
+def shard(cases, spec):
+    """Cases of shard I/N (1-based): every N-th case of the sorted list, starting at I."""
+    if not spec:
+        return cases
+    m = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", spec)
+    if not m:
+        raise ValueError("--shard takes I/N, e.g. 2/4")
+    i, n = int(m.group(1)), int(m.group(2))
+    if not (1 <= i <= n):
+        raise ValueError("--shard I/N needs 1 <= I <= N")
+    return [c for k, c in enumerate(cases) if k % n == i - 1]
+
+
+# --------------------------------------------------------------------------- jobs
+
+def run_job(target, job, job_path, log_path, timeout, env=None):
+    """Runs one blender_job.py in its own process.  Returns the job's JSON (status OK, NOT
+    AVAILABLE, NO OUTPUT, ERROR) or a synthesised one for CRASH / TIMEOUT / NO OUTPUT."""
+    job_path, log_path = os.path.abspath(job_path), os.path.abspath(log_path)
+    out_json = job.get("meta_out") or job.get("info_out")
+    if os.path.exists(out_json):
+        os.remove(out_json)
+    with open(job_path, "w") as f:
+        json.dump(job, f, indent=1)
+    t0 = time.time()
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(target.command(job_path), stdout=log, stderr=subprocess.STDOUT,
+                                cwd=os.path.dirname(job_path), env=env, start_new_session=True)
+        try:
+            rc = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:  # pragma: no cover
+                pass
+            proc.wait()
+            return dict(ok=False, status="TIMEOUT", error="no result after %d s (killed)" % timeout, rc=None,
+                        wall_seconds=time.time() - t0)
+    wall = time.time() - t0
+    if os.path.exists(out_json):
+        with open(out_json) as f:
+            res = json.load(f)
+        res.setdefault("status", "OK" if res.get("ok") else "ERROR")
+        res["rc"], res["wall_seconds"] = rc, wall
+        return res
+    if rc != 0:
+        sig = " (signal %d)" % -rc if rc < 0 else ""
+        return dict(ok=False, status="CRASH", error="the process exited with status %d%s and wrote no result"
+                    % (rc, sig), rc=rc, wall_seconds=wall)
+    return dict(ok=False, status="NO OUTPUT", error="the process exited cleanly but wrote no result", rc=rc,
+                wall_seconds=wall)
+
+
+def log_tail(path, n=3000):
+    try:
+        with open(path, errors="replace") as f:
+            txt = f.read()
+    except OSError:
+        return ""
+    lines = [l for l in txt.splitlines() if not l.startswith("Fra:")]
+    return "\n".join(lines)[-n:]
+
+
+class _Lock:
+    def __init__(self, path):
+        self.path = str(path) + ".lock"
+
+    def __enter__(self):
+        self.f = open(self.path, "w")
+        fcntl.flock(self.f, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *a):
+        fcntl.flock(self.f, fcntl.LOCK_UN)
+        self.f.close()
+
+
+# --------------------------------------------------------------------------- runner
+
+@dataclasses.dataclass
+class Options:
+    out: Path
+    cache: Path
+    jobs: int = 1
+    threads: int = 0
+    timeout: int = 900
+    use_cache: bool = True
+    refresh: bool = False
+    osl: bool = False
+    engine: str = "HAIRBSDF"
+    force_parity: bool = False
+    thresholds: Thresholds = dataclasses.field(default_factory=Thresholds)
+    flip: bool = True
+    ci: bool = False
+    progress: bool = True
+    argv: list = dataclasses.field(default_factory=list)
+
+
+class Runner:
+    def __init__(self, cases, opts: Options):
+        self.cases = cases
+        self.o = opts
+        self.o.out = Path(self.o.out).resolve()
+        self.o.cache = Path(self.o.cache).resolve()
+        self.sdir = scenes_dir()
+        self.threads = opts.threads or max(1, (os.cpu_count() or 2) // max(opts.jobs, 1))
+        self.progress = Progress(0, enabled=opts.progress)
+        self.sites = [str(REPO / "build" / "blender_site" / "current")] if REPO else []
+
+    # ----------------------------------------------------------------- keys
+    def _builder_hash(self, case):
+        files = [self.sdir / "catalog.py", self.sdir / "scene_lib.py", self.sdir / "fiber_gonio.py",
+                 self.sdir / (case.meta["module"] + ".py"), JOB_SCRIPT]
+        return _sha(*[p.read_bytes() for p in files if p.exists()])
+
+    def _cfg(self, case):
+        return dict(res=list(case.res), spp=case.spp, seed=0, threads=self.threads, variant=case.variant,
+                    osl=self.o.osl)
+
+    def blend_key(self, case):
+        if case.file:
+            return file_hash(case.file)
+        cfg = dict(self._cfg(case))
+        cfg.pop("threads")
+        return _sha(self._builder_hash(case), json.dumps(cfg, sort_keys=True), case.target.label)
+
+    # ----------------------------------------------------------------- tasks
+    def build(self, case):
+        """Path of the case's .blend (built and cached for library scenes) and build info."""
+        if case.file:
+            return dict(ok=True, blend=case.file, info={}, cached=True)
+        d = self.o.cache / "blend"
+        d.mkdir(parents=True, exist_ok=True)
+        key = self.blend_key(case)
+        base = d / ("%s-%s" % (safe(case.id.split("@")[0]), key))
+        blend, info = str(base) + ".blend", str(base) + ".json"
+        with _Lock(base):
+            if self.o.use_cache and not self.o.refresh and os.path.exists(blend) and os.path.exists(info):
+                with open(info) as f:
+                    return dict(json.load(f), blend=blend, cached=True)
+            job = dict(action="build", scenes_dir=str(self.sdir), module=case.meta["module"], cfg=self._cfg(case),
+                       blend_out=blend, info_out=info)
+            res = run_job(case.target, job, str(base) + ".job.json", str(base) + ".log", self.o.timeout)
+            res.update(blend=blend, cached=False, log=str(base) + ".log")
+            if not res.get("ok"):
+                res["log_tail"] = log_tail(str(base) + ".log")
+                for p in (blend, info):
+                    if os.path.exists(p) and not res.get("ok"):
+                        os.remove(p)
+            return res
+
+    def render_one(self, case, blend, blend_key, engine, accuracy, seed, case_dir):
+        """One render.  Cycles renders are cached; others go into the case's renders/ folder."""
+        cycles = engine == "CYCLES" and accuracy == "CYCLES" and self.o.engine != "CYCLES_SELF"
+        spp = case.spp
+        res = list(case.res) if case.res else None
+        osl = self.o.osl if engine == "CYCLES" else None
+        if cycles:
+            d = self.o.cache / "cycles"
+            d.mkdir(parents=True, exist_ok=True)
+            key = _sha(blend_key, "CYCLES", seed, spp, res, osl, case.target.label, JOB_SCRIPT.read_bytes())
+            base = d / ("%s-s%d-%s" % (safe(case.id.split("@")[0]), seed, key))
+        else:
+            rd = case_dir / "renders"
+            rd.mkdir(parents=True, exist_ok=True)
+            tag = {"CYCLES": "cycles_self", "HAIRBSDF": "hairbsdf"}.get(engine, safe(engine.lower()))
+            base = rd / ("%s%s_s%d" % (tag, "_exact" if accuracy == "EXACT" else "", seed))
+        exr, meta_path = str(base) + ".exr", str(base) + ".json"
+        job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=int(seed), spp=spp, res=res,
+                   threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
+                   meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites)
+        lock = _Lock(base) if cycles else None
+        if lock:
+            lock.__enter__()
+        try:
+            if cycles and self.o.use_cache and not self.o.refresh and os.path.exists(exr) and os.path.exists(meta_path):
+                with open(meta_path) as f:
+                    r = json.load(f)
+                if r.get("ok"):
+                    r.update(exr=exr, cached=True, log=str(base) + ".log")
+                    return r
+            r = run_job(case.target, job, str(base) + ".job.json", str(base) + ".log", self.o.timeout)
+            r.update(exr=exr, cached=False, log=str(base) + ".log")
+            if not r.get("ok"):
+                r["log_tail"] = log_tail(str(base) + ".log")
+                if cycles and os.path.exists(meta_path):
+                    os.remove(meta_path)  # never cache a failure
+            return r
+        finally:
+            if lock:
+                lock.__exit__()
+
+    # ----------------------------------------------------------------- run
+    def run(self, on_case=None):
+        """Renders and judges every case; calls on_case(result, maps) as each case finishes.
+        Returns the list of case results (dicts)."""
+        self.o.out.mkdir(parents=True, exist_ok=True)
+        t0 = time.time()
+        results = {}
+        active = [c for c in self.cases if not c.skip]
+        for c in self.cases:
+            if c.skip:
+                results[c.id] = self._skipped(c)
+        n_render = sum(c.seeds * 2 + c.exact_seeds for c in active)
+        self.progress.add(len([c for c in active if not c.file]) + n_render)
+        pool = cf.ThreadPoolExecutor(max_workers=max(1, self.o.jobs))
+        try:
+            builds = {c.id: pool.submit(self._build_step, c) for c in active}
+            render_futs = {}
+            for c in active:
+                b = builds[c.id].result()
+                if not b.get("ok"):
+                    self.progress.add(-(c.seeds * 2 + c.exact_seeds))
+                    results[c.id] = self._failed_build(c, b)
+                    continue
+                render_futs[c.id] = (b, self._submit_renders(pool, c, b))
+            for c in active:
+                if c.id not in render_futs:
+                    continue
+                b, futs = render_futs[c.id]
+                renders = {k: [f.result() for f in fl] for k, fl in futs.items()}
+                res, maps = self._judge(c, b, renders)
+                results[c.id] = res
+                if on_case:
+                    on_case(res, maps)
+        finally:
+            pool.shutdown(wait=True)
+        out = [results[c.id] for c in self.cases]
+        for r in out:
+            if r["status"] == "SKIPPED" and on_case:
+                on_case(r, {})
+        self.seconds = time.time() - t0
+        return out
+
+    def _build_step(self, c):
+        if c.file:
+            return dict(ok=True, blend=c.file, info={}, cached=True)
+        b = self.build(c)
+        self.progress.step("built %s%s" % (c.id, " (cached)" if b.get("cached") else ""), b.get("ok", False))
+        return b
+
+    def _submit_renders(self, pool, c, b):
+        case_dir = self.o.out / "cases" / c.dirname
+        case_dir.mkdir(parents=True, exist_ok=True)
+        bkey = self.blend_key(c)
+        ours_engine = "CYCLES" if self.o.engine in ("CYCLES", "CYCLES_SELF") else self.o.engine
+
+        def task(engine, accuracy, seed, label):
+            def fn():
+                r = self.render_one(c, b["blend"], bkey, engine, accuracy, seed, case_dir)
+                self.progress.step("%s %s seed %d%s" % (c.id, label, seed, " (cached)" if r.get("cached") else ""),
+                                   r.get("ok", False))
+                return r
+            return fn
+
+        futs = dict(cycles=[], ours=[], exact=[])
+        for s in range(c.seeds):
+            futs["cycles"].append(pool.submit(task("CYCLES", "CYCLES", s, "Cycles")))
+        # With --engine CYCLES the "engine" is Cycles again on disjoint seeds: a null test of the harness.
+        off = 1000 if ours_engine == "CYCLES" else 0
+        for s in range(c.seeds):
+            futs["ours"].append(pool.submit(task(ours_engine, "CYCLES", s + off, self._ours_label())))
+        for s in range(c.exact_seeds):
+            futs["exact"].append(pool.submit(task(ours_engine, "EXACT", s + off, self._ours_label() + " exact")))
+        if ours_engine == "CYCLES":
+            futs["exact"] = []
+        return futs
+
+    def _ours_label(self):
+        return {"HAIRBSDF": "hairbsdf", "CYCLES": "Cycles (self-check)", "CYCLES_SELF": "Cycles (self-check)"}.get(
+            self.o.engine, self.o.engine)
+
+    # ----------------------------------------------------------------- results
+    def _base_result(self, c):
+        lim = self.o.thresholds.for_case(c.scene, c.variant, tuple(c.target.version))
+        return dict(id=c.id, dir=c.dirname, scene=c.scene, variant=c.variant, file=c.file, kind=c.kind,
+                    title=c.meta.get("title", c.scene), description=c.meta.get("description", ""),
+                    model=c.meta.get("model"), blender=c.target.as_dict(), engine=self.o.engine,
+                    sizes=dict(res=list(c.res) if c.res else None, spp=c.spp, seeds=c.seeds,
+                               exact_seeds=c.exact_seeds, threads=self.threads),
+                    osl=self.o.osl, profile="ci" if self.o.ci else "full", pending=lim.get("pending"),
+                    limits=dict(lim),
+                    checks=[], metrics={}, renders=[], status=None, reason="")
+
+    def _skipped(self, c):
+        r = self._base_result(c)
+        r.update(status="SKIPPED", reason=c.skip)
+        return r
+
+    def _failed_build(self, c, b):
+        r = self._base_result(c)
+        r.update(status="ERROR", reason="building the scene failed (%s): %s" % (b.get("status"), b.get("error")),
+                 log_tail=b.get("log_tail", ""), build=b)
+        if r["pending"]:
+            r["status"] = "PENDING"
+        return r
+
+    @staticmethod
+    def _render_summary(kind, r):
+        return dict(kind=kind, engine=(r.get("engine") or (r.get("job") or {}).get("engine")),
+                    accuracy=r.get("accuracy"), seed=r.get("seed"), status=r.get("status"), ok=bool(r.get("ok")),
+                    cached=bool(r.get("cached")), seconds=r.get("render_seconds"), wall=r.get("wall_seconds"),
+                    exr=r.get("exr"), log=r.get("log"), error=r.get("error"), log_tail=r.get("log_tail", ""),
+                    engine_warnings=((r.get("engine_report") or {}).get("warnings") or []))
+
+    def _judge(self, c, b, renders):
+        res = self._base_result(c)
+        res["build"] = dict(cached=b.get("cached"), seconds=b.get("seconds"), info=b.get("info", {}))
+        res["settings"] = b.get("settings") or {}
+        res["parity_warnings"] = list(b.get("parity_warnings") or [])
+        summ = []
+        for k in ("cycles", "ours", "exact"):
+            summ += [self._render_summary(k, r) for r in renders[k]]
+        res["renders"] = summ
+        cyc_ok = [r for r in renders["cycles"] if r.get("ok")]
+        if cyc_ok:
+            m = cyc_ok[0]
+            res["versions"] = m.get("versions")
+            if m.get("settings"):
+                res["settings"] = m["settings"]
+            res["parity_warnings"] = sorted(set(res["parity_warnings"]) | set(m.get("parity_warnings") or []))
+        ew = []
+        for r in renders["ours"]:
+            for w in (r.get("engine_report") or {}).get("warnings") or []:
+                if w not in ew:
+                    ew.append(w)
+        res["engine_warnings"] = ew
+        maps = {}
+        bad_c = [r for r in renders["cycles"] if not r.get("ok")]
+        bad_o = [r for r in renders["ours"] if not r.get("ok")]
+        if bad_c:
+            res.update(status="ERROR", reason="the Cycles render failed: %s (%s)" % (bad_c[0].get("status"),
+                                                                                    bad_c[0].get("error")),
+                       log_tail=bad_c[0].get("log_tail", ""))
+        elif bad_o:
+            st = {"CRASH": "CRASH", "TIMEOUT": "CRASH"}.get(bad_o[0].get("status"), "NO OUTPUT")
+            res.update(status=st, reason="%s render %s: %s" % (self._ours_label(), bad_o[0].get("status"),
+                                                               bad_o[0].get("error")),
+                       log_tail=bad_o[0].get("log_tail", ""))
+        else:
+            try:
+                cyc = np.stack([metrics.load_image(r["exr"]) for r in renders["cycles"]])
+                ours = np.stack([metrics.load_image(r["exr"]) for r in renders["ours"]])
+                ex_ok = [r for r in renders["exact"] if r.get("ok")]
+                exact = np.stack([metrics.load_image(r["exr"]) for r in ex_ok]) if ex_ok else None
+                lim = res["limits"]
+                roi_info = (b.get("info") or {}).get("gonio_roi")
+                roi = metrics.gonio_roi(cyc.shape[1:3], roi_info) if roi_info else None
+                checks, mets, maps = judge.evaluate(c.kind if c.kind != "info" else "noisy", cyc, ours, lim,
+                                                    exact=exact, image_mean=bool(c.meta.get("image_mean")),
+                                                    flip=self.o.flip, roi=roi, ci=self.o.ci)
+                res["checks"], res["metrics"] = checks, _jsonable(mets)
+                res["status"] = judge.status_of(checks)
+                failed = [ch["label"] for ch in checks if ch["gate"] and not ch["passed"]]
+                res["reason"] = ("failed: " + "; ".join(failed)) if failed else ""
+                maps["_stacks"] = dict(cycles_mean=cyc.mean(axis=0), ours_mean=ours.mean(axis=0))
+                bad_e = [r for r in renders["exact"] if not r.get("ok")]
+                if bad_e:
+                    res["exact_note"] = "exact-accuracy render failed: %s" % bad_e[0].get("error")
+            except Exception as exc:  # a broken image must not kill the run
+                import traceback
+                res.update(status="ERROR", reason="comparing the images failed: %s: %s" % (type(exc).__name__, exc),
+                           log_tail=traceback.format_exc())
+        if res["pending"] and res["status"] not in ("SKIPPED",):
+            res["pending_status"] = res["status"]
+            res["status"] = "PENDING"
+        return res, maps
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items() if not isinstance(v, np.ndarray)}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating,)):
+        return float(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, float) and (x != x or x in (float("inf"), float("-inf"))):
+        return str(x)
+    return x
