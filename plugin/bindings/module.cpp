@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cstring>
 #include <atomic>
 #include <thread>
 #include <vector>
@@ -45,12 +46,28 @@ void parallel_for(size_t n, size_t min_chunk, Fn fn) {
 Vec3 vec_at(const double* p, size_t i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 RGB rgb_from(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
-ShadingContext fibre_context(const double* wo, const double* h, size_t i) {
+// Optional per-sample fields of the shading context (Huang model): null = the default.
+struct Extras {
+    const double* normal = nullptr;          // (N, 3)
+    const double* pixel_coverage = nullptr;  // (N,)
+    const double* near_field = nullptr;      // (N,) 0 / 1
+};
+
+ShadingContext fibre_context(const double* wo, const double* h, size_t i, const Extras& x = {}) {
     ShadingContext ctx;
     ctx.tangent = {1, 0, 0};
     ctx.wo = vec_at(wo, i);
     ctx.h = h[i];
+    if (x.normal) ctx.normal = vec_at(x.normal, i);
+    if (x.pixel_coverage) ctx.pixel_coverage = x.pixel_coverage[i];
+    if (x.near_field) ctx.near_field = x.near_field[i] != 0.0;
     return ctx;
+}
+
+bool same_context(const ShadingContext& a, const ShadingContext& b) {
+    return a.wo.x == b.wo.x && a.wo.y == b.wo.y && a.wo.z == b.wo.z && a.h == b.h && a.normal.x == b.normal.x &&
+           a.normal.y == b.normal.y && a.normal.z == b.normal.z && a.pixel_coverage == b.pixel_coverage &&
+           a.near_field == b.near_field;
 }
 
 void store(double* out, size_t i, RGB c) {
@@ -61,14 +78,22 @@ void store(double* out, size_t i, RGB c) {
 
 size_t rows(const Array& a) { return size_t(a.shape(0)); }
 
+bool has_huang(const ClosureSum& bsdf) {
+    for (const Closure& c : bsdf.closures())
+        if (std::holds_alternative<HuangHair>(c.model)) return true;
+    return false;
+}
+// Rows per thread: Huang evaluations cost microseconds to milliseconds, so split finely.
+size_t grain(const ClosureSum& bsdf, size_t chiang_grain) { return has_huang(bsdf) ? 1 : chiang_grain; }
+
 // Prepares the closures for row i, reusing the previous row's shading point when the
 // view direction and h repeat (gonio sweeps: one wo, many wi).
 class PointCache {
 public:
-    explicit PointCache(const ClosureSum& bsdf) : bsdf_(bsdf) {}
+    explicit PointCache(const ClosureSum& bsdf, const Extras& extras = {}) : bsdf_(bsdf), extras_(extras) {}
     const ClosureSum::ShadingPoint& at(const double* wo, const double* h, size_t i) {
-        const ShadingContext ctx = fibre_context(wo, h, i);
-        if (!valid_ || ctx.wo.x != last_.wo.x || ctx.wo.y != last_.wo.y || ctx.wo.z != last_.wo.z || ctx.h != last_.h) {
+        const ShadingContext ctx = fibre_context(wo, h, i, extras_);
+        if (!valid_ || !same_context(ctx, last_)) {
             bsdf_.prepare(ctx, point_);
             last_ = ctx;
             valid_ = true;
@@ -78,6 +103,7 @@ public:
 
 private:
     const ClosureSum& bsdf_;
+    Extras extras_;
     ClosureSum::ShadingPoint point_;
     ShadingContext last_;
     bool valid_ = false;
@@ -91,8 +117,23 @@ void check_rows(const Array& a, size_t n, int cols, const char* name) {
         throw py::value_error(std::string("internal: bad shape for ") + name);
 }
 
+Extras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
+                   std::vector<Array>& keep) {
+    Extras x;
+    auto get = [&](const py::object& o, int cols, const char* name) -> const double* {
+        if (o.is_none()) return nullptr;
+        keep.push_back(o.cast<Array>());
+        check_rows(keep.back(), n, cols, name);
+        return keep.back().data();
+    };
+    x.normal = get(normal, 3, "normal");
+    x.pixel_coverage = get(pixel_coverage, 0, "pixel_coverage");
+    x.near_field = get(near_field, 0, "near_field");
+    return x;
+}
+
 py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
-                               bool lobes) {
+                               bool lobes, const Extras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(wi, n, 3, "wi");
@@ -102,8 +143,8 @@ py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Ar
     const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, 4096, [&](size_t b, size_t e) {
-            PointCache cache(bsdf);
+        parallel_for(n, grain(bsdf, 4096), [&](size_t b, size_t e) {
+            PointCache cache(bsdf, extras);
             for (size_t i = b; i < e; ++i) {
                 const BsdfEval r = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i));
                 if (lobes) {
@@ -117,7 +158,8 @@ py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Ar
     return out;
 }
 
-py::array_t<double> batch_pdf(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h) {
+py::array_t<double> batch_pdf(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
+                              const Extras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(wi, n, 3, "wi");
@@ -127,15 +169,16 @@ py::array_t<double> batch_pdf(const ClosureSum& bsdf, const Array& wo, const Arr
     const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, 4096, [&](size_t b, size_t e) {
-            PointCache cache(bsdf);
-            for (size_t i = b; i < e; ++i) o[i] = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i)).pdf;
+        parallel_for(n, grain(bsdf, 4096), [&](size_t b, size_t e) {
+            PointCache cache(bsdf, extras);
+            for (size_t i = b; i < e; ++i) o[i] = bsdf.pdf(cache.at(pwo, ph, i), vec_at(pwi, i));
         });
     }
     return out;
 }
 
-py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, const Array& u) {
+py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, const Array& u,
+                       const Extras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(h, n, 0, "h");
@@ -149,8 +192,8 @@ py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, 
     const double *pwo = wo.data(), *ph = h.data(), *pu = u.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, 2048, [&](size_t b, size_t e) {
-            PointCache cache(bsdf);
+        parallel_for(n, grain(bsdf, 2048), [&](size_t b, size_t e) {
+            PointCache cache(bsdf, extras);
             for (size_t i = b; i < e; ++i) {
                 const BsdfSample s = bsdf.sample(cache.at(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]});
                 owi[3 * i] = s.wi.x;
@@ -236,6 +279,196 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
     return d;
 }
 
+HuangHairParams huang_options(HuangHairParams p, int quadrature, int sampler, double tolerance, long max_evaluations,
+                              long trt_points) {
+    p.quadrature = HuangQuadrature(quadrature);
+    p.sampler = HuangSampler(sampler);
+    p.tolerance = tolerance;
+    p.max_evaluations = max_evaluations;
+    p.trt_points = trt_points;
+    return p;
+}
+
+ClosureSum principled_huang(int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
+                            std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,
+                            double radial_roughness, double ior, double offset, double random_color,
+                            double random_roughness, double random, double aspect_ratio, double reflection,
+                            double transmission, double secondary_reflection, int quadrature, int sampler,
+                            double tolerance, long max_evaluations, long trt_points, int color_roughness) {
+    PrincipledHairInputs in;
+    in.parametrization = Parametrization(parametrization);
+    in.color = rgb_from(color);
+    in.melanin = melanin;
+    in.melanin_redness = melanin_redness;
+    in.tint = rgb_from(tint);
+    in.absorption_coefficient = rgb_from(absorption_coefficient);
+    in.roughness = roughness;
+    in.radial_roughness = radial_roughness;
+    in.ior = ior;
+    in.offset = offset;
+    in.random_color = random_color;
+    in.random_roughness = random_roughness;
+    in.random = random;
+    in.aspect_ratio = aspect_ratio;
+    in.reflection = reflection;
+    in.transmission = transmission;
+    in.secondary_reflection = secondary_reflection;
+    HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture,
+                                                     HuangColorRoughness(color_roughness));
+    return ClosureSum(
+        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points))}});
+}
+
+ClosureSum huang_from_params(std::array<double, 3> sigma_a, double roughness, double offset, double eta,
+                             double aspect_ratio, std::array<double, 3> factors, int quadrature, int sampler,
+                             double tolerance, long max_evaluations, long trt_points) {
+    HuangHairParams p;
+    p.sigma_a = rgb_from(sigma_a);
+    p.roughness = roughness;
+    p.offset = offset;
+    p.eta = eta;
+    p.aspect_ratio = aspect_ratio;
+    p.r_factor = factors[0];
+    p.tt_factor = factors[1];
+    p.trt_factor = factors[2];
+    return ClosureSum(
+        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points))}});
+}
+
+py::dict huang_params_dict(const HuangHair& m) {
+    const HuangHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "huang";
+    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
+    d["roughness"] = m.alpha();
+    d["offset"] = p.offset;
+    d["eta"] = p.eta;
+    d["aspect_ratio"] = m.aspect_ratio();
+    d["factors"] = std::array<double, 3>{std::max(p.r_factor, 0.0), std::max(p.tt_factor, 0.0), std::max(p.trt_factor, 0.0)};
+    d["quadrature"] = p.quadrature == HuangQuadrature::Cycles ? "cycles" : "converged";
+    d["sampler"] = p.sampler == HuangSampler::Mixture ? "mixture" : "cycles";
+    d["tolerance"] = p.tolerance;
+    d["trt_points"] = p.trt_points;
+    return d;
+}
+
+const HuangHair& single_huang(const ClosureSum& c) {
+    if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
+        throw py::value_error("this method needs a single Huang closure");
+    return std::get<HuangHair>(c.closures()[0].model);
+}
+
+// Per row: projected radius r, transparent (|h| >= r), near field in use, integrand evaluations of
+// the residual for wi (when wi is given), and the h interval.
+py::dict huang_details(const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
+                       py::object pixel_coverage, py::object near_field) {
+    const HuangHair& m = single_huang(c);
+    const size_t n = rows(wo);
+    std::vector<Array> keep;
+    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    auto r = new_array({py::ssize_t(n)}), lo = new_array({py::ssize_t(n)}), hi = new_array({py::ssize_t(n)});
+    auto evals = new_array({py::ssize_t(n)});
+    py::array_t<bool> transparent({py::ssize_t(n)}), near({py::ssize_t(n)});
+    const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
+    double *pr = r.mutable_data(), *plo = lo.mutable_data(), *phi = hi.mutable_data(), *pe = evals.mutable_data();
+    bool *pt = transparent.mutable_data(), *pn = near.mutable_data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, 1, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) {
+                const HuangHair::ShadingPoint sp = m.prepare(fibre_context(pwo, ph, i, x));
+                pr[i] = sp.r;
+                pt[i] = sp.transparent;
+                pn[i] = sp.near_field;
+                plo[i] = sp.h_lo;
+                phi[i] = sp.h_hi;
+                long count = 0;
+                if (rows(wi) == n) m.eval_local(sp, m.to_local(sp, vec_at(pwi, i)), &count);
+                pe[i] = double(count);
+            }
+        });
+    }
+    py::dict d;
+    d["radius"] = r;
+    d["transparent"] = transparent;
+    d["near_field"] = near;
+    d["h_lo"] = lo;
+    d["h_hi"] = hi;
+    d["evaluations"] = evals;
+    return d;
+}
+
+// Mean of `samples` runs of Cycles' stochastic eval per row, per lobe (N, 4, 3); LCG seeded per
+// row from `seed` and the row index.
+py::array_t<double> huang_cycles_estimate(const ClosureSum& c, const Array& wo, const Array& wi, const Array& h,
+                                          py::object normal, py::object pixel_coverage, py::object near_field,
+                                          long samples, uint32_t seed) {
+    const HuangHair& m = single_huang(c);
+    const size_t n = rows(wo);
+    std::vector<Array> keep;
+    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    auto out = new_array({py::ssize_t(n), 4, 3});
+    double* o = out.mutable_data();
+    const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, 1, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) {
+                const HuangHair::ShadingPoint sp = m.prepare(fibre_context(pwo, ph, i, x));
+                const Vec3 O = m.to_local(sp, vec_at(pwi, i));
+                uint32_t rng = lookup3_hash_uint2(uint32_t(i), seed);
+                std::array<RGB, 4> acc{};
+                for (long k = 0; k < samples; ++k) {
+                    const auto l = m.eval_cycles_stochastic(sp, O, rng);
+                    for (int p = 0; p < 4; ++p) acc[size_t(p)] += l[size_t(p)];
+                }
+                for (int p = 0; p < 4; ++p) store(o + 12 * i, size_t(p), (1.0 / double(samples)) * acc[size_t(p)]);
+            }
+        });
+    }
+    return out;
+}
+
+// The mixture sampler's directions without evaluating the BSDF: (wi, pdf, lobe); for tests.
+py::tuple huang_sample_directions(const ClosureSum& c, const Array& wo, const Array& h, const Array& u,
+                                  py::object normal, py::object pixel_coverage, py::object near_field) {
+    const HuangHair& m = single_huang(c);
+    const size_t n = rows(wo);
+    std::vector<Array> keep;
+    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    auto wi = new_array({py::ssize_t(n), 3});
+    auto pdf = new_array({py::ssize_t(n)});
+    py::array_t<int32_t> lobe({py::ssize_t(n)});
+    double *owi = wi.mutable_data(), *op = pdf.mutable_data();
+    int32_t* ol = lobe.mutable_data();
+    const double *pwo = wo.data(), *ph = h.data(), *pu = u.data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, 256, [&](size_t b, size_t e) {
+            HuangHair::ShadingPoint sp;
+            ShadingContext last;
+            bool have = false;
+            for (size_t i = b; i < e; ++i) {
+                const ShadingContext ctx = fibre_context(pwo, ph, i, x);
+                if (!have || !same_context(ctx, last)) {
+                    sp = m.prepare(ctx);
+                    last = ctx;
+                    have = true;
+                }
+                Vec3 O;
+                const int l = m.sample_direction(sp, {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]}, O);
+                const Vec3 w = l >= 0 ? m.to_world(sp, O) : Vec3{};
+                owi[3 * i] = w.x;
+                owi[3 * i + 1] = w.y;
+                owi[3 * i + 2] = w.z;
+                op[i] = l >= 0 ? m.pdf_local(sp, O) : 0.0;
+                ol[i] = l;
+            }
+        });
+    }
+    return py::make_tuple(wi, pdf, lobe);
+}
+
 template <class Fn>
 py::array_t<double> map1(const Array& x, Fn fn) {
     auto out = new_array(std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));
@@ -257,8 +490,31 @@ PYBIND11_MODULE(_core, m) {
         .def("eval_lobes", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) {
             return batch_eval(c, wo, wi, h, true);
         })
-        .def("pdf", &batch_pdf)
-        .def("sample", &batch_sample)
+        .def("pdf", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) { return batch_pdf(c, wo, wi, h); })
+        .def("sample", [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u) { return batch_sample(c, wo, h, u); })
+        // The same with the optional per-sample shading fields (None = default): normal (N, 3),
+        // pixel_coverage (N,), near_field (N,) as 0 / 1.
+        .def("eval_ex",
+             [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, bool lobes, py::object normal,
+                py::object pixel_coverage, py::object near_field) {
+                 std::vector<Array> keep;
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 return batch_eval(c, wo, wi, h, lobes, x);
+             })
+        .def("pdf_ex",
+             [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
+                py::object pixel_coverage, py::object near_field) {
+                 std::vector<Array> keep;
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 return batch_pdf(c, wo, wi, h, x);
+             })
+        .def("sample_ex",
+             [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u, py::object normal,
+                py::object pixel_coverage, py::object near_field) {
+                 std::vector<Array> keep;
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 return batch_sample(c, wo, h, u, x);
+             })
         .def("albedo", &batch_albedo)
         .def("scaled",
              [](const ClosureSum& c, std::array<double, 3> w) {
@@ -280,11 +536,36 @@ PYBIND11_MODULE(_core, m) {
              })
         .def("model_params", [](const ClosureSum& c) {
             py::list out;
-            for (const Closure& k : c.closures()) out.append(chiang_params_dict(std::get<ChiangHair>(k.model).params()));
+            for (const Closure& k : c.closures()) {
+                if (const auto* chiang = std::get_if<ChiangHair>(&k.model)) {
+                    out.append(chiang_params_dict(chiang->params()));
+                } else {
+                    out.append(huang_params_dict(std::get<HuangHair>(k.model)));
+                }
+            }
             return out;
-        });
+        })
+        .def("huang_details", &huang_details)
+        .def("huang_cycles_estimate", &huang_cycles_estimate)
+        .def("huang_sample_directions", &huang_sample_directions);
 
     m.def("principled_chiang", &principled_chiang);
+    m.def("principled_huang", &principled_huang);
+    m.def("huang_from_params", &huang_from_params);
+    m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta) {
+        auto out = new_array({sqrt_alpha.size()});
+        for (py::ssize_t i = 0; i < sqrt_alpha.size(); ++i)
+            out.mutable_data()[i] = huang::energy_scale(sqrt_alpha.data()[i], mu.data()[i], eta);
+        return out;
+    });
+    m.def("ggx_glass_albedo", [](double alpha, double mu, double eta, double tolerance) {
+        return ggx::ggx_glass_albedo(alpha, mu, eta, tolerance);
+    });
+    m.def("huang_table", []() {
+        auto out = new_array({2, 16, 16, 16});
+        std::memcpy(out.mutable_data(), &huang::kGgxGlassAlbedo[0][0][0][0], sizeof(huang::kGgxGlassAlbedo));
+        return out;
+    });
     m.def("chiang_from_params", &chiang_from_params);
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

@@ -11,7 +11,7 @@ Frames and units: docs/conventions.md in the repository.
 from . import _core
 from .closure import LOBES, Closure, SampleResult
 from .principled import (PRINCIPLED_HAIR_DEFAULTS, absorption_from_color, absorption_from_melanin,
-                         cycles_curve_random, principled_hair)
+                         cycles_curve_random, huang_fallback_normal, principled_hair)
 from . import materialx
 from .materialx import chiang_hair_bsdf, simple_hair_base
 
@@ -32,5 +32,5 @@ def get_num_threads() -> int:
 __all__ = [
     "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
-    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS",
+    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal",
 ]

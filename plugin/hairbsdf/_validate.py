@@ -60,6 +60,40 @@ def offsets(name: str, value) -> np.ndarray:
     return np.clip(arr, -1.0, 1.0)
 
 
+def normals(name: str, value) -> np.ndarray:
+    """(N,3) or (3,) curve normals -> (N,3) float64; zero rows are allowed (Cycles' fallback frame)."""
+    arr = _as_float_array(name, value)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name}: shape {tuple(np.shape(value))} is not allowed; pass (N, 3) or (3,)")
+    _check_finite(name, arr)
+    return arr
+
+
+def coverages(name: str, value) -> np.ndarray:
+    """Scalar or (N,) pixel coverage (half a pixel in units of the fibre radius), > 0."""
+    arr = _as_float_array(name, value)
+    if arr.ndim > 1:
+        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
+    arr = np.atleast_1d(arr)
+    _check_finite(name, arr)
+    if np.any(arr <= 0.0):
+        raise ValueError(f"{name}: values must be > 0 (half a pixel's footprint in units of the radius)")
+    return arr
+
+
+def flags(name: str, value) -> np.ndarray:
+    """Scalar or (N,) booleans -> (N,) float64 of 0 / 1."""
+    arr = np.asarray(value)
+    if arr.dtype != bool:
+        if not (np.issubdtype(arr.dtype, np.integer) and np.all((arr == 0) | (arr == 1))):
+            raise TypeError(f"{name}: expected booleans (True / False), got dtype {arr.dtype}")
+    if arr.ndim > 1:
+        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
+    return np.atleast_1d(arr).astype(np.float64)
+
+
 def uniforms(name: str, value) -> np.ndarray:
     """(N,3) or (3,) uniform numbers in [0, 1]."""
     arr = _triples(name, value)

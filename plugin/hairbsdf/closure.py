@@ -39,26 +39,81 @@ class Closure:
         return self._description
 
     # --- evaluation -------------------------------------------------------------------
-    def eval(self, wo, wi, h) -> np.ndarray:
+    # The keyword arrays normal=, pixel_coverage= and near_field= are the optional per-sample
+    # shading fields of the Huang model (docs/huang.md §1); other models ignore them.
+    #   normal:         (N, 3) or (3,) curve normal (the ellipse's major axis) in the fibre frame;
+    #                   zero rows use Cycles' fallback frame (particle hair). Default: zero.
+    #   pixel_coverage: scalar or (N,), half a pixel's footprint at the hit in units of the fibre
+    #                   radius (Cycles: 0.5 dP / r). Default 1.
+    #   near_field:     scalar or (N,) bool: the near field is allowed (Cycles: camera rays). It is
+    #                   used where the projected radius exceeds pixel_coverage. Default False.
+    # For far-field use h only decides whether the hit is inside the projected ellipse (|h| < r);
+    # the value integrates over the whole visible width.
+    def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None) -> np.ndarray:
         """BSDF value including the cosine factor (Cycles' convention), (N, 3)."""
-        wo, wi, h = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h))
-        return self._core.eval(wo, wi, h)
+        return self._eval(wo, wi, h, False, normal, pixel_coverage, near_field)
 
-    def eval_lobes(self, wo, wi, h) -> np.ndarray:
+    def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None) -> np.ndarray:
         """Per-lobe values (N, 4, 3) in the order R, TT, TRT, TRRT+; they sum to eval."""
-        wo, wi, h = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h))
-        return self._core.eval_lobes(wo, wi, h)
+        return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field)
 
-    def pdf(self, wo, wi, h) -> np.ndarray:
+    def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None) -> np.ndarray:
         """The density `sample` reports for wi, per unit solid angle, (N,)."""
-        wo, wi, h = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h))
-        return self._core.pdf(wo, wi, h)
+        extra = _extras(normal, pixel_coverage, near_field)
+        rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
+        if not extra:
+            return self._core.pdf(*rows)
+        return self._core.pdf_ex(*rows[:3], *_extra_args(extra, rows[3:]))
 
-    def sample(self, wo, h, u) -> SampleResult:
+    def sample(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None) -> SampleResult:
         """Samples wi from 3 uniform numbers per row (docs/conventions.md for their roles)."""
-        wo, h, u = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u))
-        wi, weight, pdf, lobe = self._core.sample(wo, h, u)
+        extra = _extras(normal, pixel_coverage, near_field)
+        rows = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u), **extra)
+        if not extra:
+            wi, weight, pdf, lobe = self._core.sample(*rows)
+        else:
+            wi, weight, pdf, lobe = self._core.sample_ex(*rows[:3], *_extra_args(extra, rows[3:]))
         return SampleResult(wi, weight, pdf, lobe)
+
+    def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field):
+        extra = _extras(normal, pixel_coverage, near_field)
+        rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
+        if not extra:
+            return self._core.eval_lobes(*rows) if lobes else self._core.eval(*rows)
+        return self._core.eval_ex(*rows[:3], lobes, *_extra_args(extra, rows[3:]))
+
+    # --- Huang model helpers ----------------------------------------------------------
+    def huang_details(self, wo, h, wi=None, *, normal=None, pixel_coverage=None, near_field=None) -> dict:
+        """Per row of a single Huang closure: projected radius r (of the ellipse, seen from wo),
+        transparent (|h| >= r: Cycles renders the hit as transparent), near_field (in use),
+        h_lo / h_hi (the r-normalised integration interval) and, when wi is given, the number of
+        residual integrand evaluations its eval used."""
+        extra = _extras(normal, pixel_coverage, near_field)
+        wi_arr = check.directions("wi", wi) if wi is not None else np.zeros((1, 3))
+        rows = self._rows(wo=check.directions("wo", wo), wi=wi_arr, h=check.offsets("h", h), **extra)
+        if wi is None:
+            rows[1] = np.zeros((0, 3))
+        return self._core.huang_details(*rows[:3], *_extra_args(extra, rows[3:]))
+
+    def sample_directions(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None) -> SampleResult:
+        """Directions of the Huang mixture sampler and their density, without evaluating the BSDF
+        (weight is returned as 0): cheap, for statistical tests and custom estimators. A single
+        Huang closure only."""
+        extra = _extras(normal, pixel_coverage, near_field)
+        rows = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u), **extra)
+        wi, pdf, lobe = self._core.huang_sample_directions(*rows[:3], *_extra_args(extra, rows[3:]))
+        return SampleResult(wi, np.zeros_like(wi), pdf, lobe)
+
+    def cycles_estimate(self, wo, wi, h, *, samples: int = 1, seed: int = 0, normal=None, pixel_coverage=None,
+                        near_field=None) -> np.ndarray:
+        """Mean of `samples` runs of Cycles' stochastic eval (one random visible normal per Simpson
+        node), per lobe (N, 4, 3), for a single Huang closure. Its expectation is
+        eval_lobes(..., accuracy='cycles')."""
+        if not isinstance(samples, int) or samples < 1:
+            raise ValueError("samples: must be an integer >= 1")
+        extra = _extras(normal, pixel_coverage, near_field)
+        rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
+        return self._core.huang_cycles_estimate(*rows[:3], *_extra_args(extra, rows[3:]), samples, int(seed) & 0xFFFFFFFF)
 
     def albedo(self, wo, h, *, panels_per_scale: float = 1.0, max_nodes: int = 4_000_000) -> np.ndarray:
         """Directional albedo, the integral of eval over all wi, by deterministic
@@ -96,6 +151,28 @@ class Closure:
     @staticmethod
     def _rows(**arrays):
         return check.broadcast_rows(**arrays)
+
+
+_EXTRA_ORDER = ("normal", "pixel_coverage", "near_field")
+
+
+def _extras(normal, pixel_coverage, near_field) -> dict:
+    """The given optional per-sample fields, validated (an empty dict when none is given)."""
+    out = {}
+    if normal is not None:
+        out["normal"] = check.normals("normal", normal)
+    if pixel_coverage is not None:
+        out["pixel_coverage"] = check.coverages("pixel_coverage", pixel_coverage)
+    if near_field is not None:
+        out["near_field"] = check.flags("near_field", near_field)
+    return out
+
+
+def _extra_args(extra: dict, arrays: list) -> list:
+    """Broadcast arrays of `extra` (in insertion order) -> the core's (normal, pixel_coverage,
+    near_field) arguments, None where not given."""
+    given = dict(zip(extra.keys(), arrays))
+    return [given.get(k) for k in _EXTRA_ORDER]
 
 
 def _fmt_weight(w) -> str:

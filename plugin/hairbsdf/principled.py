@@ -12,7 +12,10 @@ from .closure import Closure
 PARAMETRIZATIONS = {"color": 0, "melanin": 1, "absorption": 2}
 ACCURACIES = {"cycles": 0, "exact": 1}
 TILTS = {"4.2": 0, "3.4": 1}
-MODELS = ("chiang",)
+MODELS = ("chiang", "huang")
+HUANG_ACCURACIES = {"cycles": 0, "converged": 1}
+HUANG_SAMPLERS = {"mixture": 0, "cycles": 1}
+HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
 
 # Blender 4.5 node defaults (cycles-hair-notes §1). Offset is in radians.
 PRINCIPLED_HAIR_DEFAULTS = {
@@ -30,6 +33,10 @@ PRINCIPLED_HAIR_DEFAULTS = {
     "random_roughness": 0.0,
     "random": 0.0,
 }
+# Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
+# like Cycles does (Radial Roughness is used by color_roughness="osl" only).
+HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS)
+HUANG_DEFAULTS.update({"aspect_ratio": 0.85, "reflection": 1.0, "transmission": 1.0, "secondary_reflection": 1.0})
 _COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 
 
@@ -45,12 +52,24 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     `tilt="3.4"` selects Blender 3.4-4.1's tilt convention and sampler.
     `random` is the socket value; Cycles uses the per-curve hash when it is unlinked
     (see `cycles_curve_random`).
+
+    model="huang" (Blender 4.x, docs/huang.md): the same colour keywords plus aspect_ratio,
+    reflection, transmission, secondary_reflection (Blender 4.5 defaults 0.85, 1, 1, 1); coat and
+    radial_roughness are accepted and ignored like in Cycles. Options:
+      accuracy="cycles" (default): the expected value of Cycles' eval (its Simpson nodes in h),
+               "converged": the integral over h converged;
+      sampler="mixture" (default): analytic lobe mixture with an exact pdf; "cycles": Cycles'
+               sampler (its weight, pdf reported as 1: no MIS);
+      tolerance=1e-3: relative error target of the adaptive TT integration;
+      trt_points=16384: quasi-Monte Carlo points per h node of TRT / TRRT+ (error ~ few %, ~N^-1/2);
+      color_roughness="svm" (default) or "osl": the roughness of the colour conversion.
+    eval / eval_lobes / pdf / sample take the keyword arrays normal=, pixel_coverage=, near_field=.
     """
     if not isinstance(model, str):
         raise TypeError(f"model: expected a string, one of {list(MODELS)}")
-    if model.lower() == "huang":
-        raise ValueError("model='huang' is not implemented yet; allowed: 'chiang'")
     check.choice("model", model.lower(), MODELS)
+    if model.lower() == "huang":
+        return _principled_huang(parametrization, accuracy=accuracy, tilt=tilt, **inputs)
     if isinstance(parametrization, str):
         parametrization = parametrization.lower()
     check.choice("parametrization", parametrization, PARAMETRIZATIONS)
@@ -72,6 +91,57 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                     if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
     return Closure(core, f"principled_hair(model='chiang', parametrization={parametrization!r}"
                          f"{', ' + shown if shown else ''}{extra})")
+
+
+def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture", tolerance=1e-3,
+                      max_evaluations=200_000, trt_points=16384, color_roughness="svm", **inputs) -> Closure:
+    """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
+    if isinstance(parametrization, str):
+        parametrization = parametrization.lower()
+    check.choice("parametrization", parametrization, PARAMETRIZATIONS)
+    check.choice("accuracy", accuracy, HUANG_ACCURACIES)
+    if tilt != "4.2":
+        raise ValueError("tilt: the Huang model has no tilt convention option (only '4.2')")
+    check.choice("sampler", sampler, HUANG_SAMPLERS)
+    check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
+    tolerance = check.real("tolerance", tolerance)
+    if not 0 < tolerance < 1:
+        raise ValueError("tolerance: must lie in (0, 1)")
+    if not isinstance(max_evaluations, int) or max_evaluations < 1000:
+        raise ValueError("max_evaluations: must be an integer >= 1000")
+    if not isinstance(trt_points, int) or trt_points < 16:
+        raise ValueError("trt_points: must be an integer >= 16")
+    check.keywords("principled_hair(model='huang')", inputs, HUANG_DEFAULTS)
+    values = dict(HUANG_DEFAULTS)
+    for key, value in inputs.items():
+        values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
+    core = _core.principled_huang(
+        PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
+        values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
+        values["ior"], values["offset"], values["random_color"], values["random_roughness"], values["random"],
+        values["aspect_ratio"], values["reflection"], values["transmission"], values["secondary_reflection"],
+        HUANG_ACCURACIES[accuracy], HUANG_SAMPLERS[sampler], tolerance, max_evaluations, trt_points,
+        HUANG_COLOR_ROUGHNESS[color_roughness])
+    shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
+    options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, 1e-3),
+               "trt_points": (trt_points, 16384), "color_roughness": (color_roughness, "svm")}
+    extra = "".join(f", {k}={v!r}" for k, (v, d) in options.items() if v != d)
+    return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"
+                         f"{', ' + shown if shown else ''}{extra})")
+
+
+def huang_fallback_normal(tangent) -> np.ndarray:
+    """The major axis Cycles uses for Huang hair without curve normals (particle hair):
+    make_orthonormals(tangent) -> (a, b), major axis = b = tangent x a, with
+    a = normalize((1,1,1) x tangent). Pass world-space tangents (N, 3) or (3,); the result is in
+    the same space (transform it into the fibre frame for `normal=`)."""
+    t = check.directions("tangent", tangent)
+    same = (t[:, 0] == t[:, 1]) & (t[:, 0] == t[:, 2])
+    a = np.stack([t[:, 2] - t[:, 1], np.where(same, t[:, 0] + t[:, 2], t[:, 0] - t[:, 2]),
+                  np.where(same, -t[:, 1] - t[:, 0], t[:, 1] - t[:, 0])], axis=1)
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = np.cross(t, a)
+    return b[0] if np.ndim(tangent) == 1 else b
 
 
 def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:

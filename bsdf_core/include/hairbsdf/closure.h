@@ -20,6 +20,11 @@ struct ShadingContext {
     double h = 0;           // offset across the fibre in [-1, 1], gamma_o = asin(h)
     RayType ray_type = RayType::Camera;
     double random = 0;      // per-strand random ("Hair Info > Random")
+    // Optional per-sample fields used by the Huang model only (Chiang ignores them); the
+    // defaults give Cycles' behaviour for a non-camera ray on particle hair. docs/huang.md §1.
+    Vec3 normal{0, 0, 0};       // curve normal = ellipse major axis; zero: Cycles' fallback frame
+    double pixel_coverage = 1;  // half a pixel's footprint at the hit, in units of the radius (0.5 dP / r)
+    bool near_field = false;    // allow the near field (Cycles: camera rays hitting curves)
 };
 
 constexpr int kLobeCount = 4;  // R, TT, TRT, TRRT+ (Chiang); models with fewer lobes leave the rest 0

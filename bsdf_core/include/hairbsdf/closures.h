@@ -8,12 +8,13 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/huang.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair>;
+using HairModel = std::variant<ChiangHair, HuangHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
-using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint>;
+using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {
@@ -31,6 +32,22 @@ inline BsdfEval eval_model(const HairModel& m, const PreparedModel& point, Vec3 
         [&](const auto& model) {
             using Point = typename std::decay_t<decltype(model)>::ShadingPoint;
             return model.eval(std::get<Point>(point), wi);
+        },
+        m);
+}
+// The density `sample` reports, without evaluating the BSDF where the model can (Huang).
+template <class M>
+double model_pdf(const M& model, const typename M::ShadingPoint& point, Vec3 wi) {
+    return model.eval(point, wi).pdf;
+}
+inline double model_pdf(const HuangHair& model, const HuangHair::ShadingPoint& point, Vec3 wi) {
+    return model.pdf(point, wi);
+}
+inline double pdf_model(const HairModel& m, const PreparedModel& point, Vec3 wi) {
+    return std::visit(
+        [&](const auto& model) {
+            using Point = typename std::decay_t<decltype(model)>::ShadingPoint;
+            return model_pdf(model, std::get<Point>(point), wi);
         },
         m);
 }
@@ -82,7 +99,14 @@ public:
         return out;
     }
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
-    double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
+    double pdf(const ShadingPoint& sp, Vec3 wi) const {
+        if (!(total_sample_weight_ > 0)) return 0.0;
+        double pdf = 0.0;
+        for (size_t i = 0; i < closures_.size(); ++i)
+            pdf += closures_[i].sample_weight() * pdf_model(closures_[i].model, sp.models[i], wi);
+        return pdf / total_sample_weight_;
+    }
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return pdf(prepare(ctx), wi); }
 
     // u[2] picks the closure and is rescaled for the closure's own use.
     BsdfSample sample(const ShadingPoint& sp, std::array<double, 3> u) const {

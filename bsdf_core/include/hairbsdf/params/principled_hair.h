@@ -4,6 +4,7 @@
 #pragma once
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/huang.h"
 
 namespace hairbsdf {
 
@@ -25,6 +26,11 @@ struct PrincipledHairInputs {
     double random_color = 0.0;
     double random_roughness = 0.0;
     double random = 0.0;
+    // Huang model only (Blender 4.0+).
+    double aspect_ratio = 0.85;
+    double reflection = 1.0;            // "Reflection" (R lobe factor)
+    double transmission = 1.0;          // "Transmission" (TT)
+    double secondary_reflection = 1.0;  // "Secondary Reflection" (TRT)
 };
 
 // Chiang 2016 eq. 7: longitudinal roughness -> variance of M_p.
@@ -108,6 +114,51 @@ inline ChiangHairParams chiang_params_from_principled(const PrincipledHairInputs
     p.tilt = in.offset;
     p.accuracy = accuracy;
     p.tilt_convention = tilt;
+    return p;
+}
+
+// Which roughness the Huang colour / tint -> sigma_a conversion uses (cycles-hair-notes §2.5, §2.6):
+// SVM uses the randomized Roughness, OSL the randomized Radial Roughness socket.
+enum class HuangColorRoughness { Svm, Osl };
+
+// Blender's node inputs -> the Huang model (Cycles 4.5 SVM path, docs/huang.md §2): roughness
+// randomized (no clamp on the factor), alpha = clamp(roughness, 0.001, 1) in the model, colour and
+// tint converted with the randomized roughness, aspect ratio > 1 inverted, lobe factors clamped >= 0
+// (in the model). Radial Roughness and Coat are not used.
+inline HuangHairParams huang_params_from_principled(const PrincipledHairInputs& in,
+                                                    HuangQuadrature quadrature = HuangQuadrature::Cycles,
+                                                    HuangSampler sampler = HuangSampler::Mixture,
+                                                    HuangColorRoughness color_roughness = HuangColorRoughness::Svm) {
+    const double roughness_factor = 1.0 + 2.0 * (in.random - 0.5) * in.random_roughness;
+    const double roughness = in.roughness * roughness_factor;
+    const double color_roughness_value =
+        color_roughness == HuangColorRoughness::Svm ? roughness : in.radial_roughness * roughness_factor;
+    HuangHairParams p;
+    switch (in.parametrization) {
+        case Parametrization::Absorption:
+            p.sigma_a = in.absorption_coefficient;
+            break;
+        case Parametrization::Melanin: {
+            // OSL does not clamp Random Color (notes §2.6).
+            const double rc = color_roughness == HuangColorRoughness::Svm ? clamp(in.random_color, 0.0, 1.0) : in.random_color;
+            const double color_factor = 1.0 + 2.0 * (in.random - 0.5) * rc;
+            p.sigma_a = absorption_from_melanin(in.melanin * color_factor, in.melanin_redness, in.tint,
+                                                color_roughness_value);
+            break;
+        }
+        case Parametrization::Color:
+            p.sigma_a = absorption_from_color(in.color, color_roughness_value);
+            break;
+    }
+    p.roughness = roughness;
+    p.offset = in.offset;
+    p.eta = in.ior;
+    p.aspect_ratio = in.aspect_ratio;
+    p.r_factor = in.reflection;
+    p.tt_factor = in.transmission;
+    p.trt_factor = in.secondary_reflection;
+    p.quadrature = quadrature;
+    p.sampler = sampler;
     return p;
 }
 

@@ -1,0 +1,185 @@
+// Huang, Hullin and Hanika 2022, "A Microfacet-based Hair Scattering Model", with the semantics of
+// Blender Cycles 4.5's Principled Hair "Huang" closure (cycles-hair-notes §2.5, §5; docs/huang.md).
+//
+// What differs from Cycles, on purpose:
+//   * eval is deterministic: the microfacet integrals Cycles estimates with one random visible
+//     normal per Simpson node are integrated by adaptive cubature (docs/huang.md §4). Its value is
+//     the EXPECTED value of Cycles' eval (HuangQuadrature::Cycles: Cycles' own Simpson nodes in h)
+//     or the converged integral (HuangQuadrature::Converged);
+//   * the default sampler is a mixture of analytic lobes (visible-normal reflection / refraction
+//     lobes around a discrete set of mesonormals, Chiang's longitudinal lobe for TRRT+ and a small
+//     uniform component), whose density pdf() returns exactly, so sample/pdf pass a chi-square test
+//     and MIS works. HuangSampler::Cycles keeps Cycles' sampler (weight = its energy estimate,
+//     pdf reported as 1).
+// Frames: the ShadingContext space (fibre frame in the Python API). Internally Huang's local frame:
+// y = tangent, x = ellipse major axis (normalize(tangent x wo) for circular fibres), z = x x y.
+#pragma once
+
+#include <vector>
+
+#include "hairbsdf/models/huang_cubature.h"
+#include "hairbsdf/closure.h"
+#include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/huang_ggx.h"
+
+namespace hairbsdf {
+
+namespace huang {
+// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, bsdf_core/tools/huang_tables.cpp).
+extern const double kGgxGlassAlbedo[2][16][16][16];
+
+// Cycles' lookup_table_read_3D on one table: coordinates saturated, trilinear.
+inline double lookup_table_3d(const double (&t)[16][16][16], double x, double y, double z) {
+    auto axis = [](double v, int& i0, int& i1, double& f) {
+        v = clamp(v, 0.0, 1.0) * 15.0;
+        i0 = std::min(int(v), 15);
+        i1 = std::min(i0 + 1, 15);
+        f = v - i0;
+    };
+    int x0, x1, y0, y1, z0, z1;
+    double fx, fy, fz;
+    axis(x, x0, x1, fx);
+    axis(y, y0, y1, fy);
+    axis(z, z0, z1, fz);
+    auto plane = [&](int k) {
+        const double a = (1 - fx) * t[k][y0][x0] + fx * t[k][y0][x1];
+        const double b = (1 - fx) * t[k][y1][x0] + fx * t[k][y1][x1];
+        return (1 - fy) * a + fy * b;
+    };
+    return (1 - fz) * plane(z0) + fz * plane(z1);
+}
+// 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (notes §5.3).
+inline double energy_scale(double sqrt_alpha, double mu, double eta) {
+    const double z = std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0)));
+    const double e = lookup_table_3d(kGgxGlassAlbedo[eta < 1.0 ? 1 : 0], sqrt_alpha, mu, z);
+    return 1.0 / e;
+}
+}  // namespace huang
+
+// h rule of the deterministic eval: Cycles' composite Simpson nodes (steps 0.7 alpha for R and
+// 0.8 alpha for the rest; the expected value of Cycles' eval), or the converged integral.
+enum class HuangQuadrature { Cycles, Converged };
+// Sampler: mixture of analytic lobes with an exact pdf, or Cycles' sampler (pdf reported as 1).
+enum class HuangSampler { Mixture, Cycles };
+
+struct HuangHairParams {
+    RGB sigma_a{0.0};          // absorption per unit fibre diameter (major axis)
+    double roughness = 0.3;    // GGX alpha; clamped to [0.001, 1] like Cycles
+    double offset = 0.0349066;  // Blender's Offset (radians); Cycles' mesonormal tilt is -offset
+    double eta = 1.55;         // IOR, used as given
+    double aspect_ratio = 1.0;  // minor / major axis; > 1 is inverted like Cycles (docs/huang.md §1)
+    double r_factor = 1.0, tt_factor = 1.0, trt_factor = 1.0;  // Reflection, Transmission, Secondary Reflection (>= 0)
+    HuangQuadrature quadrature = HuangQuadrature::Cycles;
+    double tolerance = 1e-3;   // relative error target of the adaptive TT integration
+    long max_evaluations = 200000;  // cap on TT integrand evaluations per eval
+    int simpson_refinement = 1;  // measurements only: Cycles' Simpson steps divided by this
+    long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
+    HuangSampler sampler = HuangSampler::Mixture;
+};
+
+class HuangHair {
+public:
+    explicit HuangHair(const HuangHairParams& params);
+    const HuangHairParams& params() const { return params_; }
+    double alpha() const { return alpha_; }
+    double aspect_ratio() const { return b_; }
+
+    // Quadrature node in the r-normalised h, with its weight (Simpson weight x spacing).
+    struct Node {
+        double h, weight;
+    };
+    // One lobe of the sampling mixture: a visible-normal lobe around mesonormal m for the
+    // direction v, leaving by reflection (R) or by refraction out of the fibre (TT, TRT).
+    struct Component {
+        Vec3 v, m;          // local frame
+        Vec3 s, t;          // orthonormal frame around m
+        double probability; // within its lobe
+        double inv_norm;    // 1 / (v.m (1 + Lambda(v.m))) of the visible-normal density
+    };
+
+    struct ShadingPoint {
+        Vec3 x, y, z;            // Huang's local frame (context space)
+        Vec3 I;                  // the viewer in the local frame (Cycles' wi)
+        double r = 1;            // projected half width from the viewer
+        double h = 0;
+        double sin_phi_i = 0, cos_phi_i = 1;
+        bool transparent = false;  // |h| >= r: Cycles replaces the closure by a transparent BSDF
+        bool near_field = false;
+        bool valid = false;      // a non-empty integration interval
+        double h_lo = 0, h_hi = 0;  // r-normalised, clamped to +-0.999
+        double norm = 0;         // 1 / (cos theta_I dh)
+        std::vector<Node> r_nodes, residual_nodes;  // Cycles' Simpson nodes (Cycles quadrature)
+        // Sampling mixture (lobe order R, TT, TRT, TRRT+, uniform).
+        std::array<double, 5> lobe_probability{};
+        std::vector<Component> reflection, exits;  // exits: TT components, then TRT components
+        size_t tt_count = 0;
+    };
+    ShadingPoint prepare(const ShadingContext& ctx) const;
+
+    BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const;
+    BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
+    double pdf(const ShadingPoint& sp, Vec3 wi) const;
+    BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u) const;
+    BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
+        return sample(prepare(ctx), u);
+    }
+    // The mixture sampler's direction alone (local frame), without evaluating the BSDF: returns the
+    // lobe (0..3; the uniform component reports 3) or -1. Its density is pdf_local.
+    int sample_direction(const ShadingPoint& sp, const std::array<double, 3>& u, Vec3& O) const;
+    // Narrowest lobe widths (theta, phi) for quadratures over directions.
+    std::array<double, 2> angular_scales() const { return {std::max(0.5 * alpha_, 0.01), std::max(0.5 * alpha_, 0.01)}; }
+
+    // Per-lobe values in the local frame (exposed for tests): the expected value of Cycles' eval.
+    std::array<RGB, 4> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
+    // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
+    // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
+    std::array<RGB, 4> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
+    // The mixture density in the local frame.
+    double pdf_local(const ShadingPoint& sp, Vec3 O) const;
+    Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }
+    Vec3 to_world(const ShadingPoint& sp, Vec3 w) const { return w.x * sp.x + w.y * sp.y + w.z * sp.z; }
+
+    // Geometry of the cross-section (public for tests).
+    double h_to_gamma(double h_div_r, Vec3 w) const;
+    double dgamma_dh(double sin_phi, double cos_phi, double gamma) const;
+    Vec3 mesonormal(double tilt, double gamma) const;
+    double arc_length(double gamma) const;
+
+private:
+    struct Residual;  // integrand of the adaptive residual integration
+    // TT (kind 0) or TRT and TRRT+ (kind 1) at mesonormal parameter gamma for the entry visible
+    // normal at disk point (r1, angle1) and the internal one at (r2, angle2), times `weight`;
+    // writes final eval units into f: TT rgb, TRT rgb, TRRT+ rgb.
+    void residual_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
+                        double angle2, int kind, double weight, double final_scale, double trrt_scale,
+                        std::array<double, 9>& f) const;
+    RGB trrt_series(double t, double r, RGB a) const;
+    // The path up to the second interface for the entry visible normal at disk point (r1, angle1).
+    struct EntryState {
+        double gamma, cos_mi1, t1, scale1, phi_t_b, gmt, cos_mo1, cos_mi2, g1o, scale2;
+        Vec3 wmi, wt, mwt, wmt, wmt_;
+        RGB a_t;
+    };
+    bool entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const;
+    RGB tt_exit(const EntryState& e, Vec3 O) const;
+    RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr) const;
+    void trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double u2, double u3,
+                       double weight, RGB& trt, RGB& trrt) const;
+    double r_integrand(const ShadingPoint& sp, Vec3 O, Vec3 wh, double h) const;
+    double r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const;
+    RGB absorption(double path, double cos_theta) const;
+    void build_sampler(ShadingPoint& sp) const;
+    BsdfSample sample_cycles(const ShadingPoint& sp, const std::array<double, 3>& u) const;
+
+    HuangHairParams params_;
+    double alpha_, alpha2_, sqrt_alpha_;
+    double tilt_;          // Cycles' tilt = -offset
+    double tan_tilt_, sin_tilt_, cos_tilt_;
+    double b_, e2_;
+    double eta_, inv_eta_;
+    std::array<double, 3> factors_;
+    LongitudinalLobe trrt_m_;        // Cycles' M with v = 4 alpha (truncated Bessel series)
+    LongitudinalLobe trrt_sampler_;  // exact M with v = 4 alpha: the TRRT+ sampling density
+};
+
+}  // namespace hairbsdf

@@ -1,0 +1,345 @@
+// Huang hair (models/huang.h): the cubature rule, the E_glass tables, the deterministic eval
+// against Cycles' stochastic estimator, the mixture sampler's pdf, symmetries, fuzzing.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "hairbsdf/closures.h"
+#include "hairbsdf/params/principled_hair.h"
+#include "test_util.h"
+
+using namespace hairbsdf;
+
+namespace {
+
+HuangHairParams clear_fibre(double roughness, double offset = 0.0, double aspect = 1.0) {
+    HuangHairParams p;
+    p.sigma_a = RGB(0.2, 0.5, 1.0);
+    p.roughness = roughness;
+    p.offset = offset;
+    p.aspect_ratio = aspect;
+    return p;
+}
+
+ShadingContext context(Vec3 wo, double h, bool near = false, double coverage = 1.0, Vec3 normal = {}) {
+    ShadingContext ctx;
+    ctx.wo = wo;
+    ctx.h = h;
+    ctx.near_field = near;
+    ctx.pixel_coverage = coverage;
+    ctx.normal = normal;
+    return ctx;
+}
+
+double lum(RGB c) { return luminance(c); }
+
+}  // namespace
+
+// The Genz-Malik rule integrates every polynomial of degree <= 7 exactly (the embedded rule <= 5).
+TEST(HuangCubature, GenzMalikDegree) {
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int d = 1; d <= adaptive::kMaxDim; ++d) {
+        const adaptive::GenzMalik& r = adaptive::rule(d);
+        double wsum7 = 0, wsum5 = 0;
+        for (size_t k = 0; k < r.points.size(); ++k) {
+            wsum7 += r.w7[k];
+            wsum5 += r.w5[k];
+        }
+        EXPECT_NEAR(wsum7, 1.0, 1e-14);
+        EXPECT_NEAR(wsum5, 1.0, 1e-14);
+        // Monomials x_i^a x_j^b with a + b <= 7: the mean over [-1,1]^d is prod 1/(e+1) for even e.
+        for (int i = 0; i < d; ++i) {
+            for (int j = 0; j < d; ++j) {
+                for (int a = 0; a <= 7; ++a) {
+                    for (int b = 0; a + b <= 7; ++b) {
+                        const int ei = i == j ? a + b : a, ej = i == j ? 0 : b;
+                        const double exact = (ei % 2 ? 0.0 : 1.0 / (ei + 1)) * (ej % 2 ? 0.0 : 1.0 / (ej + 1));
+                        double q7 = 0, q5 = 0;
+                        for (size_t k = 0; k < r.points.size(); ++k) {
+                            const double f = std::pow(r.points[k][size_t(i)], a) * std::pow(r.points[k][size_t(j)], b);
+                            q7 += r.w7[k] * f;
+                            q5 += r.w5[k] * f;
+                        }
+                        EXPECT_NEAR(q7, exact, 1e-13) << "d " << d << " x" << i << "^" << a << " x" << j << "^" << b;
+                        if (a + b <= 5) {
+                            EXPECT_NEAR(q5, exact, 1e-13);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+// The committed tables are what the generator computes (spot checks) and lie in [0, 1].
+TEST(HuangTables, MatchGenerator) {
+    std::mt19937_64 rng(3);
+    for (int n = 0; n < 24; ++n) {
+        const int inv = int(rng() % 2), k = int(rng() % 16), j = int(rng() % 16), i = 1 + int(rng() % 15);
+        const double rough = clamp(i / 15.0, 1e-4, 1.0), mu = clamp(j / 15.0, 1e-4, 1.0), z = clamp(k / 15.0, 1e-4, 0.99);
+        const double eta = (1.0 + z * z) / (1.0 - z * z);
+        const double e = ggx::ggx_glass_albedo(rough * rough, mu, inv ? 1.0 / eta : eta, 1e-7);
+        EXPECT_NEAR(huang::kGgxGlassAlbedo[inv][k][j][i], e, 2e-6) << inv << " " << k << " " << j << " " << i;
+    }
+    for (int inv = 0; inv < 2; ++inv)
+        for (int k = 0; k < 16; ++k)
+            for (int j = 0; j < 16; ++j) {
+                EXPECT_EQ(huang::kGgxGlassAlbedo[inv][k][j][0], 1.0);  // alpha = 1e-8: a mirror
+                for (int i = 0; i < 16; ++i) {
+                    EXPECT_GE(huang::kGgxGlassAlbedo[inv][k][j][i], 0.0);
+                    EXPECT_LE(huang::kGgxGlassAlbedo[inv][k][j][i], 1.0);
+                }
+            }
+    // Lookup: exact on the grid, trilinear in between, saturated outside.
+    const double e = huang::energy_scale(7.0 / 15.0, 4.0 / 15.0, 1.55);
+    EXPECT_GT(e, 1.0);
+    EXPECT_EQ(huang::energy_scale(2.0, 4.0 / 15.0, 1.55), huang::energy_scale(1.0, 4.0 / 15.0, 1.55));
+}
+
+// The glass albedo against an independent Monte Carlo estimate with Heitz's visible-normal sampler.
+TEST(HuangTables, GlassAlbedoAgainstMonteCarlo) {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> uni;
+    for (const auto& c : {std::array<double, 3>{0.09, 0.5, 1.55}, std::array<double, 3>{0.5, 0.3, 1.0 / 1.55},
+                          std::array<double, 3>{1.0, 0.9, 2.5}}) {
+        const double alpha = c[0], mu = c[1], eta = c[2], a2 = alpha * alpha;
+        const Vec3 v{std::sqrt(1 - mu * mu), 0, mu};
+        const double li = ggx::lambda(a2, mu);
+        const long n = test::scaled(2'000'000);
+        double s = 0, s2 = 0;
+        for (long k = 0; k < n; ++k) {
+            const double r = std::sqrt(uni(rng)), a = kTwoPi * uni(rng);
+            const Vec3 h = ggx::vndf_from_disk(v, alpha, r * std::cos(a), r * std::sin(a));
+            double ct = 0;
+            const double f = ggx::fresnel(dot(h, v), eta, &ct);
+            double w = 0;
+            const Vec3 wr = (2 * dot(h, v)) * h - v;
+            if (wr.z > 0) w += f * (1 + li) / (1 + li + ggx::lambda(a2, wr.z));
+            if (f < 1) {  // refractions leaving above are kept, like Cycles' shipped table
+                const Vec3 wt = ggx::refract(v, h, ct, 1 / eta);
+                w += (1 - f) * (1 + li) / (1 + li + ggx::lambda(a2, wt.z));
+            }
+            s += w;
+            s2 += w * w;
+        }
+        const double mean = s / n, sd = std::sqrt((s2 / n - mean * mean) / n);
+        EXPECT_NEAR(ggx::ggx_glass_albedo(alpha, mu, eta), mean, 5 * sd + 1e-7) << alpha << " " << mu << " " << eta;
+    }
+}
+
+// The deterministic eval equals the mean of Cycles' stochastic eval (same Simpson nodes).
+TEST(HuangHair, DeterministicEqualsMeanOfCyclesEstimator) {
+    struct Case {
+        double roughness, offset, aspect, theta_o, theta_i, dphi, h;
+        bool near;
+    };
+    const Case cases[] = {{0.3, 0.03, 1.0, 20, -30, 150, 0.3, true},  {0.3, 0.03, 1.0, 20, -30, 30, 0.3, true},
+                          {0.2, -0.04, 1.0, -35, 25, 175, -0.5, true}, {0.4, 0.02, 1.0, 10, -10, 120, 0.0, false},
+                          {0.3, 0.03, 0.8, 20, -25, 160, 0.1, true},   {0.5, 0.0, 0.7, 40, -45, 100, 0.0, false}};
+    for (const Case& c : cases) {
+        HuangHairParams p = clear_fibre(c.roughness, c.offset, c.aspect);
+        p.tolerance = 1e-4;
+        const HuangHair m(p);
+        const Vec3 wo = test::direction(c.theta_o * kPi / 180, -kPi / 2);
+        const Vec3 wi = test::direction(c.theta_i * kPi / 180, -kPi / 2 + c.dphi * kPi / 180);
+        const auto sp = m.prepare(context(wo, c.h, c.near, 1.0 / 60, Vec3{0.3, 0.5, 1.0}));
+        ASSERT_TRUE(sp.valid);
+        const Vec3 O = m.to_local(sp, wi);
+        const auto det = m.eval_local(sp, O);
+        const long n = test::scaled(c.near ? 20000 : 4000);
+        uint32_t rng = 12345;
+        std::array<double, 4> mean{}, m2{};
+        for (long k = 0; k < n; ++k) {
+            const auto s = m.eval_cycles_stochastic(sp, O, rng);
+            for (int l = 0; l < 4; ++l) {
+                mean[size_t(l)] += lum(s[size_t(l)]);
+                m2[size_t(l)] += sqr(lum(s[size_t(l)]));
+            }
+        }
+        double total = 0;
+        for (int l = 0; l < 4; ++l) total += lum(det[size_t(l)]);
+        for (int l = 0; l < 4; ++l) {
+            const double mu = mean[size_t(l)] / n, sd = std::sqrt(std::max(m2[size_t(l)] / n - mu * mu, 0.0) / n);
+            EXPECT_NEAR(lum(det[size_t(l)]), mu, 5 * sd + 2e-3 * total)
+                << "lobe " << l << " case " << c.theta_o << " " << c.theta_i << " " << c.dphi;
+        }
+    }
+}
+
+// Circular fibres: a common rotation about the fibre axis changes nothing; mirroring both
+// directions across the plane of the tangent and wo maps h to -h.
+TEST(HuangHair, Symmetries) {
+    HuangHairParams p = clear_fibre(0.35, 0.04);
+    const HuangHair m(p);
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> uni(-1, 1);
+    for (int n = 0; n < 6; ++n) {
+        const Vec3 wo = test::random_unit(rng), wi = test::random_unit(rng);
+        const double h = 0.9 * uni(rng);
+        const auto a = m.eval(m.prepare(context(wo, h)), wi);
+        const double ang = 2.0 * uni(rng);
+        auto rot = [&](Vec3 v) {
+            return Vec3{v.x, std::cos(ang) * v.y - std::sin(ang) * v.z, std::sin(ang) * v.y + std::cos(ang) * v.z};
+        };
+        const auto b = m.eval(m.prepare(context(rot(wo), h)), rot(wi));
+        // Mirror: reflect the component along y' = normalize(tangent x wo).
+        const Vec3 y = normalize(cross(Vec3{1, 0, 0}, wo));
+        auto mirror = [&](Vec3 v) { return v - (2.0 * dot(v, y)) * y; };
+        const auto c = m.eval(m.prepare(context(mirror(wo), -h, true, 0.2)), mirror(wi));
+        const auto d = m.eval(m.prepare(context(wo, h, true, 0.2)), wi);
+        const double scale = lum(a.value()) + 1e-12;
+        EXPECT_NEAR(lum(a.value()), lum(b.value()), 1e-9 * scale + 1e-14)
+            << "lobes a " << lum(a.lobes[0]) << " " << lum(a.lobes[1]) << " " << lum(a.lobes[2]) << " " << lum(a.lobes[3])
+            << " b " << lum(b.lobes[0]) << " " << lum(b.lobes[1]) << " " << lum(b.lobes[2]) << " " << lum(b.lobes[3]);
+        EXPECT_NEAR(a.pdf, b.pdf, 1e-9 * a.pdf + 1e-14);
+        // The mirrored configuration meets other quadrature points: R and TT (converged rules) agree
+        // to their tolerance, TRT and TRRT+ (fixed quasi-Monte Carlo) to their few-% error.
+        const double total = lum(d.value()) + 1e-12;
+        EXPECT_NEAR(lum(c.lobes[0]), lum(d.lobes[0]), 1e-6 * total);
+        EXPECT_NEAR(lum(c.lobes[1]), lum(d.lobes[1]), 2e-3 * total);
+        EXPECT_NEAR(lum(c.lobes[2]) + lum(c.lobes[3]), lum(d.lobes[2]) + lum(d.lobes[3]),
+                    0.25 * (lum(d.lobes[2]) + lum(d.lobes[3])) + 1e-3 * total);
+    }
+}
+
+// The mixture's density integrates to at most 1 and `sample` reports it.
+TEST(HuangHair, SampleReportsPdfAndWeight) {
+    HuangHairParams p = clear_fibre(0.3, 0.03, 0.85);
+    p.tolerance = 1e-2;
+    p.trt_points = 512;
+    const HuangHair m(p);
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> uni;
+    int produced = 0;
+    for (int n = 0; n < 60; ++n) {
+        const Vec3 wo = test::random_unit(rng);
+        const auto sp = m.prepare(context(wo, 0.8 * (2 * uni(rng) - 1), n % 2 == 0, 0.05, Vec3{0, 1, 0.2}));
+        const BsdfSample s = m.sample(sp, {uni(rng), uni(rng), uni(rng)});
+        if (s.lobe < 0) continue;
+        ++produced;
+        const double pdf = m.pdf(sp, s.wi);
+        EXPECT_NEAR(s.pdf, pdf, 1e-12 * pdf);
+        const BsdfEval e = m.eval(sp, s.wi);
+        EXPECT_NEAR(lum(s.weight), lum(e.value()) / pdf, 1e-9 * lum(s.weight) + 1e-12);
+    }
+    EXPECT_GT(produced, 40);
+}
+
+// No NaN or Inf, no negative values, for random and degenerate inputs. The deterministic eval runs
+// on a subset with a small evaluation budget (it costs up to milliseconds); setup, pdf, both
+// samplers' direction generation and Cycles' stochastic eval on every case.
+TEST(HuangHair, FuzzNoNanOrInf) {
+    std::mt19937_64 rng(2026);
+    std::uniform_real_distribution<double> uni;
+    const double specials_h[] = {-1.0, 1.0, 0.0, 0.999, -0.9999999};
+    const Vec3 specials_w[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, 0, -1}, {1e-9, 1, 0}};
+    const long cases = test::scaled(1'000'000);
+    const long full_every = 4000;
+    long full = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<HuangHair> models;
+    for (int k = 0; k < 64; ++k) {
+        HuangHairParams p;
+        const double pick[] = {0.0, 1e-4, 0.001, 0.02, 0.3, 1.0, 1.5, -0.2};
+        p.roughness = k % 3 == 0 ? pick[rng() % 8] : uni(rng);
+        p.eta = (rng() % 4 == 0) ? (rng() % 2 ? 1.0 : 0.8) : 1.0 + 2 * uni(rng);
+        p.offset = (rng() % 3 == 0) ? 0.0 : 0.35 * (2 * uni(rng) - 1);
+        p.aspect_ratio = (rng() % 3 == 0) ? 1.0 : (rng() % 2 ? 2.5 * uni(rng) : pick[rng() % 8]);
+        const double sig[] = {0.0, 1e4, INFINITY, 0.5};
+        p.sigma_a = RGB(sig[rng() % 4], uni(rng), sig[rng() % 4]);
+        p.r_factor = rng() % 5 == 0 ? 0.0 : uni(rng) * 2;
+        p.tt_factor = rng() % 5 == 0 ? -1.0 : uni(rng) * 2;
+        p.trt_factor = rng() % 5 == 0 ? 0.0 : uni(rng) * 2;
+        p.quadrature = rng() % 2 ? HuangQuadrature::Cycles : HuangQuadrature::Converged;
+        p.sampler = rng() % 4 == 0 ? HuangSampler::Cycles : HuangSampler::Mixture;
+        p.tolerance = 0.05;
+        p.max_evaluations = 2000;
+        p.trt_points = 32;
+        models.emplace_back(p);
+    }
+    // Each prepared shading point (random wo, h, normal, coverage) meets 8 light directions and
+    // random numbers: 1e6 (wo, wi, h, u) inputs with 125 000 setups.
+    for (long n = 0; n < cases; ++n) {
+        const HuangHair& m = models[size_t(rng() % models.size())];
+        const Vec3 wo = rng() % 10 == 0 ? specials_w[rng() % 5] : test::random_unit(rng);
+        const double h = rng() % 10 == 0 ? specials_h[rng() % 5] : 2 * uni(rng) - 1;
+        Vec3 normal = rng() % 3 == 0 ? Vec3{} : test::random_unit(rng);
+        if (rng() % 10 == 0) normal = Vec3{1, 0, 0};  // parallel to the tangent: fallback frame
+        const double cov = rng() % 2 ? uni(rng) : 1.0;
+        const auto sp = m.prepare(context(wo, h, rng() % 2 == 0, cov, normal));
+        for (int k = 0; k < 8 && n < cases; ++k, ++n) {
+            Vec3 wi = rng() % 10 == 0 ? specials_w[rng() % 5] : test::random_unit(rng);
+            if (rng() % 20 == 0) wi = wo;
+            if (rng() % 20 == 0) wi = -1.0 * wo;
+            const double pdf = m.pdf(sp, wi);
+            ASSERT_TRUE(std::isfinite(pdf) && pdf >= 0) << n;
+            const std::array<double, 3> u{rng() % 50 == 0 ? 0.0 : uni(rng), rng() % 50 == 0 ? 1 - 0x1p-24 : uni(rng),
+                                          uni(rng)};
+            Vec3 O;
+            const int lobe = m.sample_direction(sp, u, O);
+            if (lobe >= 0) {
+                ASSERT_TRUE(isfinite(O) && std::fabs(length(O) - 1.0) < 1e-9) << n;
+                ASSERT_TRUE(std::isfinite(m.pdf_local(sp, O)));
+            }
+            if (sp.valid && n % 256 == 0) {
+                uint32_t state = uint32_t(n);
+                const auto s = m.eval_cycles_stochastic(sp, m.to_local(sp, wi), state);
+                for (const RGB& l : s) ASSERT_TRUE(isfinite(l) && l.r >= 0 && l.g >= 0 && l.b >= 0) << n;
+            }
+            if (n % full_every == 0) {
+                ++full;
+                const BsdfEval e = m.eval(sp, wi);
+                for (const RGB& l : e.lobes)
+                    ASSERT_TRUE(isfinite(l) && l.r >= 0 && l.g >= 0 && l.b >= 0)
+                        << n << " lobe " << l.r << " " << l.g << " " << l.b << " alpha " << m.params().roughness
+                        << " eta " << m.params().eta << " b " << m.params().aspect_ratio << " wo " << wo.x << ","
+                        << wo.y << "," << wo.z << " wi " << wi.x << "," << wi.y << "," << wi.z << " h " << h;
+                const BsdfSample s = m.sample(sp, u);
+                ASSERT_TRUE(isfinite(s.weight) && std::isfinite(s.pdf) && s.pdf >= 0) << n;
+                if (s.lobe >= 0) {
+                    ASSERT_NEAR(length(s.wi), 1.0, 1e-9);
+                }
+            }
+        }
+        --n;
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("[ fuzz ] %ld cases (%ld with the full eval and sample) in %.1f s\n", cases, full, seconds);
+}
+
+// Defaults of the shading context keep every Chiang value unchanged (the new fields are ignored).
+TEST(HuangHair, ContextDefaultsKeepChiang) {
+    const ChiangHair c(chiang_params_from_principled(PrincipledHairInputs{}));
+    ShadingContext a = context(test::direction(0.3, 1.0), 0.4);
+    ShadingContext b = a;
+    b.normal = Vec3{0, 1, 0};
+    b.pixel_coverage = 0.01;
+    b.near_field = true;
+    const Vec3 wi = test::direction(-0.2, 2.0);
+    EXPECT_EQ(lum(c.eval(a, wi).value()), lum(c.eval(b, wi).value()));
+}
+
+// Blender's node inputs: the Huang mapping (notes §2.5).
+TEST(HuangHair, PrincipledMapping) {
+    PrincipledHairInputs in;
+    in.roughness = 0.4;
+    in.random_roughness = 0.5;
+    in.random = 0.9;  // factor 1.4
+    in.aspect_ratio = 1.25;
+    in.reflection = -1;
+    const HuangHairParams p = huang_params_from_principled(in);
+    EXPECT_NEAR(p.roughness, 0.56, 1e-12);
+    const RGB s = absorption_from_color(in.color, 0.56);
+    EXPECT_NEAR(p.sigma_a.r, s.r, 1e-15);
+    const HuangHair m(p);
+    EXPECT_NEAR(m.aspect_ratio(), 0.8, 1e-12);
+    EXPECT_NEAR(m.alpha(), 0.56, 1e-12);
+    PrincipledHairInputs osl = in;
+    osl.radial_roughness = 0.2;
+    const HuangHairParams q = huang_params_from_principled(osl, HuangQuadrature::Cycles, HuangSampler::Mixture,
+                                                           HuangColorRoughness::Osl);
+    EXPECT_NEAR(q.sigma_a.r, absorption_from_color(in.color, 0.28).r, 1e-15);
+    in.roughness = 5;
+    EXPECT_EQ(HuangHair(huang_params_from_principled(in)).alpha(), 1.0);
+}
