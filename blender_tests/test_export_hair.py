@@ -225,3 +225,40 @@ def test_curves(run_blender, blender_kind, tmp_path):
     # Curves' Length attribute (curve_intercept_total) is the object-space polyline length
     assert c["curve_intercept_total"].shape == counts.shape
     assert np.all(c["curve_intercept_total"] > 0)
+
+
+HUANG_NORMALS_SCENE = r'''
+import os
+import scene_lib as lib
+register_engine()
+from hairbsdf.blender.export_scene import export_scene, save_scene
+scene = hs.reset(width=16, height=12, spp=1)
+huang = lib.hair_material("HuangHair", dict(model="HUANG", parametrization="COLOR", aspect_ratio=0.6))
+chiang = lib.hair_material("ChiangHair", dict(parametrization="COLOR"))
+lines = [[(0.1 * k, 0.3 * j, 0.0) for k in range(5)] for j in range(2)]  # along +X
+lib.curves_from_polylines(scene, "HuangCurves", lines, 0.01, huang, curve_normal="Z_UP")
+lib.curves_from_polylines(scene, "ChiangCurves", [[(0.1 * k, 1.0, 0.0) for k in range(4)]], 0.01, chiang)
+hs.make_camera(location=(0.2, -3.0, 0.5), target=(0.2, 0.5, 0.0))
+desc, rep = export_scene(bpy.context.evaluated_depsgraph_get(), render=False)
+save_scene(os.path.join(TMP, "huang.npz"), desc)
+emit({"warnings": rep.all_warnings()})
+'''
+
+
+def test_curve_normals_for_huang(run_blender, tmp_path):
+    """Curves with a Huang material export their world-space curve normals (the ellipse's major
+    axis, here Set Curve Normal > Z Up; Blender 4.5's foreach_get on Curves.normals reads
+    freed memory, item 0 came back as garbage); other strands get zero (Cycles' fallback frame)."""
+    run_blender("bpy", HUANG_NORMALS_SCENE)
+    desc, _ = load_scene(tmp_path / "huang.npz")
+    c = desc["curves"]
+    assert "normals" in c, sorted(c)
+    n = np.asarray(c["normals"])
+    counts = np.diff(c["curve_offsets"])
+    assert n.shape == (len(c["points"]), 3)
+    names = [desc["materials"][i]["name"] for i in np.repeat(c["curve_material"], counts)]
+    huang = np.array([m == "HuangHair" for m in names])
+    assert huang.sum() == 10 and (~huang).sum() == 4
+    assert np.all(n[~huang] == 0)
+    # Z Up: perpendicular to Z and to the tangent (+X), i.e. along Y
+    np.testing.assert_allclose(np.abs(n[huang]), np.tile([0.0, 1.0, 0.0], (10, 1)), atol=1e-4)

@@ -83,6 +83,10 @@ nt.links.new(g.outputs[0], out.inputs["Surface"])
 if V >= (4, 0, 0):
     m, nt, out = new_mat("Huang")
     h = nt.nodes.new("ShaderNodeBsdfHairPrincipled"); h.model = "HUANG"; h.name = "HuangNode"
+    h.parametrization = "MELANIN"
+    fg.node_input(h, "Aspect Ratio").default_value = 0.6
+    fg.node_input(h, "Secondary Reflection").default_value = 0.4
+    fg.node_input(h, "Transmission").default_value = 1.3
     nt.links.new(h.outputs[0], out.inputs["Surface"])
 
 # 6. Principled BSDF (diffuse of Base Color) and a material without nodes
@@ -190,8 +194,14 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert "'ShinyThing' (Glossy BSDF) is not supported" in warnings
     # 5. Huang
     if v >= (4, 0, 0):
-        assert _closures(desc, "Huang")[0]["type"] == "diffuse"
-        assert "'HuangNode': the Huang model is not supported yet" in warnings
+        hu = _closures(desc, "Huang")[0]
+        assert hu["type"] == "principled_hair" and hu["model"] == "HUANG" and hu["parametrization"] == "MELANIN"
+        assert hu["inputs"]["aspect_ratio"] == pytest.approx(0.6)
+        assert hu["inputs"]["secondary_reflection"] == pytest.approx(0.4)
+        assert hu["inputs"]["transmission"] == pytest.approx(1.3)
+        assert hu["inputs"]["reflection"] == pytest.approx(1.0)
+        assert "coat" not in hu["inputs"] and "radial_roughness" not in hu["inputs"]
+        assert not any("HuangNode" in w for w in warnings)
     # 6. Principled BSDF, no nodes, empty slot
     assert _closures(desc, "PBSDF")[0]["color"] == pytest.approx((0.1, 0.6, 0.2))
     assert _closures(desc, "NoNodes")[0]["color"] == pytest.approx((0.2, 0.3, 0.4))

@@ -26,6 +26,15 @@ SCENES = {
                     "camera and one delta sun per variant (front-, back- and side-lit): every pixel is one BSDF "
                     "evaluation, so the render is noise-free and compared per pixel (median and p99 of the "
                     "relative error)."),
+    "fiber_gonio_huang": dict(
+        module="fiber_gonio_grid", kind="noisy", model="huang", min_blender=(4, 0, 0),
+        variants=["huang_front", "huang_back", "huang_side"],
+        ci=dict(res=(192, 144), spp=16, seeds=4), full=dict(res=(384, 288), spp=32, seeds=8),
+        title="Fibre goniometer grid, Huang model",
+        description="The fibre_gonio grid with four Huang materials (circular and elliptical fibres, lobe "
+                    "factors), direct light from one delta sun per variant. Cycles' Huang eval is stochastic, "
+                    "so the renders are compared statistically (Welch test and image-mean bias), not per pixel. "
+                    "Blender 4.x only."),
     "furnace": dict(
         module="furnace", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None, image_mean=True,
         ci=dict(res=(64, 64), spp=8, seeds=4), full=dict(res=(192, 192), spp=32, seeds=8),
@@ -65,7 +74,7 @@ SCENES = {
                     "reflection) and Add Shader (Principled Hair, Hair BSDF transmission)."),
     "huang_ellipse": dict(
         module="huang_ellipse", kind="noisy", model="huang", min_blender=(4, 0, 0), variants=None,
-        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        ci=dict(res=(128, 96), spp=8, seeds=8), full=dict(res=(320, 240), spp=32, seeds=8),
         title="Huang model, elliptical fibres",
         description="Three swatches of the Huang model with aspect ratios 0.5, 0.8 and 1.0; the ellipse axes "
                     "follow the curve normals (Z Up and Minimum Twist). Blender 4.x only."),

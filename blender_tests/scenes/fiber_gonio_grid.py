@@ -51,6 +51,21 @@ MATERIALS = [
 ]
 
 
+# Huang variants ("huang_front", ...; Blender 4.x): circular and elliptical fibres (the ellipse
+# follows the Curves' default minimum-twist normals), lobe factors, near field (camera rays).
+# Cycles' Huang eval is stochastic, so these variants are compared statistically (noisy kind).
+HUANG_MATERIALS = [
+    dict(model="HUANG", parametrization="COLOR", color=(0.017513, 0.005763, 0.002059), roughness=0.3, ior=1.55,
+         offset=0.035, aspect_ratio=1.0),
+    dict(model="HUANG", parametrization="MELANIN", melanin=0.3, melanin_redness=0.5, tint=(1.0, 1.0, 1.0),
+         roughness=0.2, ior=1.55, offset=0.04, random_roughness=0.2, aspect_ratio=0.85),
+    dict(model="HUANG", parametrization="ABSORPTION", absorption_coefficient=(0.1, 0.25, 0.6), roughness=0.4,
+         ior=1.45, offset=0.02, aspect_ratio=0.6, reflection=0.8, transmission=1.2, secondary_reflection=0.5),
+    dict(model="HUANG", parametrization="COLOR", color=(0.8, 0.6, 0.4), roughness=0.5, ior=1.55, offset=-0.03,
+         aspect_ratio=1.0),
+]
+
+
 def _ray_segment_distance(p, d, a, b, t_max=50.0, n=80):
     """Minimum distance between the ray p + t d (0 <= t <= t_max) and segment [a, b] (sampled)."""
     best = 1e30
@@ -109,6 +124,10 @@ def strand_layout(variant):
 
 def build(scene, cfg):
     variant = cfg.get("variant") or "front"
+    huang = variant.startswith("huang_")
+    if huang:
+        variant = variant[len("huang_"):]
+    materials = HUANG_MATERIALS if huang else MATERIALS
     w, h = cfg["res"]
     lib.parity_settings(scene, width=w, height=h, spp=cfg["spp"], seed=cfg["seed"], threads=cfg.get("threads", 0),
                         bounces=dict(max_bounces=0, diffuse_bounces=0, glossy_bounces=0,
@@ -117,7 +136,9 @@ def build(scene, cfg):
                         filter_width=0.01, film_transparent=True, osl=cfg.get("osl", False))
     lib.set_world(scene, (0.0, 0.0, 0.0), 0.0)
     strands, wi = strand_layout(variant)
-    mats = [lib.hair_material("GonioMat%d" % k, p) for k, p in enumerate(MATERIALS)]
+    for st in strands:
+        st["material"] = st["index"] % len(materials)
+    mats = [lib.hair_material("GonioMat%d" % k, p) for k, p in enumerate(materials)]
     for s in strands:
         t = Vector(s["tangent"])
         c = Vector(s["centre"])
@@ -136,6 +157,6 @@ def build(scene, cfg):
         pl = math.hypot(t[0], t[1])
         half = s["length"] * pl / 2 - RADIUS * abs(t[2])
         roi.append(dict(centre=s["centre"][:2], axis=[t[0] / pl, t[1] / pl], half_length=half, radius=RADIUS))
-    return dict(variant=variant, sun_direction=list(wi), sun_strength=SUN_STRENGTH, strands=strands,
-                materials=MATERIALS, tilt=fg.default_tilt_convention(), camera_z=zmax + 0.5,
+    return dict(variant=("huang_" if huang else "") + variant, sun_direction=list(wi), sun_strength=SUN_STRENGTH,
+                strands=strands, materials=materials, tilt=fg.default_tilt_convention(), camera_z=zmax + 0.5,
                 gonio_roi=dict(image_width=width, end_margin_px=2, strands=roi))

@@ -300,6 +300,7 @@ def hair_material(name, params, coat_from_hair_info=None):
     p = dict(params)
     model = p.pop("model", "CHIANG")
     aspect = p.pop("aspect_ratio", None)
+    huang_only = {k: p.pop(k) for k in ("reflection", "transmission", "secondary_reflection") if k in p}
     if model != "CHIANG" and not has_model_enum():
         raise RuntimeError("the %s hair model needs Blender 4.0+" % model)
     if has_model_enum():
@@ -308,6 +309,8 @@ def hair_material(name, params, coat_from_hair_info=None):
     node = mat.node_tree.nodes["Hair"]
     if aspect is not None:
         fg.node_input(node, "Aspect Ratio").default_value = float(aspect)
+    for key, value in huang_only.items():
+        fg.node_input(node, key.replace("_", " ").title()).default_value = float(value)
     if coat_from_hair_info is not None:
         nt = mat.node_tree
         info = nt.nodes.new("ShaderNodeHairInfo")

@@ -157,6 +157,12 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
     cd.offsets.assign(po, po + n_off);
     cd.random.assign(rnd.data(), rnd.data() + n_curves);
     cd.material.assign(mat.data(), mat.data() + n_curves);
+    if (auto nrm = get_optional(c, "normals")) {
+        auto na = array_shape<float>(*nrm, sub(key, "normals"), 3);
+        if (size_t(na.shape(0)) != n_points) fail(sub(key, "normals"), "expected one normal per point");
+        cd.normals.resize(n_points);
+        std::memcpy(cd.normals.data(), na.data(), n_points * sizeof(float) * 3);
+    }
 }
 
 void read_meshes(const py::dict& scene, SceneDesc& out) {
@@ -195,6 +201,10 @@ PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key
     real("offset", h.offset);
     real("random_color", h.random_color);
     real("random_roughness", h.random_roughness);
+    real("aspect_ratio", h.aspect_ratio);
+    real("reflection", h.reflection);
+    real("transmission", h.transmission);
+    real("secondary_reflection", h.secondary_reflection);
     random_from_curve = true;
     if (in.contains("random") && !in["random"].is_none()) {
         h.random = as_real(in["random"], sub(key, "random"));
@@ -229,7 +239,9 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
             cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
             if (cd.type == ClosureDesc::Type::PrincipledHair) {
                 if (c.contains("model")) {
-                    as_enum<int>(c["model"], sub(ck, "model"), {{"CHIANG", 0}});
+                    cd.hair_model = as_enum<ClosureDesc::HairModel>(
+                        c["model"], sub(ck, "model"),
+                        {{"CHIANG", ClosureDesc::HairModel::Chiang}, {"HUANG", ClosureDesc::HairModel::Huang}});
                 }
                 if (c.contains("parametrization")) {
                     cd.hair.parametrization = as_enum<Parametrization>(

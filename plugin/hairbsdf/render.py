@@ -29,12 +29,13 @@ LIGHT_TYPES = ("SUN", "POINT", "SPOT", "AREA")
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 FILTER_TYPES = ("BLACKMAN_HARRIS", "GAUSSIAN", "BOX")
 CLOSURE_TYPES = ("principled_hair", "diffuse", "emission")
-HAIR_MODELS = ("CHIANG",)
+HAIR_MODELS = ("CHIANG", "HUANG")
 PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
 ACCURACIES = ("cycles", "exact")
 HAIR_INPUTS = ("color", "melanin", "melanin_redness", "tint", "absorption_coefficient", "roughness",
-               "radial_roughness", "coat", "ior", "offset", "random_color", "random_roughness", "random")
+               "radial_roughness", "coat", "ior", "offset", "random_color", "random_roughness", "random",
+               "aspect_ratio", "reflection", "transmission", "secondary_reflection")  # the last four: Huang
 _HAIR_COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 
 
@@ -159,6 +160,11 @@ def _check_curves(scene, out):
     if c.get("curve_intercept_total") is not None:
         curves["curve_intercept_total"] = _Checker.array(f"{key}['curve_intercept_total']",
                                                          c["curve_intercept_total"], np.float32, None)
+    if c.get("normals") is not None:
+        normals = _Checker.array(f"{key}['normals']", c["normals"], np.float32, 3)
+        if len(normals) != len(points):
+            raise ValueError(f"{key}['normals']: expected one normal per point ({len(points)}), got {len(normals)}")
+        curves["normals"] = normals
     out["curves"] = curves
     if "curve_shape" in scene:
         out["curve_shape"] = _Checker.choice("scene['curve_shape']", scene["curve_shape"], CURVE_SHAPES)

@@ -378,3 +378,54 @@ def test_validate_scene_normalises_dtypes():
     v = validate_scene(s)
     assert v["curves"]["points"].dtype == np.float32
     assert v["curves"]["curve_offsets"].dtype == np.int32
+
+
+# --------------------------------------------------------------------------------------
+# Huang in the engine: near field with the camera ray's footprint, the curve normal as the
+# ellipse's major axis, and the transparent continuation outside the projected ellipse.
+
+def test_huang_strand_pixels_equal_bsdf_eval():
+    wo, wi = _unit((0.2, 0.3, 1.0)), _unit((-0.3, 0.6, 0.7))
+    height, across = 96, 72
+    pixel = 2 * R / across
+    camera, yc = _ortho_camera(wo, height * pixel, (2, height))
+    x = np.array([1.0, 0, 0])
+    normal = _unit(wo - np.dot(wo, x) * x)  # major axis towards the viewer: projected width b
+    strand = _straight_strand()
+    strand["normals"] = np.tile(normal, (len(strand["points"]), 1)).astype(np.float32)
+    inputs = dict(parametrization="COLOR", color=(0.6, 0.4, 0.25), roughness=0.35, aspect_ratio=0.5)
+    material = {"name": "huang", "closures": [{"type": "principled_hair", "weight": (1, 1, 1), "model": "HUANG",
+                                               "parametrization": "COLOR",
+                                               "inputs": {k: v for k, v in inputs.items() if k != "parametrization"}
+                                               | {"random": None}}]}
+    strength = 2.0
+    scene = {"version": 1, "curves": strand, "curve_shape": "THICK", "curve_subdivisions": 2,
+             "materials": [material], "camera": camera,
+             "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
+             "world": {"color": (0, 0, 0)},
+             "integrator": _integrator(samples=256, transparent_bounces=4)}
+    out = render(scene)
+    img = out["combined"]
+    assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
+    rows = np.arange(height)
+    s = ((height - 1 - rows) + 0.5 - height / 2) * pixel
+    y = _unit(np.cross(x, wo))
+    z = np.cross(x, y)
+    h = -s * np.dot(yc, y) / R
+    frame = lambda w: np.array([w @ x, w @ y, w @ z])  # noqa: E731
+    bsdf = hairbsdf.principled_hair(model="huang", random=hairbsdf.cycles_curve_random(0), **inputs)
+    r = float(np.ravel(bsdf.huang_details(frame(wo), 0.0, normal=frame(normal))["radius"])[0])
+    assert 0.45 < r < 0.55
+    # outside the projected ellipse the ray goes on (transparent): nothing behind, alpha 0
+    outside = (np.abs(h) > r + 0.03) & (np.abs(h) < 0.95)
+    assert outside.sum() > 10 and np.all(img[outside, :, 3] == 0.0)
+    inside = np.abs(h) < r - 0.03
+    n = int(inside.sum())
+    expected = strength * bsdf.eval(np.tile(frame(wo), (n, 1)), np.tile(frame(wi), (n, 1)), h[inside],
+                                    normal=frame(normal), pixel_coverage=0.5 * pixel / R, near_field=True)
+    got = img[inside, :, :3].astype(np.float64).mean(axis=1)
+    assert np.all(img[inside, :, 3] == 1.0)
+    total = abs(got.sum() / expected.sum() - 1)
+    assert total < 0.02, f"strand total off by {total:.3%}"
+    rel = np.abs(got - expected) / np.maximum(np.abs(expected), 1e-3 * expected.max())
+    assert np.median(rel) < 0.05, f"median relative error {np.median(rel):.2e}"

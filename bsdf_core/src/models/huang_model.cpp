@@ -192,8 +192,7 @@ RGB HuangHair::absorption(double path, double cos_t) const {
 
 // --- setup ------------------------------------------------------------------------------------
 
-HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
-    ShadingPoint sp;
+void HuangHair::set_frame(const ShadingContext& ctx, ShadingPoint& sp) const {
     const Vec3 T = ctx.tangent;
     Vec3 x;
     if (b_ == 1.0) {
@@ -219,6 +218,13 @@ HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
     sp.r = e2_ == 0.0 ? 1.0 : std::sqrt(std::max(1.0 - e2_ * I.x * I.x / std::max(I.x * I.x + I.z * I.z, 1e-300), 0.0));
     sp.h = ctx.h;
     sp.transparent = !(std::fabs(ctx.h) < sp.r);
+}
+
+HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
+    ShadingPoint sp;
+    set_frame(ctx, sp);
+    const Vec3 I = sp.I;
+    const double ct = cos_theta(I);
     if (sp.transparent || !(ct > 0) || !isfinite(I)) return sp;
 
     // Visible interval of h (notes §5.2).

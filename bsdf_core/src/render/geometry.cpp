@@ -118,7 +118,9 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         n_cp += n + 2;
     }
     if (n_segments > 0) {
+        const bool with_normals = cd.normals.size() == cd.points.size() && !cd.normals.empty();
         control_points_.reserve(n_cp);
+        if (with_normals) normals_.reserve(n_cp);
         segment_first_.reserve(n_segments);
         segment_curve_.reserve(n_segments);
         for (size_t c = 0; c < n_curves; ++c) {
@@ -128,6 +130,11 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             control_points_.push_back(cd.points[b]);
             for (size_t k = b; k < e; ++k) control_points_.push_back(cd.points[k]);
             control_points_.push_back(cd.points[e - 1]);
+            if (with_normals) {
+                normals_.push_back(cd.normals[b]);
+                for (size_t k = b; k < e; ++k) normals_.push_back(cd.normals[k]);
+                normals_.push_back(cd.normals[e - 1]);
+            }
             for (size_t s = 0; s + 1 < e - b; ++s) {
                 segment_first_.push_back(base + uint32_t(s));
                 segment_curve_.push_back(int32_t(c));
@@ -177,7 +184,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     }
     rtcCommitScene(im.scene);
     check_device(im.device, "scene build");
-    im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) +
+    im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) + normals_.capacity() * sizeof(normals_[0]) +
                    segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t);
 }
 
@@ -252,6 +259,17 @@ CurvePoint catmull_rom(const std::array<float, 4>* cp, double u) {
 
 CurvePoint Geometry::curve_point(int segment, double u) const {
     return catmull_rom(&control_points_[segment_first_[size_t(segment)]], u);
+}
+
+double Geometry::curve_radius_linear(int segment, double u) const {
+    const auto* cp = &control_points_[segment_first_[size_t(segment)]];
+    return (1.0 - u) * double(cp[1][3]) + u * double(cp[2][3]);
+}
+
+Vec3 Geometry::curve_normal(int segment, double u) const {
+    if (normals_.empty()) return {0, 0, 0};
+    const auto* n = &normals_[segment_first_[size_t(segment)]];
+    return {(1.0 - u) * n[1][0] + u * n[2][0], (1.0 - u) * n[1][1] + u * n[2][1], (1.0 - u) * n[1][2] + u * n[2][2]};
 }
 
 Vec3 offset_ray_origin(Vec3 p, Vec3 ng) {

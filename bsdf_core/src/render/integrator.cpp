@@ -42,6 +42,12 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         Vec3 x = normalize(cp.dp);
         if (!(dot(x, x) > 0)) x = normalize(cross(sp.g.wo, std::fabs(sp.g.wo.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
         sp.g.tangent = x;
+        sp.g.curve_normal = s.geometry.curve_normal(hit.segment, hit.u);
+        // Huang's pixel coverage for camera rays: half the ray footprint at the hit over the
+        // linearly interpolated key radius (Cycles' 0.5 dP / r).
+        const double r_lin = s.geometry.curve_radius_linear(hit.segment, hit.u);
+        const double footprint = ray.dP + hit.t * ray.dD;
+        if (footprint > 0 && r_lin > 0) sp.g.pixel_coverage = 0.5 * footprint / r_lin;
         Vec3 y = cross(x, sp.g.wo);
         const double ly = length(y);
         y = ly > 1e-12 ? (1.0 / ly) * y : normalize(cross(x, std::fabs(x.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
@@ -174,7 +180,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             return res;
         }
 
-        const SurfacePoint sp = surface_point(s, ray, hit);
+        SurfacePoint sp = surface_point(s, ray, hit);
         const MaterialShader& material = s.materials[size_t(sp.material)];
 
         // Russian roulette (decided before shading, applied after the emission).
@@ -193,7 +199,9 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             if (blur_pdf < 1.0) blur = 0.5 * std::sqrt(1.0 - blur_pdf);
         }
         Bsdf& bsdf = scratch.bsdf;
-        bsdf.set(material, sp.g, blur);
+        sp.g.near_field = camera && hit.kind == PrimKind::Curve;
+        const uint32_t huang_seed = material.has_huang() ? uint32_t(rng.next() * 4294967296.0) : 0u;
+        bsdf.set(material, sp.g, blur, huang_seed);
         if (bsdf.empty()) return res;
 
         // Next-event estimation.
@@ -222,8 +230,16 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             ++counters.nan;
             return res;
         }
+        if (sc.label & LabelTransparent) {
+            // Straight on (Huang outside the projected ellipse): as Cycles, the same ray goes on
+            // past the hit (tmin moved, the skipped primitive kept, so the tube's far wall can be
+            // hit); the path keeps its camera state, MIS pdfs and bounce counts.
+            if (++transparent >= is.transparent_bounces) terminate_after = true;
+            ray.tmin = std::nextafter(float(hit.t), std::numeric_limits<float>::infinity());
+            continue;
+        }
         mis_ray_pdf = sc.pdf;
-        min_ray_pdf = std::min(min_ray_pdf, sc.pdf);
+        min_ray_pdf = std::min(min_ray_pdf, sc.blur_pdf);
         if (++bounce >= is.max_bounces + 1) terminate_after = true;
         if (sc.label & LabelReflect) {
             if (sc.label & LabelDiffuse) {
@@ -251,7 +267,12 @@ PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint3
     const double u_x = rng.next(), u_y = rng.next();
     const double ox = s.filter.sample(sample == 0 ? 0.5 : u_x);
     const double oy = s.filter.sample(sample == 0 ? 0.5 : u_y);
-    const Ray ray = cam.generate(double(column) + ox, double(cam.pixel_row_to_raster_y(row)) + oy);
+    const double x = double(column) + ox, y = double(cam.pixel_row_to_raster_y(row)) + oy;
+    Ray ray = cam.generate(x, y);
+    // Compact differentials from the neighbouring pixels (only Huang's near field uses them).
+    const Ray rx = cam.generate(x + 1.0, y), ry = cam.generate(x, y + 1.0);
+    ray.dP = 0.5 * (length(rx.org - ray.org) + length(ry.org - ray.org));
+    ray.dD = 0.5 * (length(rx.dir - ray.dir) + length(ry.dir - ray.dir));
     return trace_path(s, ray, rng, scratch, counters);
 }
 

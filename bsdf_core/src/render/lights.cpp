@@ -431,6 +431,7 @@ int LightSet::intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* 
         if (l.is_distant() || (!camera_ray && !l.use_mis()) || (camera_ray && !l.visible_camera())) continue;
         LightHit h;
         if (!l.intersect(ray, tmax, h)) continue;
+        if (!(h.t > ray.tmin)) continue;  // before a transparent hit the ray went on from
         h.light = int(i);
         if (n < max_hits) {
             hits[n++] = h;

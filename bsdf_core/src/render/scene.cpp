@@ -76,6 +76,11 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         cd.random.resize(n_curves, 0.0f);   // missing entries: random 0, default material
         cd.material.resize(n_curves, -1);
         int32_t next_begin = cd.offsets[0];  // offsets[c] before compaction overwrote it
+        const bool with_normals = !cd.normals.empty();
+        if (with_normals && cd.normals.size() != cd.points.size()) {
+            cd.normals.clear();
+            warnings.push_back("curves: normals ignored (expected one per point)");
+        }
         for (size_t c = 0; c < n_curves; ++c) {
             const int32_t b = next_begin, e = cd.offsets[c + 1];
             next_begin = e;
@@ -115,8 +120,16 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
                 ++dropped_radius;
                 continue;
             }
-            if (size_t(b) != kept_points)
+            if (size_t(b) != kept_points) {
                 std::copy(cd.points.begin() + b, cd.points.begin() + e, cd.points.begin() + std::ptrdiff_t(kept_points));
+                if (!cd.normals.empty())
+                    std::copy(cd.normals.begin() + b, cd.normals.begin() + e,
+                              cd.normals.begin() + std::ptrdiff_t(kept_points));
+            }
+            for (int32_t k = 0; k < e - b && !cd.normals.empty(); ++k) {  // non-finite normal: the fallback frame
+                auto& n = cd.normals[kept_points + size_t(k)];
+                if (!finite3(n.data())) n = {0.0f, 0.0f, 0.0f};
+            }
             kept_points += size_t(e - b);
             float rnd = cd.random[c];
             if (!std::isfinite(rnd)) {
@@ -142,6 +155,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (bad_random) warnings.push_back("curves: " + plural(bad_random, "NaN curve_random value") + " set to 0");
         if (bad_material) warnings.push_back("curves: " + plural(bad_material, "curve") + " with a material index outside materials use the default surface");
         cd.points.resize(kept_points);
+        if (!cd.normals.empty()) cd.normals.resize(kept_points);
         cd.offsets.resize(kept_curves + 1);
         cd.random.resize(kept_curves);
         cd.material.resize(kept_curves);

@@ -25,10 +25,15 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 h.inputs = c.hair;
                 h.random_from_curve = c.random_from_curve;
                 h.depends_on_random = c.random_from_curve && hair_depends_on_random(c.hair);
+                h.huang = c.hair_model == ClosureDesc::HairModel::Huang;
+                has_huang_ = has_huang_ || h.huang;
                 if (!h.depends_on_random) {
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
-                    h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
+                    if (h.huang)
+                        h.fixed_huang.emplace(huang_params_from_principled(in));
+                    else
+                        h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
                 if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
                 break;
@@ -46,6 +51,12 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
     }
 }
 
+HuangHairParams blur_huang(const HuangHairParams& p, double roughness) {
+    HuangHairParams b = p;
+    b.roughness = std::max(roughness, p.roughness);
+    return b;
+}
+
 ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness) {
     ChiangHairParams b = p;
     const double v = std::max(roughness, p.v_sample[0]);
@@ -57,8 +68,9 @@ ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness) {
     return b;
 }
 
-void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness) {
+void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, uint32_t seed) {
     count_ = 0;
+    huang_rng_ = seed;
     total_sample_weight_ = 0;
     hair_ctx_.tangent = g.tangent;
     hair_ctx_.wo = g.wo;
@@ -67,6 +79,35 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
     ng_ = g.ng;
     for (const MaterialShader::HairClosure& h : material.hair()) {
         const int slot = count_;
+        if (h.huang) {
+            const HuangHair* model = nullptr;
+            if (h.fixed_huang && !(blur_roughness > 0)) {
+                model = &*h.fixed_huang;
+            } else {
+                HuangHairParams params;
+                if (h.fixed_huang) {
+                    params = h.fixed_huang->params();
+                } else {
+                    PrincipledHairInputs in = h.inputs;
+                    in.random = g.random;
+                    params = huang_params_from_principled(in);
+                }
+                if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
+                huang_storage_[size_t(slot)].emplace(params);
+                model = &*huang_storage_[size_t(slot)];
+            }
+            ShadingContext ctx = hair_ctx_;
+            ctx.normal = g.curve_normal;
+            ctx.pixel_coverage = g.pixel_coverage;
+            ctx.near_field = g.near_field;
+            huang_points_[size_t(slot)] = model->prepare(ctx);
+            const bool transparent = huang_points_[size_t(slot)].transparent;
+            entries_[size_t(slot)] = {transparent ? Entry::Kind::Transparent : Entry::Kind::Huang, h.weight,
+                                      std::fabs(average(h.weight)), nullptr, model};
+            total_sample_weight_ += entries_[size_t(slot)].sample_weight;
+            ++count_;
+            continue;
+        }
         const ChiangHair* model = nullptr;
         if (h.fixed && !(blur_roughness > 0)) {
             model = &*h.fixed;
@@ -84,21 +125,35 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
             model = &*storage_[size_t(slot)];
         }
         points_[size_t(slot)].emplace(model->prepare(hair_ctx_));
-        entries_[size_t(slot)] = {Entry::Kind::Hair, h.weight, std::fabs(average(h.weight)), model};
+        entries_[size_t(slot)] = {Entry::Kind::Hair, h.weight, std::fabs(average(h.weight)), model, nullptr};
         total_sample_weight_ += entries_[size_t(slot)].sample_weight;
         ++count_;
     }
     for (const MaterialShader::DiffuseClosure& d : material.diffuse()) {
-        entries_[size_t(count_)] = {Entry::Kind::Diffuse, d.weight, std::fabs(average(d.weight)), nullptr};
+        entries_[size_t(count_)] = {Entry::Kind::Diffuse, d.weight, std::fabs(average(d.weight)), nullptr, nullptr};
         total_sample_weight_ += entries_[size_t(count_)].sample_weight;
         ++count_;
     }
     if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
+RGB Bsdf::eval_huang(int i, Vec3 wi) const {
+    const Entry& e = entries_[size_t(i)];
+    const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
+    const std::array<RGB, 4> lobes = e.huang->eval_cycles_stochastic(sp, e.huang->to_local(sp, wi), huang_rng_);
+    return e.weight * (lobes[0] + lobes[1] + lobes[2] + lobes[3]);
+}
+
 BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     const Entry& e = entries_[size_t(i)];
     BsdfValue out;
+    if (e.kind == Entry::Kind::Transparent) return out;  // a delta: no value in any sampled direction
+    if (e.kind == Entry::Kind::Huang) {
+        const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
+        out.pdf = e.huang->pdf(sp, wi);
+        if (out.pdf > 0) out.value = eval_huang(i, wi);
+        return out;
+    }
     if (e.kind == Entry::Kind::Hair) {
         const BsdfEval r = e.hair->eval(*points_[size_t(i)], wi);
         out.value = e.weight * r.value();
@@ -147,7 +202,25 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
     }
     const Entry& e = entries_[size_t(picked)];
     BsdfValue own;
-    if (e.kind == Entry::Kind::Hair) {
+    if (e.kind == Entry::Kind::Transparent) {
+        // Cycles' transparent BSDF: straight on, value = weight, pdf = the pick probability.
+        out.wi = -1.0 * hair_ctx_.wo;
+        out.value = e.weight;
+        out.pdf = e.sample_weight / total_sample_weight_;
+        out.blur_pdf = out.pdf;
+        out.label = LabelTransparent;
+        return out;
+    }
+    if (e.kind == Entry::Kind::Huang) {
+        const HuangHair::ShadingPoint& sp = huang_points_[size_t(picked)];
+        Vec3 local;
+        if (e.huang->sample_direction(sp, {u0, u1, u2}, local) < 0) return out;
+        out.wi = e.huang->to_world(sp, local);
+        own.pdf = e.huang->pdf_local(sp, local);
+        if (!(own.pdf > 0)) return out;
+        own.value = eval_huang(picked, out.wi);
+        out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
+    } else if (e.kind == Entry::Kind::Hair) {
         const BsdfSample s = e.hair->sample(*points_[size_t(picked)], {u0, u1, u2});
         if (s.lobe < 0 || !(s.pdf > 0)) return out;
         out.wi = s.wi;
@@ -174,6 +247,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         }
     }
     out.pdf = pdf / total_sample_weight_;
+    out.blur_pdf = e.kind == Entry::Kind::Huang ? 1.0 : out.pdf;  // Cycles' Huang sampler reports pdf 1
     out.value = value;
     if (!(out.pdf > 0) || !std::isfinite(out.pdf)) out.label = LabelNone;
     return out;

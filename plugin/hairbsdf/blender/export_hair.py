@@ -35,6 +35,7 @@ class HairBuffer:
         self.random: list[np.ndarray] = []      # (C_i,) float32
         self.material: list[np.ndarray] = []    # (C_i,) int32
         self.length: list[np.ndarray] = []      # (C_i,) float32
+        self.normals: list = []                 # (P_i, 3) float32 world curve normals, or None
         self._random_cache = np.zeros(0, np.float32)
 
     def curve_random(self, n: int) -> np.ndarray:
@@ -46,9 +47,10 @@ class HairBuffer:
                 dtype=np.float32)
         return self._random_cache[:n]
 
-    def add(self, points, counts, random, material, length):
+    def add(self, points, counts, random, material, length, normals=None):
         if counts.size == 0:
             return
+        self.normals.append(normals)
         self.points.append(points)
         self.counts.append(counts)
         self.random.append(random)
@@ -68,7 +70,13 @@ class HairBuffer:
             counts = np.concatenate(self.counts)
             offsets = np.zeros(counts.size + 1, np.int32)
             np.cumsum(counts, out=offsets[1:])
-            return {"points": pts, "curve_offsets": offsets,
+            extra = {}
+            if any(n is not None for n in self.normals):  # zero = Cycles' fallback frame
+                extra["normals"] = np.ascontiguousarray(np.concatenate(
+                    [n if n is not None else np.zeros((c.sum(), 3), np.float32)
+                     for n, c in zip(self.normals, self.counts)]), dtype=np.float32)
+            self.normals = []
+            return {**extra, "points": pts, "curve_offsets": offsets,
                     "curve_random": np.concatenate(self.random).astype(np.float32),
                     "curve_material": np.concatenate(self.material).astype(np.int32),
                     "curve_intercept_total": np.concatenate(self.length).astype(np.float32)}
@@ -211,6 +219,23 @@ class CurvesCache:
             self._cache[key] = hit
         return hit
 
+    def normals(self, data):
+        """Object-space curve normals (P, 3) float32 (Blender's evaluated `Curves.normals`:
+        the curve's normal mode, or the Set Curve Normal node's), or None without the API."""
+        key = ("normals", data.as_pointer(), data.name, len(data.points))
+        hit = self._cache.get(key)
+        if hit is None:
+            coll = getattr(data, "normals", None)
+            if coll is None or len(coll) != len(data.points):
+                return None
+            # Not foreach_get: Blender 4.5 builds this array for the collection's iterator and
+            # frees it when the iterator ends, so foreach_get and coll[i] read freed memory
+            # (item 0 comes back as garbage). Reading inside one live iteration is correct;
+            # it is a per-point loop (about 1 us a point), paid only for Huang materials.
+            hit = np.array([v.vector[:] for v in coll], np.float32).reshape(-1, 3)
+            self._cache[key] = hit
+        return hit
+
 
 def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cache: CurvesCache):
     """One Curves instance (evaluated object + its world matrix as float64 (4,4))."""
@@ -227,9 +252,19 @@ def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cac
     pts4[:, 3] = rad * np.float32(radius_scale(matrix))
     random = buffer.curve_random(n).copy()
     mat = np.full(n, materials.slot_indices(obj)[0], np.int32)
+    normals = None
+    if materials.uses_huang(int(mat[0])):  # the ellipse's orientation; only Huang reads it
+        local = cache.normals(data)
+        if local is not None:
+            m3 = np.asarray(matrix, np.float64)[:3, :3]
+            normals = np.nan_to_num(local.astype(np.float64) @ m3.T).astype(np.float32)
+            pts4 = np.concatenate([pts4, normals], axis=1)  # filtered with the keys below
     pts4, counts, random, mat, length = clean_strands(obj.name, pts4, counts, random, mat,
                                                       length.astype(np.float32), report)
-    buffer.add(pts4, counts, random, mat, length)
+    if normals is not None:
+        normals = np.ascontiguousarray(pts4[:, 4:7])
+        pts4 = np.ascontiguousarray(pts4[:, :4])
+    buffer.add(pts4, counts, random, mat, length, normals)
     report.add_count("curves_objects", 1)
     report.timings["curves"] = report.timings.get("curves", 0.0) + time.perf_counter() - t0
     return int(counts.size)

@@ -1,8 +1,8 @@
 """Blender materials -> the closure lists of docs/scene_desc.md.
 
 Supported (everything else is reported with a warning naming the node and socket):
-  * Principled Hair BSDF, Chiang model (Blender 3.4 has no model enum = Chiang), all three
-    parametrizations, every input as its socket value;
+  * Principled Hair BSDF, Chiang and Huang models (Blender 3.4 has no model enum = Chiang),
+    all three parametrizations, every input as its socket value;
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
   * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
   * linked inputs driven by a Value or RGB node, through reroutes, and Hair Info > Random
@@ -33,6 +33,13 @@ PRINCIPLED_HAIR_INPUTS = (
     ("offset", "Offset", "float"),
     ("random_color", "Random Color", "float"),
     ("random_roughness", "Random Roughness", "float"),
+)
+# Huang model only (Blender 4.0+); Radial Roughness and Coat are unused there.
+HUANG_HAIR_INPUTS = (
+    ("aspect_ratio", "Aspect Ratio", "float"),
+    ("reflection", "Reflection", "float"),
+    ("transmission", "Transmission", "float"),
+    ("secondary_reflection", "Secondary Reflection", "float"),
 )
 MAX_DEPTH = 64
 
@@ -216,12 +223,14 @@ class MaterialTranslator:
 
     def _principled_hair(self, node, weight) -> dict:
         model = getattr(node, "model", "CHIANG")
-        if model != "CHIANG":
-            self.warn(f"'{node.name}': the {model.title()} model is not supported yet; "
+        if model not in ("CHIANG", "HUANG"):
+            self.warn(f"'{node.name}': the {model.title()} model is not supported; "
                       "rendered as 0.8 grey diffuse")
             return _diffuse(weight, GREY)
         inputs = {}
-        for key, ident, kind in PRINCIPLED_HAIR_INPUTS:
+        for key, ident, kind in PRINCIPLED_HAIR_INPUTS + (HUANG_HAIR_INPUTS if model == "HUANG" else ()):
+            if model == "HUANG" and key in ("radial_roughness", "coat"):
+                continue
             inputs[key] = self.value(node, ident, kind)
         rnd = self.value(node, "Random", "float", 0.0, allow_random=True)
         sock = find_socket(node.inputs, "Random")
@@ -229,7 +238,7 @@ class MaterialTranslator:
             inputs["random"] = None  # per-curve Hair Info > Random (cycles-hair-notes §2.2)
         else:
             inputs["random"] = float(rnd)
-        return {"type": "principled_hair", "weight": weight, "model": "CHIANG",
+        return {"type": "principled_hair", "weight": weight, "model": model,
                 "parametrization": node.parametrization, "inputs": inputs}
 
 
@@ -265,6 +274,10 @@ class MaterialTable:
             self.materials.append(self.translator.translate(material))
             self._index[key] = idx
         return idx
+
+    def uses_huang(self, index: int) -> bool:
+        """Whether scene material `index` has a Principled Hair closure with the Huang model."""
+        return any(c.get("model") == "HUANG" for c in self.materials[index].get("closures", ()))
 
     def slot_indices(self, obj) -> list:
         """Scene material index of each material slot of an evaluated object (at least one

@@ -169,6 +169,7 @@ private:
     double r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const;
     RGB absorption(double path, double cos_theta) const;
     void build_sampler(ShadingPoint& sp) const;
+    void set_frame(const ShadingContext& ctx, ShadingPoint& sp) const;  // frame, I, r, transparent
     BsdfSample sample_cycles(const ShadingPoint& sp, const std::array<double, 3>& u) const;
 
     HuangHairParams params_;

@@ -24,6 +24,9 @@ namespace hairbsdf::render {
 struct Ray {
     Vec3 org, dir;  // dir is a unit vector
     double tmin = 0, tmax = 1e30;
+    // Compact ray differentials (Cycles' differential_make_compact): the footprint of one
+    // pixel at the origin (dP) and its growth per unit distance (dD). Camera rays only.
+    double dP = 0, dD = 0;
 };
 
 enum class PrimKind : uint8_t { None, Curve, Triangle };
@@ -71,6 +74,10 @@ public:
     CurveShape curve_shape() const { return shape_; }
     int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }
     CurvePoint curve_point(int segment, double u) const;
+    // The key radius interpolated linearly in u (what Cycles' Huang near field uses).
+    double curve_radius_linear(int segment, double u) const;
+    // The curve normal interpolated linearly in u; zero when the scene has no normals.
+    Vec3 curve_normal(int segment, double u) const;
 
     // Bytes Embree allocated, at most, while this scene existed; plus our own buffers.
     size_t peak_memory_bytes() const;
@@ -85,6 +92,7 @@ private:
     std::vector<std::array<float, 4>> control_points_;  // Embree's vertex buffer: per curve n + 2 points
     std::vector<uint32_t> segment_first_;               // Embree's index buffer: first control point
     std::vector<int32_t> segment_curve_;                // curve of each segment
+    std::vector<std::array<float, 3>> normals_;         // per control point, when the scene has normals
 };
 
 // Uniform Catmull-Rom through four control points (position and radius in xyz/w).

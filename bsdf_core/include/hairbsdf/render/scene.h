@@ -20,6 +20,9 @@ struct CurveData {
     std::vector<int32_t> offsets;              // C + 1 entries
     std::vector<float> random;                 // Hair Info > Random per curve
     std::vector<int32_t> material;             // index into SceneDesc::materials
+    // Optional curve normals per point (world space; empty = none, particle hair): the major
+    // axis of Huang's elliptical cross-section, interpolated linearly along a segment.
+    std::vector<std::array<float, 3>> normals;
     size_t curve_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
 };
 
@@ -32,7 +35,9 @@ struct MeshData {
 // One entry of a material's flat weighted closure sum.
 struct ClosureDesc {
     enum class Type { PrincipledHair, Diffuse, Emission };
+    enum class HairModel { Chiang, Huang };  // Principled Hair's model enum (Blender 4.0+)
     Type type = Type::Diffuse;
+    HairModel hair_model = HairModel::Chiang;
     RGB weight{1.0};
     // principled_hair: node inputs; `random_from_curve` = the Random socket is unlinked
     // (Cycles then uses the per-curve curve_random; 0 on meshes).

@@ -4,6 +4,11 @@
 // the other closures' values and pdfs (surface_shader.h). Closures:
 //   principled_hair -> ChiangHair (params/principled_hair.h, `cycles` accuracy): label GLOSSY,
 //     REFLECT for lobe R, TRANSMIT for TT/TRT/TRRT+ (cycles-hair-notes §6);
+//   principled_hair, model Huang -> HuangHair (docs/huang.md §10): every lobe GLOSSY REFLECT;
+//     eval is Cycles' stochastic estimator (one random microfacet normal per Simpson node,
+//     unbiased for the model's value and microseconds instead of milliseconds), the pdf is
+//     the mixture sampler's exact density; near field for camera rays; a hit outside the
+//     projected ellipse makes the closure a transparent one (label TRANSPARENT);
 //   diffuse -> Lambert, cosine-sampled, label DIFFUSE REFLECT;
 //   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure).
 #pragma once
@@ -12,6 +17,7 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/huang.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {
@@ -19,7 +25,9 @@ namespace hairbsdf::render {
 constexpr int kMaxBsdfClosures = 8;
 constexpr double kClosureWeightCutoff = 1e-5;  // Cycles' CLOSURE_WEIGHT_CUTOFF
 
-enum ScatterLabel : uint8_t { LabelNone = 0, LabelReflect = 1, LabelTransmit = 2, LabelDiffuse = 4, LabelGlossy = 8 };
+enum ScatterLabel : uint8_t {
+    LabelNone = 0, LabelReflect = 1, LabelTransmit = 2, LabelDiffuse = 4, LabelGlossy = 8, LabelTransparent = 16
+};
 
 // One material, prepared once per render.
 class MaterialShader {
@@ -30,7 +38,9 @@ public:
         PrincipledHairInputs inputs;
         bool random_from_curve = true;
         bool depends_on_random = false;
+        bool huang = false;               // the Huang model (else Chiang)
         std::optional<ChiangHair> fixed;  // when the parameters do not depend on the curve
+        std::optional<HuangHair> fixed_huang;
     };
     struct DiffuseClosure {
         RGB weight;  // weight x color
@@ -39,6 +49,7 @@ public:
     const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
     RGB emission() const { return emission_; }
     bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty(); }
+    bool has_huang() const { return has_huang_; }
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
 
@@ -46,6 +57,7 @@ private:
     std::vector<HairClosure> hair_;
     std::vector<DiffuseClosure> diffuse_;
     RGB emission_{0.0};
+    bool has_huang_ = false;
     TiltConvention tilt_;
     Accuracy accuracy_;
 };
@@ -58,6 +70,9 @@ struct ShadingGeometry {
     Vec3 tangent;   // hair: normalize(dP/du), root to tip
     double h = 0;   // hair offset, docs/conventions.md
     double random = 0;  // Hair Info > Random of the curve (0 on meshes)
+    Vec3 curve_normal{0, 0, 0};  // Huang: the ellipse's major axis (zero: fallback frame)
+    double pixel_coverage = 1;   // Huang near field: 0.5 dP / r of a camera ray
+    bool near_field = false;     // Huang: camera ray on a curve
 };
 
 struct BsdfValue {
@@ -69,34 +84,45 @@ struct BsdfScatter {
     Vec3 wi;
     RGB value;
     double pdf = 0;
+    double blur_pdf = 0;  // the pdf Cycles' Filter Glossy sees (Huang reports 1)
     uint8_t label = LabelNone;
 };
 
 // The BSDF at one hit. Reused per thread: set() does not allocate.
 class Bsdf {
 public:
-    // blur_roughness > 0 applies Cycles' Filter Glossy to the hair closures.
-    void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness);
+    // blur_roughness > 0 applies Cycles' Filter Glossy to the hair closures. `seed` drives
+    // the random microfacet normals of Huang's stochastic eval at this hit.
+    void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
+             uint32_t seed = 0);
     bool empty() const { return count_ == 0; }
     BsdfValue eval(Vec3 wi) const;
     BsdfScatter sample(double u0, double u1, double u2) const;
 
 private:
     struct Entry {
-        enum class Kind : uint8_t { Hair, Diffuse } kind;
+        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse } kind;
         RGB weight;
         double sample_weight;
         const ChiangHair* hair;
+        const HuangHair* huang;
     };
     BsdfValue eval_entry(int i, Vec3 wi) const;
+    RGB eval_huang(int i, Vec3 wi) const;
     std::array<Entry, kMaxBsdfClosures> entries_{};
     std::array<std::optional<ChiangHair>, kMaxBsdfClosures> storage_;
     std::array<std::optional<ChiangHair::ShadingPoint>, kMaxBsdfClosures> points_;  // view terms, once per hit
+    std::array<std::optional<HuangHair>, kMaxBsdfClosures> huang_storage_;
+    std::array<HuangHair::ShadingPoint, kMaxBsdfClosures> huang_points_;
+    mutable uint32_t huang_rng_ = 0;  // Cycles-style LCG state of the stochastic eval
     int count_ = 0;
     double total_sample_weight_ = 0;
     ShadingContext hair_ctx_;
     Vec3 n_, ng_;
 };
+
+// Huang under Filter Glossy: alpha <- max(roughness, alpha) (Cycles' blur of the closure).
+HuangHairParams blur_huang(const HuangHairParams& p, double roughness);
 
 // Chiang parameters blurred by Filter Glossy: v, s and the R-lobe variance become
 // max(roughness, value) of the already mapped values (cycles-hair-notes §6).
