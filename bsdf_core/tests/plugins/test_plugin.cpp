@@ -3,7 +3,10 @@
 // whose albedo is `albedo` for every wo (the ripple integrates to 0 over phi). It is
 // sampled with the ripple-free density cos(theta_i) / pi^2: sin(theta_i) is the x of a
 // uniform point in the unit disk. Every row of eval reports the value as TRRT+.
-// Compiled also with TEST_PLUGIN_ABI, TEST_PLUGIN_NO_ENTRY and TEST_PLUGIN_NULL_SAMPLE.
+// Compiled also with TEST_PLUGIN_ABI, TEST_PLUGIN_NO_ENTRY and TEST_PLUGIN_NULL_SAMPLE (broken
+// libraries), TEST_PLUGIN_NAN (eval gives NaN at grazing wi), TEST_PLUGIN_FAIL (eval returns an
+// error code for ripple < 0) and TEST_PLUGIN_BAD_RANGE (a schema whose range is empty); the
+// Python tests build these (plugin/tests/test_plugins.py).
 #include <cmath>
 #include <cstdio>
 
@@ -24,7 +27,11 @@ struct Instance {
 
 const hairbsdf_param kParams[] = {
     {"albedo", HAIRBSDF_PARAM_RGB, {0.5, 0.5, 0.5}, 0.0, 1.0, "directional albedo"},
+#ifdef TEST_PLUGIN_BAD_RANGE
+    {"ripple", HAIRBSDF_PARAM_FLOAT, {0.5, 0, 0}, 1.0, -1.0, "amplitude of the cos(delta phi) term"},
+#else
     {"ripple", HAIRBSDF_PARAM_FLOAT, {0.5, 0, 0}, -1.0, 1.0, "amplitude of the cos(delta phi) term"},
+#endif
 };
 
 void* create(const double* v, char* error, size_t error_size) {
@@ -47,8 +54,14 @@ void value_at(const Instance& m, const double* wo, const double* wi, double* val
 int eval(const void* p, size_t n, const double* wo, const double* wi, const double*, const double*, double* value,
          double* lobes) {
     const Instance& m = *static_cast<const Instance*>(p);
+#ifdef TEST_PLUGIN_FAIL
+    if (m.ripple < 0) return 7;
+#endif
     for (size_t i = 0; i < n; ++i) {
         value_at(m, wo + 3 * i, wi + 3 * i, value + 3 * i);
+#ifdef TEST_PLUGIN_NAN
+        if (std::fabs(wi[3 * i]) > 0.99) value[3 * i + 1] = std::nan("");
+#endif
         if (lobes) {
             for (int k = 0; k < 12; ++k) lobes[12 * i + k] = 0.0;
             for (int c = 0; c < 3; ++c) lobes[12 * i + 9 + c] = value[3 * i + c];
