@@ -130,7 +130,9 @@ TEST(Plugin, WorksInAClosureSumAndTheAlbedoQuadrature) {
     ShadingContext ctx;
     ctx.wo = test::direction(0.4, 1.0);
     ctx.h = 0.3;
-    const RGB albedo = directional_albedo(ClosureSum({Closure{RGB(1.0), plugin}}), ctx);
+    QuadratureOptions coarse;  // the adapter assumes 0.02 rad lobes; this one is smooth
+    coarse.panels_per_scale = 0.25;
+    const RGB albedo = directional_albedo(ClosureSum({Closure{RGB(1.0), plugin}}), ctx, coarse);
     EXPECT_NEAR(albedo.r, 0.8, 1e-4);
     EXPECT_NEAR(albedo.b, 0.4, 1e-4);
 
@@ -148,3 +150,30 @@ TEST(Plugin, WorksInAClosureSumAndTheAlbedoQuadrature) {
         EXPECT_NEAR(s.pdf, sum.pdf(ctx, s.wi), 1e-9 * (1 + s.pdf));
     }
 }
+
+#ifdef HAIRBSDF_KAJIYA_KAY_PLUGIN
+// The example plugin built by the top-level CMake: in a renderer-style world frame its albedo
+// at theta_o = 0 is (1 - w) Kd + w Ks (both lobes are normalised there), and sampling agrees.
+TEST(Plugin, KajiyaKayExampleThroughTheAdapter) {
+    const auto lib = load_plugin(HAIRBSDF_KAJIYA_KAY_PLUGIN);
+    EXPECT_EQ(lib->name(), "kajiya_kay");
+    const PluginHair kk(lib, lib->values({{"color", {0.8, 0.5, 0.2}}, {"specular", {0.4, 0, 0}}}));
+    ShadingContext ctx;
+    ctx.tangent = normalize(Vec3{0.3, -0.2, 0.9});
+    ctx.wo = normalize(cross(ctx.tangent, Vec3{1, 0, 0}));  // perpendicular to the fibre: theta_o = 0
+    QuadratureOptions coarse;  // the adapter assumes 0.02 rad lobes; these are far wider
+    coarse.panels_per_scale = 0.25;
+    const RGB albedo = directional_albedo(ClosureSum({Closure{RGB(1.0), kk}}), ctx, coarse);
+    EXPECT_NEAR(albedo.r, 0.6 * 0.8 + 0.4, 2e-4);
+    EXPECT_NEAR(albedo.b, 0.6 * 0.2 + 0.4, 2e-4);
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    for (int i = 0; i < 200; ++i) {
+        const BsdfSample s = kk.sample(ctx, {uni(rng), uni(rng), uni(rng)});
+        ASSERT_TRUE(s.lobe == LobeR || s.lobe == LobeTRRT);
+        const BsdfEval e = kk.eval(ctx, s.wi);
+        EXPECT_NEAR(s.pdf, e.pdf, 1e-9 * e.pdf);
+        EXPECT_NEAR(s.value.g, e.value().g, 1e-9 * e.value().g);
+    }
+}
+#endif
