@@ -279,6 +279,9 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
     d["v_sample"] = p.v_sample;
     d["s"] = p.s;
     d["tilt"] = p.tilt;
+    std::vector<std::array<double, 3>> tint;
+    for (const RGB& t : p.tint) tint.push_back({t.r, t.g, t.b});
+    d["tint"] = tint;  // per lobe R, TT, TRT, TRRT+ (MaterialX tints; 1 for Principled Hair)
     return d;
 }
 
