@@ -61,6 +61,25 @@ def ripple(plugins):
     return hairbsdf.load_plugin(plugins["valid"])
 
 
+def test_a_plain_c_plugin(tmp_path, rng):
+    """plugin.h is plain C: a C99 plugin builds pedantically, loads and passes the battery."""
+    cc = next((c for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
+    if cc is None:
+        pytest.skip("no C compiler")
+    target = tmp_path / "uniform_c.so"
+    cmd = [cc, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O1", "-shared", "-fPIC",
+           f"-I{ROOT / 'bsdf_core' / 'include'}", str(SOURCE.parent / "uniform_plugin.c"), "-o", str(target), "-lm"]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    plugin = hairbsdf.load_plugin(target)
+    assert plugin.name == "uniform_c" and not plugin.has_lobes
+    closure = plugin(albedo=0.5)
+    lobes = closure.eval_lobes(rng.normal(size=(5, 3)), rng.normal(size=(5, 3)), 0.1)
+    np.testing.assert_allclose(lobes[:, 0], 0.5 / (4 * np.pi), rtol=1e-15)  # no lobes: all in R
+    assert np.all(lobes[:, 1:] == 0)
+    assert hairbsdf.test_plugin(plugin, options=QUICK, verbose=False, albedo=0.5).passed
+
+
 def fibre(theta, phi):
     return np.array([np.sin(theta), np.cos(theta) * np.cos(phi), np.cos(theta) * np.sin(phi)])
 
