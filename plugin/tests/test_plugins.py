@@ -29,6 +29,9 @@ VARIANTS = {
 # Small sizes: the battery's statistics on a cheap plugin in about a second.
 QUICK = testing.BatteryOptions(theta_panels=64, phi_panels=64, furnace_samples=50_000, consistency_samples=5_000,
                                chi2_samples=100_000, fuzz_samples=5_000)
+# Smaller still, for plugins that are meant to fail.
+TINY = testing.BatteryOptions(theta_panels=16, phi_panels=16, furnace_samples=10_000, consistency_samples=1_000,
+                              chi2_samples=20_000, chi2_bins=(16, 32), fuzz_samples=2_000)
 
 
 def compiler():
@@ -45,7 +48,7 @@ def plugins(tmp_path_factory):
     jobs = {}
     for name, flags in VARIANTS.items():
         target = out / f"test_plugin_{name}.so"
-        cmd = [cxx, "-std=c++17", "-O1", "-shared", "-fPIC", "-fvisibility=hidden", f"-I{ROOT / 'bsdf_core' / 'include'}",
+        cmd = [cxx, "-std=c++17", "-O0", "-shared", "-fPIC", "-fvisibility=hidden", f"-I{ROOT / 'bsdf_core' / 'include'}",
                *flags, str(SOURCE), "-o", str(target)]
         jobs[name] = (target, subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True))
     paths = {}
@@ -182,11 +185,11 @@ def test_battery_passes_a_good_plugin(ripple, capsys):
 
 
 def test_battery_reports_nan_and_errors_without_crashing(plugins, capsys):
-    nan = hairbsdf.test_plugin(plugins["nan"], options=QUICK, verbose=False)
+    nan = hairbsdf.test_plugin(plugins["nan"], options=TINY, verbose=False)
     assert not nan.passed
     assert not nan["fuzz"].passed and "eval not finite" in nan["fuzz"].detail
     assert not nan["furnace"].passed and "not finite" in nan["furnace"].detail
-    failing = hairbsdf.test_plugin(plugins["fail"], options=QUICK, ripple=-0.5)
+    failing = hairbsdf.test_plugin(plugins["fail"], options=TINY, ripple=-0.5)
     assert not failing.passed and not failing["fuzz"].passed
     assert "FAIL  fuzz" in capsys.readouterr().out
 
@@ -195,7 +198,7 @@ def test_battery_detects_energy_gain_and_a_wrong_pdf():
     """A Python BSDF that reflects 1.2 of the light and one whose pdf is off by 10%."""
     def bright(wo, wi, h):
         return np.repeat((1.2 / (4 * np.pi)) * np.ones(len(wo))[:, None], 3, axis=1)
-    result = hairbsdf.test_plugin(hairbsdf.python_bsdf(bright, name="bright"), options=QUICK, verbose=False)
+    result = hairbsdf.test_plugin(hairbsdf.python_bsdf(bright, name="bright"), options=TINY, verbose=False)
     assert not result["furnace"].passed and "exceeds 1.01" in result["furnace"].detail
     assert result["chi2"].passed
 
@@ -210,7 +213,7 @@ def test_battery_detects_energy_gain_and_a_wrong_pdf():
 
     def half(wo, wi, h):
         return np.full((len(wo), 3), 0.5 / (4 * np.pi))
-    wrong = hairbsdf.test_plugin(hairbsdf.python_bsdf(half, sample, pdf, name="wrong_pdf"), options=QUICK,
+    wrong = hairbsdf.test_plugin(hairbsdf.python_bsdf(half, sample, pdf, name="wrong_pdf"), options=TINY,
                                  verbose=False)
     assert not wrong["pdf normalised"].passed
     assert not wrong["weight = eval/pdf"].passed
