@@ -3,9 +3,11 @@
 // what was found and what is expected.
 #include <dlfcn.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
@@ -42,6 +44,45 @@ bool is_identifier(const char* s) {
 using Key = std::tuple<std::string, dev_t, ino_t, long long>;
 std::mutex g_mutex;
 std::map<Key, std::shared_ptr<const PluginLibrary>> g_loaded;
+std::set<std::string> g_opened;  // real paths handed to dlopen
+
+// dlopen returns the library already loaded under the same path even when the file has been
+// rebuilt since; a rebuilt file is therefore loaded from a private copy (removed once mapped).
+void* open_library(const std::string& resolved, std::string& error) {
+    std::string file = resolved;
+    std::string copy;
+    if (g_opened.count(resolved)) {
+        const char* tmp = std::getenv("TMPDIR");
+        std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/hairbsdf_plugin_XXXXXX";
+        std::vector<char> name(pattern.begin(), pattern.end());
+        name.push_back('\0');
+        const int fd = ::mkstemp(name.data());
+        if (fd < 0) {
+            error = "cannot create a temporary copy of the rebuilt library";
+            return nullptr;
+        }
+        ::close(fd);
+        copy = name.data();
+        std::ifstream in(resolved, std::ios::binary);
+        std::ofstream out(copy, std::ios::binary | std::ios::trunc);
+        out << in.rdbuf();
+        out.close();
+        if (!in || !out) {
+            ::unlink(copy.c_str());
+            error = "cannot copy the rebuilt library to " + copy;
+            return nullptr;
+        }
+        file = copy;
+    }
+    void* handle = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+        const char* e = ::dlerror();
+        error = e ? e : "unknown dlopen error";
+    }
+    if (!copy.empty()) ::unlink(copy.c_str());
+    if (handle) g_opened.insert(resolved);
+    return handle;
+}
 
 }  // namespace
 
@@ -94,11 +135,9 @@ std::shared_ptr<const PluginLibrary> load_plugin(const std::string& path) {
     if (auto it = g_loaded.find(key); it != g_loaded.end()) return it->second;
 
     // A path without '/' would make dlopen search the library path; use the resolved one.
-    void* handle = ::dlopen(resolved.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-        const char* e = ::dlerror();
-        throw PluginError(where + ": cannot load the shared library: " + (e ? e : "unknown dlopen error"));
-    }
+    std::string dl_error;
+    void* handle = open_library(resolved, dl_error);
+    if (!handle) throw PluginError(where + ": cannot load the shared library: " + dl_error);
     auto fail = [&](const std::string& message) {
         ::dlclose(handle);
         throw PluginError(message);

@@ -172,6 +172,24 @@ def test_loading_errors_are_clear(plugins, tmp_path):
     assert issubclass(hairbsdf.PluginError, RuntimeError)
 
 
+def test_a_rebuilt_plugin_loads_anew(plugins, tmp_path):
+    """Same path, new file: the new code runs (dlopen alone would return the old library)."""
+    import os
+    path = tmp_path / "mine.so"
+    shutil.copyfile(plugins["valid"], path)
+    first = hairbsdf.load_plugin(path)
+    assert hairbsdf.load_plugin(path)._library is first._library  # unchanged file: loaded once
+    grazing = (fibre(0.0, 0.0), np.array([0.995, np.sqrt(1 - 0.995**2), 0.0]), 0.0)
+    assert np.all(np.isfinite(first().eval(*grazing)))
+    # "Rebuild" as linkers do: a new file replaces the old one (writing into a loaded library's
+    # file in place would change the code under the running process).
+    shutil.copyfile(plugins["nan"], tmp_path / "new.so")
+    os.replace(tmp_path / "new.so", path)
+    second = hairbsdf.load_plugin(path)
+    assert np.isnan(second().eval(*grazing)[0, 1])
+    assert np.all(np.isfinite(first().eval(*grazing)))  # the old library stays loaded for its closures
+
+
 def test_battery_passes_a_good_plugin(ripple, capsys):
     result = hairbsdf.test_plugin(ripple, options=QUICK, ripple=-0.4)
     out = capsys.readouterr().out
