@@ -51,6 +51,7 @@ struct Extras {
     const double* normal = nullptr;          // (N, 3)
     const double* pixel_coverage = nullptr;  // (N,)
     const double* near_field = nullptr;      // (N,) 0 / 1
+    const double* random = nullptr;          // (N,) per-strand random (plugins)
 };
 
 ShadingContext fibre_context(const double* wo, const double* h, size_t i, const Extras& x = {}) {
@@ -61,13 +62,14 @@ ShadingContext fibre_context(const double* wo, const double* h, size_t i, const 
     if (x.normal) ctx.normal = vec_at(x.normal, i);
     if (x.pixel_coverage) ctx.pixel_coverage = x.pixel_coverage[i];
     if (x.near_field) ctx.near_field = x.near_field[i] != 0.0;
+    if (x.random) ctx.random = x.random[i];
     return ctx;
 }
 
 bool same_context(const ShadingContext& a, const ShadingContext& b) {
     return a.wo.x == b.wo.x && a.wo.y == b.wo.y && a.wo.z == b.wo.z && a.h == b.h && a.normal.x == b.normal.x &&
            a.normal.y == b.normal.y && a.normal.z == b.normal.z && a.pixel_coverage == b.pixel_coverage &&
-           a.near_field == b.near_field;
+           a.near_field == b.near_field && a.random == b.random;
 }
 
 void store(double* out, size_t i, RGB c) {
@@ -118,7 +120,7 @@ void check_rows(const Array& a, size_t n, int cols, const char* name) {
 }
 
 Extras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
-                   std::vector<Array>& keep) {
+                   std::vector<Array>& keep, const py::object& random = py::none()) {
     Extras x;
     auto get = [&](const py::object& o, int cols, const char* name) -> const double* {
         if (o.is_none()) return nullptr;
@@ -129,6 +131,7 @@ Extras extras_from(const py::object& normal, const py::object& pixel_coverage, c
     x.normal = get(normal, 3, "normal");
     x.pixel_coverage = get(pixel_coverage, 0, "pixel_coverage");
     x.near_field = get(near_field, 0, "near_field");
+    x.random = get(random, 0, "random");
     return x;
 }
 
@@ -276,6 +279,9 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
     d["v_sample"] = p.v_sample;
     d["s"] = p.s;
     d["tilt"] = p.tilt;
+    std::vector<std::array<double, 3>> tint;
+    for (const RGB& t : p.tint) tint.push_back({t.r, t.g, t.b});
+    d["tint"] = tint;  // per lobe R, TT, TRT, TRRT+ (MaterialX tints; 1 for Principled Hair)
     return d;
 }
 
@@ -349,6 +355,40 @@ py::dict huang_params_dict(const HuangHair& m) {
     d["sampler"] = p.sampler == HuangSampler::Mixture ? "mixture" : "cycles";
     d["tolerance"] = p.tolerance;
     d["trt_points"] = p.trt_points;
+    return d;
+}
+
+// --- plugins (hairbsdf/plugin.h) ------------------------------------------------------------
+py::list plugin_schema(const PluginLibrary& lib) {
+    py::list out;
+    for (const PluginParam& p : lib.params()) {
+        py::dict d;
+        d["name"] = p.name;
+        d["type"] = p.rgb ? "rgb" : "float";
+        d["default"] = p.default_value;
+        d["min"] = p.min_value;
+        d["max"] = p.max_value;
+        d["description"] = p.description;
+        out.append(d);
+    }
+    return out;
+}
+
+py::dict plugin_params_dict(const PluginHair& m) {
+    py::dict d, values;
+    d["model"] = "plugin";
+    d["name"] = m.library().name();
+    d["path"] = m.library().path();
+    const auto& params = m.library().params();
+    for (size_t i = 0; i < params.size(); ++i) {
+        const double* v = m.values().data() + 3 * i;
+        if (params[i].rgb) {
+            values[py::str(params[i].name)] = py::make_tuple(v[0], v[1], v[2]);
+        } else {
+            values[py::str(params[i].name)] = v[0];
+        }
+    }
+    d["params"] = values;
     return d;
 }
 
@@ -496,25 +536,31 @@ PYBIND11_MODULE(_core, m) {
         // pixel_coverage (N,), near_field (N,) as 0 / 1.
         .def("eval_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, bool lobes, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object random) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
                  return batch_eval(c, wo, wi, h, lobes, x);
-             })
+             },
+             py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("lobes"), py::arg("normal"), py::arg("pixel_coverage"),
+             py::arg("near_field"), py::arg("random") = py::none())
         .def("pdf_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object random) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
                  return batch_pdf(c, wo, wi, h, x);
-             })
+             },
+             py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("normal"), py::arg("pixel_coverage"),
+             py::arg("near_field"), py::arg("random") = py::none())
         .def("sample_ex",
              [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object random) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
                  return batch_sample(c, wo, h, u, x);
-             })
+             },
+             py::arg("wo"), py::arg("h"), py::arg("u"), py::arg("normal"), py::arg("pixel_coverage"),
+             py::arg("near_field"), py::arg("random") = py::none())
         .def("albedo", &batch_albedo)
         .def("scaled",
              [](const ClosureSum& c, std::array<double, 3> w) {
@@ -539,6 +585,8 @@ PYBIND11_MODULE(_core, m) {
             for (const Closure& k : c.closures()) {
                 if (const auto* chiang = std::get_if<ChiangHair>(&k.model)) {
                     out.append(chiang_params_dict(chiang->params()));
+                } else if (const auto* plugin = std::get_if<PluginHair>(&k.model)) {
+                    out.append(plugin_params_dict(*plugin));
                 } else {
                     out.append(huang_params_dict(std::get<HuangHair>(k.model)));
                 }
@@ -548,6 +596,23 @@ PYBIND11_MODULE(_core, m) {
         .def("huang_details", &huang_details)
         .def("huang_cycles_estimate", &huang_cycles_estimate)
         .def("huang_sample_directions", &huang_sample_directions);
+
+    py::register_exception<PluginError>(m, "PluginError", PyExc_RuntimeError);
+    m.attr("PLUGIN_ABI_VERSION") = HAIRBSDF_PLUGIN_ABI_VERSION;
+    py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")
+        .def_property_readonly("name", &PluginLibrary::name)
+        .def_property_readonly("path", &PluginLibrary::path)
+        .def_property_readonly("description", &PluginLibrary::description)
+        .def_property_readonly("abi_version", &PluginLibrary::abi_version)
+        .def_property_readonly("has_lobes", &PluginLibrary::has_lobes)
+        .def_property_readonly("params", &plugin_schema)
+        // values: 3 per schema parameter in schema order (checked again here).
+        .def("create", [](const std::shared_ptr<PluginLibrary>& lib, const std::vector<double>& values) {
+            return ClosureSum({Closure{RGB(1.0), PluginHair(lib, values)}});
+        });
+    m.def("load_plugin", [](const std::string& path) {
+        return std::const_pointer_cast<PluginLibrary>(load_plugin(path));
+    });
 
     m.def("principled_chiang", &principled_chiang);
     m.def("principled_huang", &principled_huang);

@@ -14,6 +14,8 @@ from .principled import (PRINCIPLED_HAIR_DEFAULTS, absorption_from_color, absorp
                          cycles_curve_random, huang_fallback_normal, principled_hair)
 from . import materialx
 from .materialx import chiang_hair_bsdf, simple_hair_base
+from .plugins import (PLUGIN_ABI_VERSION, ParamSpec, PluginConstructor, PluginError, PythonBSDF, load_plugin,
+                      python_bsdf, test_plugin)
 
 __version__ = "0.1.0"
 
@@ -32,5 +34,6 @@ def get_num_threads() -> int:
 __all__ = [
     "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
-    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal",
+    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
+    "python_bsdf", "PluginConstructor", "PluginError", "PythonBSDF", "ParamSpec", "PLUGIN_ABI_VERSION",
 ]

@@ -83,6 +83,18 @@ def coverages(name: str, value) -> np.ndarray:
     return arr
 
 
+def unit_interval(name: str, value) -> np.ndarray:
+    """Scalar or (N,) values in [0, 1] -> (N,) float64."""
+    arr = _as_float_array(name, value)
+    if arr.ndim > 1:
+        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
+    arr = np.atleast_1d(arr)
+    _check_finite(name, arr)
+    if np.any(arr < 0.0) or np.any(arr > 1.0):
+        raise ValueError(f"{name}: values must lie in [0, 1]")
+    return arr
+
+
 def flags(name: str, value) -> np.ndarray:
     """Scalar or (N,) booleans -> (N,) float64 of 0 / 1."""
     arr = np.asarray(value)

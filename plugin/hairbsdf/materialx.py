@@ -171,3 +171,354 @@ def simple_hair_base(*, base_color_weight: float = 1.0, base_color=(1.0, 1.0, 1.
                             roughness_R=r.roughness_R, roughness_TT=r.roughness_TT, roughness_TRT=r.roughness_TRT,
                             cuticle_angle=check.real("specular_reflection_shift", specular_reflection_shift),
                             absorption_coefficient=tuple(absorption))
+
+
+# --- .mtlx documents: load and export -----------------------------------------------------------
+# load() evaluates the graph that feeds a `chiang_hair_bsdf` node, with the hair support nodes and
+# a few arithmetic nodes, inside nodegraphs (interface inputs, nodedef implementations and their
+# instance nodes) or at document level. Values are parsed from their strings in double precision
+# (MaterialX's own Value type holds float32). export() writes the equivalent chiang_hair_bsdf
+# document for Principled Hair parameters. docs/plugins.md has an example of each.
+
+class MaterialXLoadError(ValueError):
+    """A .mtlx document that load() cannot turn into a closure; the message says where."""
+
+
+_SUPPORTED_NODES = ("chiang_hair_bsdf", "chiang_hair_roughness", "chiang_hair_absorption_from_color",
+                    "deon_hair_absorption_from_melanin", "constant", "dot", "convert", "mix", "add", "subtract",
+                    "multiply", "divide")
+_STDLIB = None
+
+
+def _mx():
+    try:
+        import MaterialX as mx
+    except ImportError as exc:  # pragma: no cover - materialx is a dependency
+        raise ImportError("hairbsdf.materialx.load/export need the `materialx` package (pip install materialx)") from exc
+    return mx
+
+
+def _stdlib():
+    """MaterialX's standard libraries (nodedef defaults), loaded once."""
+    global _STDLIB
+    if _STDLIB is None:
+        mx = _mx()
+        lib = mx.createDocument()
+        mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), lib)
+        _STDLIB = lib
+    return _STDLIB
+
+
+def _parse(value_string: str, type_name: str, where: str):
+    """A MaterialX value string -> float or tuple of floats, in double precision."""
+    try:
+        parts = [float(p) for p in value_string.replace(",", " ").split()]
+    except ValueError as exc:
+        raise MaterialXLoadError(f"{where}: cannot read {value_string!r} as {type_name}") from exc
+    sizes = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4,
+             "vector4": 4}
+    if type_name not in sizes:
+        raise MaterialXLoadError(f"{where}: type {type_name!r} is not supported (float, vector2, vector3, color3)")
+    if len(parts) != sizes[type_name]:
+        raise MaterialXLoadError(f"{where}: {value_string!r} has {len(parts)} numbers; {type_name} needs "
+                                 f"{sizes[type_name]}")
+    return parts[0] if sizes[type_name] == 1 else tuple(parts)
+
+
+def _arr(x):
+    return np.asarray(x, dtype=np.float64)
+
+
+def _out(x):
+    a = np.asarray(x, dtype=np.float64)
+    return float(a) if a.ndim == 0 else tuple(float(v) for v in a)
+
+
+class _Evaluator:
+    """Evaluates node outputs; `interface` resolves interfacename inputs of the current graph."""
+
+    def __init__(self, doc):
+        self.doc = doc
+        self.stack: list[str] = []
+
+    def node_outputs(self, node, interface) -> dict:
+        path = node.getNamePath()
+        if path in self.stack:
+            raise MaterialXLoadError(f"node '{path}': the graph has a cycle through it")
+        self.stack.append(path)
+        try:
+            return self._evaluate(node, interface)
+        finally:
+            self.stack.pop()
+
+    def input_value(self, node, name: str, interface):
+        """The value of input `name` of `node`: connected, from the interface, set, or the nodedef's default."""
+        where = f"node '{node.getNamePath()}' ({node.getCategory()}) input '{name}'"
+        inp = node.getInput(name)
+        if inp is not None:
+            if inp.getNodeName() or inp.getNodeGraphString():
+                return self.connection(inp, node, where, interface)
+            if inp.getInterfaceName():
+                return interface(inp.getInterfaceName(), where)
+            if inp.getValueString():
+                return _parse(inp.getValueString(), inp.getType(), where)
+        return self.default(node, name, where)
+
+    def default(self, node, name: str, where: str):
+        nodedef = self.nodedef(node)
+        d = nodedef.getActiveInput(name) if nodedef is not None else None
+        if d is None or not d.getValueString():
+            raise MaterialXLoadError(f"{where}: not set and its nodedef has no default")
+        return _parse(d.getValueString(), d.getType(), where)
+
+    def nodedef(self, node):
+        nd = self.doc.getNodeDef(node.getNodeDefString()) if node.getNodeDefString() else None
+        if nd is None:
+            for candidate in _stdlib().getMatchingNodeDefs(node.getCategory()) + \
+                    self.doc.getMatchingNodeDefs(node.getCategory()):
+                if candidate.getType() == node.getType() or node.getType() in ("", "multioutput"):
+                    if all(candidate.getActiveInput(i.getName()) is None or
+                           candidate.getActiveInput(i.getName()).getType() == i.getType() for i in node.getInputs()):
+                        return candidate
+        return nd
+
+    def connection(self, inp, node, where: str, interface):
+        output = inp.getOutputString()
+        if inp.getNodeGraphString():
+            graph = self.doc.getNodeGraph(inp.getNodeGraphString())
+            if graph is None:
+                raise MaterialXLoadError(f"{where}: nodegraph '{inp.getNodeGraphString()}' not found")
+            out = graph.getOutput(output) if output else (graph.getOutputs()[0] if graph.getOutputs() else None)
+            if out is None:
+                raise MaterialXLoadError(f"{where}: nodegraph '{graph.getName()}' has no output {output!r}")
+            return self.graph_output(graph, out, self.graph_interface(graph, None))
+        parent = inp.getParent().getParent()  # the graph (or document) that holds `node`
+        upstream = parent.getNode(inp.getNodeName())
+        if upstream is None:
+            raise MaterialXLoadError(f"{where}: connected node '{inp.getNodeName()}' not found")
+        outputs = self.node_outputs(upstream, interface)
+        if output:
+            if output not in outputs:
+                raise MaterialXLoadError(f"{where}: node '{upstream.getName()}' has no output {output!r}; it has "
+                                         f"{', '.join(outputs)}")
+            return outputs[output]
+        return next(iter(outputs.values()))
+
+    def graph_output(self, graph, out, interface):
+        where = f"nodegraph '{graph.getName()}' output '{out.getName()}'"
+        if out.getNodeName():
+            node = graph.getNode(out.getNodeName())
+            if node is None:
+                raise MaterialXLoadError(f"{where}: node '{out.getNodeName()}' not found")
+            outputs = self.node_outputs(node, interface)
+            return outputs[out.getOutputString()] if out.getOutputString() else next(iter(outputs.values()))
+        if out.getInterfaceName():
+            return interface(out.getInterfaceName(), where)
+        raise MaterialXLoadError(f"{where}: not connected")
+
+    def graph_interface(self, graph, instance):
+        """Resolver for interfacename inputs of `graph`: the instance node's inputs, then the graph's or
+        its nodedef's declared values."""
+        nodedef = self.doc.getNodeDef(graph.getNodeDefString()) if graph.getNodeDefString() else None
+
+        def resolve(name, where):
+            if instance is not None and instance.getInput(name) is not None:
+                return self.input_value(instance, name, self.outer_interface)
+            for owner in (graph, nodedef):
+                decl = owner.getInput(name) if owner is not None else None
+                if decl is not None:
+                    if decl.getNodeName() or decl.getNodeGraphString():
+                        return self.connection(decl, owner, where, self.outer_interface)
+                    if decl.getValueString():
+                        return _parse(decl.getValueString(), decl.getType(), f"{where} (interface '{name}')")
+            raise MaterialXLoadError(f"{where}: interface input '{name}' is not declared on nodegraph "
+                                     f"'{graph.getName()}' or its nodedef, or has no value")
+        return resolve
+
+    @staticmethod
+    def outer_interface(name, where):
+        raise MaterialXLoadError(f"{where}: interfacename '{name}' used outside a nodegraph")
+
+    def _evaluate(self, node, interface) -> dict:
+        cat = node.getCategory()
+        get = lambda name: self.input_value(node, name, interface)  # noqa: E731
+        if cat == "chiang_hair_roughness":
+            r = chiang_hair_roughness(get("longitudinal"), get("azimuthal"), get("scale_TT"), get("scale_TRT"))
+            return {"roughness_R": r.roughness_R, "roughness_TT": r.roughness_TT, "roughness_TRT": r.roughness_TRT}
+        if cat == "chiang_hair_absorption_from_color":
+            return {"absorption": _out(chiang_hair_absorption_from_color(get("color"), get("azimuthal_roughness")))}
+        if cat == "deon_hair_absorption_from_melanin":
+            return {"absorption": _out(deon_hair_absorption_from_melanin(
+                get("melanin_concentration"), get("melanin_redness"), get("eumelanin_color"),
+                get("pheomelanin_color")))}
+        if cat in ("constant", "dot"):
+            return {"out": get("value" if cat == "constant" else "in")}
+        if cat == "convert":
+            value = _arr(get("in"))
+            size = {"float": 1, "vector2": 2, "vector3": 3, "color3": 3}.get(node.getType())
+            if size is None:
+                raise MaterialXLoadError(f"node '{node.getNamePath()}': convert to {node.getType()!r} is not supported")
+            return {"out": _out(np.broadcast_to(value, (size,))[0] if size == 1 else np.broadcast_to(value, (size,)))}
+        if cat == "mix":
+            fg, bg, t = _arr(get("fg")), _arr(get("bg")), _arr(get("mix"))
+            return {"out": _out(t * fg + (1.0 - t) * bg)}
+        if cat in ("add", "subtract", "multiply", "divide"):
+            a, b = _arr(get("in1")), _arr(get("in2"))
+            ops = {"add": np.add, "subtract": np.subtract, "multiply": np.multiply, "divide": np.divide}
+            return {"out": _out(ops[cat](a, b))}
+        if cat == "chiang_hair_bsdf":
+            return {"out": {k: get(k) for k in CHIANG_HAIR_BSDF_DEFAULTS}}
+        raise MaterialXLoadError(f"node '{node.getNamePath()}' of category '{cat}' is not supported; supported: "
+                                 f"{', '.join(_SUPPORTED_NODES)}")
+
+
+def _hair_nodes(doc) -> list:
+    return [e for e in doc.traverseTree() if e.getCategory() == "chiang_hair_bsdf" and hasattr(e, "getInputs")]
+
+
+def load_inputs(path, *, node: str | None = None, instance: str | None = None) -> dict:
+    """The inputs of the `chiang_hair_bsdf` node of a .mtlx file, with its graph evaluated:
+    {tint_R, tint_TT, tint_TRT, ior, roughness_R, roughness_TT, roughness_TRT, cuticle_angle,
+    absorption_coefficient}. `node` picks one by name (or name path) when the file has several;
+    `instance` picks the instance node of a nodedef-implementing nodegraph when several exist."""
+    mx = _mx()
+    doc = mx.createDocument()
+    try:
+        mx.readFromXmlFile(doc, str(path))
+    except Exception as exc:
+        raise MaterialXLoadError(f"{path}: cannot read the MaterialX document: {exc}") from exc
+    found = _hair_nodes(doc)
+    if node is not None:
+        found = [n for n in found if node in (n.getName(), n.getNamePath())]
+    if not found:
+        raise MaterialXLoadError(f"{path}: no chiang_hair_bsdf node{f' named {node!r}' if node else ''}")
+    if len(found) > 1:
+        raise MaterialXLoadError(f"{path}: {len(found)} chiang_hair_bsdf nodes "
+                                 f"({', '.join(n.getNamePath() for n in found)}); pick one with node=")
+    bsdf = found[0]
+    ev = _Evaluator(doc)
+    parent = bsdf.getParent()
+    interface = ev.outer_interface
+    if parent.getCategory() == "nodegraph":
+        inst = None
+        if parent.getNodeDefString():
+            nodedef = doc.getNodeDef(parent.getNodeDefString())
+            if nodedef is None:
+                raise MaterialXLoadError(f"{path}: nodegraph '{parent.getName()}' implements nodedef "
+                                         f"'{parent.getNodeDefString()}', which is not in the document")
+            candidates = [n for n in doc.getNodes() if n.getCategory() == nodedef.getNodeString()]
+            if instance is not None:
+                candidates = [n for n in candidates if n.getName() == instance]
+            if len(candidates) > 1:
+                raise MaterialXLoadError(f"{path}: {len(candidates)} instances of '{nodedef.getNodeString()}' "
+                                         f"({', '.join(n.getName() for n in candidates)}); pick one with instance=")
+            inst = candidates[0] if candidates else None
+        interface = ev.graph_interface(parent, inst)
+    return ev.node_outputs(bsdf, interface)["out"]
+
+
+def load(path, *, node: str | None = None, instance: str | None = None, glsl_compat: bool = False) -> Closure:
+    """Reads a .mtlx file with the `materialx` package and returns the closure of its
+    `chiang_hair_bsdf` node, its inputs evaluated through the graph (chiang_hair_roughness,
+    chiang_hair_absorption_from_color, deon_hair_absorption_from_melanin, constant, mix, add,
+    subtract, multiply, divide, convert, dot; nodegraph interfaces and nodedef instances).
+    Raises MaterialXLoadError naming the node and input it cannot evaluate."""
+    inputs = load_inputs(path, node=node, instance=instance)
+    return chiang_hair_bsdf(glsl_compat=glsl_compat, **inputs)
+
+
+def _fmt_value(value) -> str:
+    values = value if isinstance(value, (tuple, list, np.ndarray)) else (value,)
+    return ", ".join(repr(float(v)) for v in values)
+
+
+def principled_inputs_from_node(node) -> dict:
+    """principled_hair keywords from a Blender Principled Hair BSDF node (bpy's
+    ShaderNodeBsdfHairPrincipled, Chiang model): its parametrization and its unlinked input
+    sockets' values ("Absorption Coefficient" -> absorption_coefficient; colours drop alpha)."""
+    if not hasattr(node, "inputs") or not hasattr(node, "parametrization"):
+        raise TypeError(f"node: expected a Principled Hair BSDF node (with .inputs and .parametrization), "
+                        f"got {type(node).__name__}")
+    model = getattr(node, "model", "CHIANG")
+    if str(model).upper() != "CHIANG":
+        raise ValueError(f"node: model {model!r} is not allowed; chiang_hair_bsdf is the Chiang model ('CHIANG')")
+    from .principled import PRINCIPLED_HAIR_DEFAULTS
+
+    out = {"parametrization": {"COLOR": "color", "MELANIN": "melanin", "ABSORPTION": "absorption"}.get(
+        str(node.parametrization).upper(), str(node.parametrization).lower())}
+    for socket in node.inputs:
+        key = socket.name.lower().replace(" ", "_")
+        if key not in PRINCIPLED_HAIR_DEFAULTS or getattr(socket, "is_linked", False):
+            continue
+        value = socket.default_value
+        out[key] = tuple(value)[:3] if hasattr(value, "__len__") else float(value)
+    return out
+
+
+def principled_to_chiang_hair_bsdf(closure_or_inputs=None, **inputs) -> dict:
+    """chiang_hair_bsdf inputs equivalent to Principled Hair (Chiang model): the roughness pairs
+    (v, s without sqrt(pi/8)), absorption and IOR of Cycles' mapping, cuticle_angle = 0.5 + Offset/pi.
+    Pass Principled Hair keywords (as principled_hair takes them, parametrization included) or a
+    single-term Chiang Closure. The MaterialX closure then equals principled_hair(...,
+    tilt="3.4", accuracy="exact") in value (Blender 4.2+ tilts theta_o instead: same highlight
+    position for Offset != 0, not the same values; the coat's sampling-only roughness is dropped)."""
+    from .principled import principled_hair
+
+    if closure_or_inputs is not None and inputs:
+        raise TypeError("pass a Closure, a Principled Hair node or keywords, not more than one")
+    if closure_or_inputs is not None and not isinstance(closure_or_inputs, Closure):
+        inputs = principled_inputs_from_node(closure_or_inputs)
+        closure_or_inputs = None
+    closure = closure_or_inputs if isinstance(closure_or_inputs, Closure) else principled_hair(**inputs)
+    params = closure.model_params
+    if len(params) != 1 or "v" not in params[0] or closure.weights[0] != (1.0, 1.0, 1.0):
+        raise ValueError(f"closure: export needs one Chiang term of weight 1 (principled_hair(...)), got {closure!r}")
+    p = params[0]
+    k = math.sqrt(math.pi / 8)
+    v, s = p["v"], p["s"]
+    if abs(v[3] - v[2]) > 1e-12 * v[2]:
+        raise ValueError("closure: its TRRT+ variance differs from TRT's, which chiang_hair_bsdf cannot express")
+    tint = [tuple(t) for t in p.get("tint", [(1.0, 1.0, 1.0)] * 4)]
+    if tint[3] != tint[2]:
+        raise ValueError("closure: its TRRT+ tint differs from TRT's, which chiang_hair_bsdf cannot express")
+    return {"tint_R": tint[0], "tint_TT": tint[1], "tint_TRT": tint[2], "ior": p["eta"],
+            "roughness_R": (v[0], s[0] / k), "roughness_TT": (v[1], s[1] / k), "roughness_TRT": (v[2], s[2] / k),
+            "cuticle_angle": 0.5 + p["tilt"] / math.pi, "absorption_coefficient": tuple(p["sigma_a"])}
+
+
+def export(path=None, closure_or_inputs=None, *, name: str = "hair", **inputs) -> str:
+    """Writes a MaterialX 1.39 document equivalent to Principled Hair (see
+    principled_to_chiang_hair_bsdf for what "equivalent" means): a `chiang_hair_bsdf` node with the
+    mapped inputs (full double precision), a `surface` shader and a `surfacematerial` named `name`.
+    Returns the XML text; writes it to `path` when given. The document validates against the
+    MaterialX standard libraries, and load() of it gives the same closure values."""
+    mx = _mx()
+    values = principled_to_chiang_hair_bsdf(closure_or_inputs, **inputs)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"name: {name!r} is not allowed; use an identifier such as 'hair'")
+    doc = mx.createDocument()
+    bsdf = doc.addNode("chiang_hair_bsdf", f"{name}_bsdf", "BSDF")
+    types = {"ior": "float", "cuticle_angle": "float", "absorption_coefficient": "vector3"}
+    for key, value in values.items():
+        t = types.get(key, "vector2" if key.startswith("roughness") else "color3")
+        bsdf.setInputValue(key, _fmt_value(value), t)
+    shown = ", ".join(f"{k}={v!r}" for k, v in inputs.items())
+    source = repr(closure_or_inputs) if closure_or_inputs is not None else f"principled_hair({shown})"
+    bsdf.setDocString(f"hairbsdf.materialx.export of {source}; equals it with tilt='3.4', accuracy='exact'")
+    surface = doc.addNode("surface", f"{name}_surface", "surfaceshader")
+    surface.setConnectedNode("bsdf", bsdf)
+    material = doc.addMaterialNode(name, surface)
+    assert material is not None
+    ok, message = doc.validate()
+    if not ok:  # validate against the standard libraries as well
+        check_doc = mx.createDocument()
+        check_doc.importLibrary(_stdlib())
+        check_doc.copyContentFrom(doc)
+        ok, message = check_doc.validate()
+        if not ok:
+            raise RuntimeError(f"internal: the exported document does not validate: {message}")
+    text = mx.writeToXmlString(doc)
+    if path is not None:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    return text

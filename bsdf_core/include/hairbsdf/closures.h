@@ -9,12 +9,14 @@
 
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang.h"
+#include "hairbsdf/models/plugin_hair.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair, HuangHair>;
+using HairModel = std::variant<ChiangHair, HuangHair, PluginHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
-using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint>;
+using PreparedModel =
+    std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint, PluginHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {
@@ -41,6 +43,9 @@ double model_pdf(const M& model, const typename M::ShadingPoint& point, Vec3 wi)
     return model.eval(point, wi).pdf;
 }
 inline double model_pdf(const HuangHair& model, const HuangHair::ShadingPoint& point, Vec3 wi) {
+    return model.pdf(point, wi);
+}
+inline double model_pdf(const PluginHair& model, const PluginHair::ShadingPoint& point, Vec3 wi) {
     return model.pdf(point, wi);
 }
 inline double pdf_model(const HairModel& m, const PreparedModel& point, Vec3 wi) {
