@@ -51,6 +51,7 @@ struct Extras {
     const double* normal = nullptr;          // (N, 3)
     const double* pixel_coverage = nullptr;  // (N,)
     const double* near_field = nullptr;      // (N,) 0 / 1
+    const double* shadow = nullptr;          // (N,) Epic's light visibility through the hair volume
 };
 
 ShadingContext fibre_context(const double* wo, const double* h, size_t i, const Extras& x = {}) {
@@ -61,13 +62,14 @@ ShadingContext fibre_context(const double* wo, const double* h, size_t i, const 
     if (x.normal) ctx.normal = vec_at(x.normal, i);
     if (x.pixel_coverage) ctx.pixel_coverage = x.pixel_coverage[i];
     if (x.near_field) ctx.near_field = x.near_field[i] != 0.0;
+    if (x.shadow) ctx.shadow = x.shadow[i];
     return ctx;
 }
 
 bool same_context(const ShadingContext& a, const ShadingContext& b) {
     return a.wo.x == b.wo.x && a.wo.y == b.wo.y && a.wo.z == b.wo.z && a.h == b.h && a.normal.x == b.normal.x &&
            a.normal.y == b.normal.y && a.normal.z == b.normal.z && a.pixel_coverage == b.pixel_coverage &&
-           a.near_field == b.near_field;
+           a.near_field == b.near_field && a.shadow == b.shadow;
 }
 
 void store(double* out, size_t i, RGB c) {
@@ -118,7 +120,7 @@ void check_rows(const Array& a, size_t n, int cols, const char* name) {
 }
 
 Extras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
-                   std::vector<Array>& keep) {
+                   std::vector<Array>& keep, const py::object& shadow = py::none()) {
     Extras x;
     auto get = [&](const py::object& o, int cols, const char* name) -> const double* {
         if (o.is_none()) return nullptr;
@@ -129,6 +131,7 @@ Extras extras_from(const py::object& normal, const py::object& pixel_coverage, c
     x.normal = get(normal, 3, "normal");
     x.pixel_coverage = get(pixel_coverage, 0, "pixel_coverage");
     x.near_field = get(near_field, 0, "near_field");
+    x.shadow = get(shadow, 0, "shadow");
     return x;
 }
 
@@ -352,6 +355,35 @@ py::dict huang_params_dict(const HuangHair& m) {
     return d;
 }
 
+py::dict model_dict(const ChiangHair& m) { return chiang_params_dict(m.params()); }
+py::dict model_dict(const HuangHair& m) { return huang_params_dict(m); }
+
+// --- the model zoo (docs/models.md) -------------------------------------------------------------
+// Each dict carries "model" and, for hairbsdf.testing's quadrature panels, the narrowest lobe
+// widths as "v" (a variance in theta) and "s" (a scale in phi).
+py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
+    d["v"] = std::vector<double>{scales[0] * scales[0]};
+    d["s"] = std::vector<double>{scales[1]};
+    return d;
+}
+py::dict model_dict(const KajiyaKayHair& m) {
+    const KajiyaKayHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "kajiya_kay";
+    d["diffuse"] = std::array<double, 3>{p.diffuse.r, p.diffuse.g, p.diffuse.b};
+    d["specular"] = std::array<double, 3>{p.specular.r, p.specular.g, p.specular.b};
+    d["exponent"] = p.exponent;
+    d["specular_norm"] = m.specular_norm();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum kajiya_kay(std::array<double, 3> diffuse, std::array<double, 3> specular, double exponent) {
+    KajiyaKayHairParams p;
+    p.diffuse = rgb_from(diffuse);
+    p.specular = rgb_from(specular);
+    p.exponent = exponent;
+    return ClosureSum({Closure{RGB(1.0), KajiyaKayHair(p)}});
+}
+
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
         throw py::value_error("this method needs a single Huang closure");
@@ -496,23 +528,23 @@ PYBIND11_MODULE(_core, m) {
         // pixel_coverage (N,), near_field (N,) as 0 / 1.
         .def("eval_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, bool lobes, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, shadow);
                  return batch_eval(c, wo, wi, h, lobes, x);
              })
         .def("pdf_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, shadow);
                  return batch_pdf(c, wo, wi, h, x);
              })
         .def("sample_ex",
              [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u, py::object normal,
-                py::object pixel_coverage, py::object near_field) {
+                py::object pixel_coverage, py::object near_field, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, shadow);
                  return batch_sample(c, wo, h, u, x);
              })
         .def("albedo", &batch_albedo)
@@ -537,11 +569,7 @@ PYBIND11_MODULE(_core, m) {
         .def("model_params", [](const ClosureSum& c) {
             py::list out;
             for (const Closure& k : c.closures()) {
-                if (const auto* chiang = std::get_if<ChiangHair>(&k.model)) {
-                    out.append(chiang_params_dict(chiang->params()));
-                } else {
-                    out.append(huang_params_dict(std::get<HuangHair>(k.model)));
-                }
+                out.append(std::visit([](const auto& model) { return model_dict(model); }, k.model));
             }
             return out;
         })
@@ -567,6 +595,7 @@ PYBIND11_MODULE(_core, m) {
         return out;
     });
     m.def("chiang_from_params", &chiang_from_params);
+    m.def("kajiya_kay", &kajiya_kay);
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
              std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,

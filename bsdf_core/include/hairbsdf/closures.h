@@ -9,12 +9,14 @@
 
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang.h"
+#include "hairbsdf/models/kajiya_kay.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair, HuangHair>;
+using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
-using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint>;
+using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
+                                   KajiyaKayHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {
