@@ -63,7 +63,9 @@ TEST(KajiyaKay, FurnaceBoundAndNormalisation) {
                 ctx.wo = test::direction(theta, 0.3);
                 const double a = directional_albedo(c, ctx).r;
                 EXPECT_LE(a, 1.0 + 1e-6) << p << " " << kd << " " << theta;
-                if (theta == 0.0) EXPECT_NEAR(a, kd + ks, 1e-6);
+                if (theta == 0.0) {
+                    EXPECT_NEAR(a, kd + ks, 1e-6);
+                }
             }
         }
     }

@@ -384,6 +384,31 @@ ClosureSum kajiya_kay(std::array<double, 3> diffuse, std::array<double, 3> specu
     return ClosureSum({Closure{RGB(1.0), KajiyaKayHair(p)}});
 }
 
+py::dict model_dict(const EpicHair& m) {
+    const EpicHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "epic";
+    d["base_color"] = std::array<double, 3>{p.base_color.r, p.base_color.g, p.base_color.b};
+    d["r_scale"] = p.r_scale;
+    d["scatter"] = p.scatter;
+    d["roughness"] = p.roughness;
+    d["shift"] = p.shift;
+    d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
+    d["betas"] = m.betas();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum epic(std::array<double, 3> base_color, double r_scale, double scatter, double roughness, double shift,
+                int variant) {
+    EpicHairParams p;
+    p.base_color = rgb_from(base_color);
+    p.r_scale = r_scale;
+    p.scatter = scatter;
+    p.roughness = roughness;
+    p.shift = shift;
+    p.variant = EpicVariant(variant);
+    return ClosureSum({Closure{RGB(1.0), EpicHair(p)}});
+}
+
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
         throw py::value_error("this method needs a single Huang closure");
@@ -596,6 +621,7 @@ PYBIND11_MODULE(_core, m) {
     });
     m.def("chiang_from_params", &chiang_from_params);
     m.def("kajiya_kay", &kajiya_kay);
+    m.def("epic", &epic);
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
              std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,

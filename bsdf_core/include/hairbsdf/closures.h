@@ -8,15 +8,16 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/epic.h"
 #include "hairbsdf/models/huang.h"
 #include "hairbsdf/models/kajiya_kay.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair>;
+using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
 using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
-                                   KajiyaKayHair::ShadingPoint>;
+                                   KajiyaKayHair::ShadingPoint, EpicHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {

@@ -52,12 +52,13 @@ public:
     std::array<double, 2> angular_scales() const { return {std::min(0.5, lobe_width_), 0.5}; }
 
     struct ShadingPoint {
+        explicit ShadingPoint(const FibreFrame& f) : frame(f) {}
         FibreFrame frame;
         double sin_theta_o = 0, cos_theta_o = 1, theta_o = 0;
         TruncatedNormal spec;  // specular proposal in sin theta_i
     };
     ShadingPoint prepare(const ShadingContext& ctx) const {
-        ShadingPoint sp{FibreFrame(ctx.tangent, ctx.wo)};
+        ShadingPoint sp(FibreFrame(ctx.tangent, ctx.wo));
         sp.sin_theta_o = sp.frame.sin_theta(ctx.wo);
         sp.cos_theta_o = cos_from_sin(sp.sin_theta_o);
         sp.theta_o = std::asin(sp.sin_theta_o);
