@@ -409,6 +409,34 @@ ClosureSum epic(std::array<double, 3> base_color, double r_scale, double scatter
     return ClosureSum({Closure{RGB(1.0), EpicHair(p)}});
 }
 
+py::dict model_dict(const ScheuermannHair& m) {
+    const ScheuermannHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "scheuermann";
+    d["primary_color"] = std::array<double, 3>{p.primary_color.r, p.primary_color.g, p.primary_color.b};
+    d["secondary_color"] = std::array<double, 3>{p.secondary_color.r, p.secondary_color.g, p.secondary_color.b};
+    d["primary_exponent"] = p.primary_exponent;
+    d["secondary_exponent"] = p.secondary_exponent;
+    d["primary_shift"] = p.primary_shift;
+    d["secondary_shift"] = p.secondary_shift;
+    d["shift_texture"] = p.shift_texture;
+    d["noise"] = p.noise;
+    d["norms"] = m.norms();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum scheuermann(std::array<double, 3> c1, std::array<double, 3> c2, double p1, double p2, double s1, double s2,
+                       double shift_texture, double noise) {
+    ScheuermannHairParams p;
+    p.primary_color = rgb_from(c1);
+    p.secondary_color = rgb_from(c2);
+    p.primary_exponent = p1;
+    p.secondary_exponent = p2;
+    p.primary_shift = s1;
+    p.secondary_shift = s2;
+    p.shift_texture = shift_texture;
+    p.noise = noise;
+    return ClosureSum({Closure{RGB(1.0), ScheuermannHair(p)}});
+}
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
         throw py::value_error("this method needs a single Huang closure");
@@ -622,6 +650,8 @@ PYBIND11_MODULE(_core, m) {
     m.def("chiang_from_params", &chiang_from_params);
     m.def("kajiya_kay", &kajiya_kay);
     m.def("epic", &epic);
+    m.def("scheuermann", &scheuermann);
+    m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
              std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,

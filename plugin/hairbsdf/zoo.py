@@ -64,3 +64,47 @@ def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_
     core = _core.epic(c, spec / 0.5, scat, rough, sh, EPIC_VARIANTS[variant])
     return Closure(core, f"epic_hair(base_color={c}, specular={spec:g}, scatter={scat:g}, roughness={rough:g}, "
                          f"shift={sh:g}, variant={variant!r})")
+
+
+# --- Scheuermann (ATI) 2004 ---------------------------------------------------------------------
+SCHEUERMANN_DEFAULTS = {
+    "primary_color": (0.5, 0.5, 0.5), "secondary_color": (0.5, 0.35, 0.2),
+    "primary_exponent": 240.0, "secondary_exponent": 60.0,
+    "primary_shift": 0.0349208, "secondary_shift": -0.0699268,  # tan 2 deg, -tan 4 deg
+    "shift_texture": 0.5, "noise": 1.0,
+}
+
+
+def scheuermann_hair(*, primary_color=SCHEUERMANN_DEFAULTS["primary_color"],
+                     secondary_color=SCHEUERMANN_DEFAULTS["secondary_color"],
+                     primary_exponent: float = SCHEUERMANN_DEFAULTS["primary_exponent"],
+                     secondary_exponent: float = SCHEUERMANN_DEFAULTS["secondary_exponent"],
+                     primary_shift: float = SCHEUERMANN_DEFAULTS["primary_shift"],
+                     secondary_shift: float = SCHEUERMANN_DEFAULTS["secondary_shift"],
+                     shift_texture: float = SCHEUERMANN_DEFAULTS["shift_texture"],
+                     noise: float = SCHEUERMANN_DEFAULTS["noise"]) -> Closure:
+    """Scheuermann (ATI) 2004: two Kajiya-Kay specular lobes on shifted tangents (docs/models.md §3).
+
+    primary_color, secondary_color: RGB in [0, 1], primary + secondary <= 1 per channel (each colour
+    bounds its lobe's albedo); primary_exponent, secondary_exponent: [0, 10000] (defaults 240, 60:
+    light-space widths about Marschner's beta_R and 2 beta_R); primary_shift, secondary_shift:
+    [-1, 1], tangent shifts along the normal (defaults tan 2 deg and -tan 4 deg, Principled Hair's R
+    and TRT at its 2 degree offset); shift_texture: [0, 1], the shift texture value, 0.5 = none;
+    noise: [0, 1], the noise texture value masking the secondary lobe (default 1).
+    Lobes: eval_lobes index 0 = primary, 2 = secondary.
+    """
+    c1 = check.color_in_range("primary_color", primary_color, 0.0, 1.0)
+    c2 = check.color_in_range("secondary_color", secondary_color, 0.0, 1.0)
+    if any(a + b > 1.0 + 1e-12 for a, b in zip(c1, c2)):
+        raise ValueError(f"primary_color + secondary_color = {tuple(a + b for a, b in zip(c1, c2))} is out of range; "
+                         "each channel of the sum must lie in [0, 1] (energy bound)")
+    p1 = check.in_range("primary_exponent", primary_exponent, 0.0, 10_000.0)
+    p2 = check.in_range("secondary_exponent", secondary_exponent, 0.0, 10_000.0)
+    s1 = check.in_range("primary_shift", primary_shift, -1.0, 1.0)
+    s2 = check.in_range("secondary_shift", secondary_shift, -1.0, 1.0)
+    st = check.in_range("shift_texture", shift_texture, 0.0, 1.0)
+    nz = check.in_range("noise", noise, 0.0, 1.0)
+    core = _core.scheuermann(c1, c2, p1, p2, s1, s2, st, nz)
+    return Closure(core, f"scheuermann_hair(primary_color={c1}, secondary_color={c2}, primary_exponent={p1:g}, "
+                         f"secondary_exponent={p2:g}, primary_shift={s1:g}, secondary_shift={s2:g}, "
+                         f"shift_texture={st:g}, noise={nz:g})")
