@@ -437,6 +437,36 @@ ClosureSum scheuermann(std::array<double, 3> c1, std::array<double, 3> c2, doubl
     p.noise = noise;
     return ClosureSum({Closure{RGB(1.0), ScheuermannHair(p)}});
 }
+py::dict model_dict(const MarschnerHair& m) {
+    const MarschnerHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "marschner";
+    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
+    d["eta"] = p.eta;
+    d["eccentricity"] = p.eccentricity;
+    d["alpha_r"] = p.alpha_r;
+    d["beta_r"] = p.beta_r;
+    d["glint_scale"] = p.glint_scale;
+    d["caustic_width"] = p.caustic_width;
+    d["caustic_fade"] = p.caustic_fade;
+    d["caustic_limit"] = p.caustic_limit;
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum marschner(std::array<double, 3> sigma_a, double eta, double eccentricity, double alpha_r, double beta_r,
+                     double glint_scale, double caustic_width, double caustic_fade, double caustic_limit) {
+    MarschnerHairParams p;
+    p.sigma_a = rgb_from(sigma_a);
+    p.eta = eta;
+    p.eccentricity = eccentricity;
+    p.alpha_r = alpha_r;
+    p.beta_r = beta_r;
+    p.glint_scale = glint_scale;
+    p.caustic_width = caustic_width;
+    p.caustic_fade = caustic_fade;
+    p.caustic_limit = caustic_limit;
+    return ClosureSum({Closure{RGB(1.0), MarschnerHair(p)}});
+}
+
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
         throw py::value_error("this method needs a single Huang closure");
@@ -651,6 +681,7 @@ PYBIND11_MODULE(_core, m) {
     m.def("kajiya_kay", &kajiya_kay);
     m.def("epic", &epic);
     m.def("scheuermann", &scheuermann);
+    m.def("marschner", &marschner);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

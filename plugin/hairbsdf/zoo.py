@@ -108,3 +108,40 @@ def scheuermann_hair(*, primary_color=SCHEUERMANN_DEFAULTS["primary_color"],
     return Closure(core, f"scheuermann_hair(primary_color={c1}, secondary_color={c2}, primary_exponent={p1:g}, "
                          f"secondary_exponent={p2:g}, primary_shift={s1:g}, secondary_shift={s2:g}, "
                          f"shift_texture={st:g}, noise={nz:g})")
+
+
+# --- Marschner 2003 -----------------------------------------------------------------------------
+MARSCHNER_DEFAULTS = {
+    "sigma_a": (0.245531, 0.52, 1.365), "eta": 1.55, "eccentricity": 0.9, "alpha_r": -0.1309, "beta_r": 0.1309,
+    "glint_scale": 0.5, "caustic_width": 0.2618, "caustic_fade": 0.3, "caustic_limit": 0.5,
+}
+
+
+def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCHNER_DEFAULTS["eta"],
+                   eccentricity: float = MARSCHNER_DEFAULTS["eccentricity"],
+                   alpha_r: float = MARSCHNER_DEFAULTS["alpha_r"], beta_r: float = MARSCHNER_DEFAULTS["beta_r"],
+                   glint_scale: float = MARSCHNER_DEFAULTS["glint_scale"],
+                   caustic_width: float = MARSCHNER_DEFAULTS["caustic_width"],
+                   caustic_fade: float = MARSCHNER_DEFAULTS["caustic_fade"],
+                   caustic_limit: float = MARSCHNER_DEFAULTS["caustic_limit"]) -> Closure:
+    """Marschner et al. 2003 (docs/models.md §4); angles in radians, defaults from Table 1.
+
+    sigma_a: absorption, RGB >= 0 (<= 1e4; default Blender's Principled Hair absorption);
+    eta: [1.1, 3] (1.55); eccentricity: a in [0.5, 1] (0.9); alpha_r: R shift in [-0.35, 0.35]
+    (-7.5 deg; alpha_TT = -alpha_r/2, alpha_TRT = -3 alpha_r/2); beta_r: R width in [0.005, 0.7]
+    (7.5 deg; beta_TT = beta_r/2, beta_TRT = 2 beta_r); glint_scale: k_G in [0, 5] (0.5);
+    caustic_width: w_c in [0.01, 0.7] (15 deg); caustic_fade: Delta eta* in [0, 1] (0.3);
+    caustic_limit: Delta h_M in [0, 1] (0.5).
+    The cross-section's major axis is the per-sample `normal=` (zero: the view-dependent frame).
+    """
+    s = check.color("sigma_a", sigma_a)
+    if any(x < 0 or x > 1e4 for x in s):
+        raise ValueError(f"sigma_a={sigma_a!r} is out of range; every channel must lie in [0, 10000]")
+    core = _core.marschner(
+        s, check.in_range("eta", eta, 1.1, 3.0), check.in_range("eccentricity", eccentricity, 0.5, 1.0),
+        check.in_range("alpha_r", alpha_r, -0.35, 0.35), check.in_range("beta_r", beta_r, 0.005, 0.7),
+        check.in_range("glint_scale", glint_scale, 0.0, 5.0), check.in_range("caustic_width", caustic_width, 0.01, 0.7),
+        check.in_range("caustic_fade", caustic_fade, 0.0, 1.0), check.in_range("caustic_limit", caustic_limit, 0.0, 1.0))
+    return Closure(core, f"marschner_hair(sigma_a={s}, eta={eta:g}, eccentricity={eccentricity:g}, alpha_r={alpha_r:g}, "
+                         f"beta_r={beta_r:g}, glint_scale={glint_scale:g}, caustic_width={caustic_width:g}, "
+                         f"caustic_fade={caustic_fade:g}, caustic_limit={caustic_limit:g})")

@@ -11,15 +11,16 @@
 #include "hairbsdf/models/epic.h"
 #include "hairbsdf/models/huang.h"
 #include "hairbsdf/models/kajiya_kay.h"
+#include "hairbsdf/models/marschner.h"
 #include "hairbsdf/models/scheuermann.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair, ScheuermannHair>;
+using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair, ScheuermannHair, MarschnerHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
 using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
                                    KajiyaKayHair::ShadingPoint, EpicHair::ShadingPoint,
-                                   ScheuermannHair::ShadingPoint>;
+                                   ScheuermannHair::ShadingPoint, MarschnerHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {
