@@ -73,6 +73,7 @@ public:
         return eval_local(sp, sin_theta_i);
     }
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return pdf(prepare(ctx), wi); }
     double pdf(const ShadingPoint& sp, Vec3 wi) const { return eval(sp, wi).pdf; }
 
     // u2 picks the component and is rescaled: semicircle: u2' radius, u1 angle; normal: u2'.

@@ -162,6 +162,7 @@ public:
         return out;
     }
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return pdf(prepare(ctx), wi); }
     double pdf(const ShadingPoint& sp, Vec3 wi) const {
         return pdf_local(sp, sp.frame.sin_theta(wi), sp.frame.phi(wi) + 0.5 * kPi);
     }

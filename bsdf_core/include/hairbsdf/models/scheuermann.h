@@ -161,6 +161,7 @@ public:
         return out;
     }
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
+    double pdf(const ShadingContext& ctx, Vec3 wi) const { return pdf(prepare(ctx), wi); }
     double pdf(const ShadingPoint& sp, Vec3 wi) const { return eval(sp, wi).pdf; }
 
     // u2 picks the lobe and, rescaled, uniform / cone and then T'.L; u0 the azimuth about T'.
