@@ -467,6 +467,27 @@ ClosureSum marschner(std::array<double, 3> sigma_a, double eta, double eccentric
     return ClosureSum({Closure{RGB(1.0), MarschnerHair(p)}});
 }
 
+py::dict model_dict(const DeonHair& m) {
+    const DeonHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "deon";
+    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
+    d["eta"] = p.eta;
+    d["roughness"] = p.roughness;
+    d["tilt"] = p.tilt;
+    d["tabulated"] = p.tabulated;
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum deon(std::array<double, 3> sigma_a, double eta, double roughness, double tilt, bool tabulated) {
+    DeonHairParams p;
+    p.sigma_a = rgb_from(sigma_a);
+    p.eta = eta;
+    p.roughness = roughness;
+    p.tilt = tilt;
+    p.tabulated = tabulated;
+    return ClosureSum({Closure{RGB(1.0), DeonHair(p)}});
+}
+
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
         throw py::value_error("this method needs a single Huang closure");
@@ -682,6 +703,7 @@ PYBIND11_MODULE(_core, m) {
     m.def("epic", &epic);
     m.def("scheuermann", &scheuermann);
     m.def("marschner", &marschner);
+    m.def("deon", &deon);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

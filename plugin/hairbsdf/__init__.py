@@ -15,7 +15,7 @@ from .principled import (PRINCIPLED_HAIR_DEFAULTS, absorption_from_color, absorp
 from . import materialx
 from .materialx import chiang_hair_bsdf, simple_hair_base
 from . import zoo
-from .zoo import epic_hair, kajiya_kay_hair, marschner_hair, scheuermann_hair
+from .zoo import deon_hair, epic_hair, kajiya_kay_hair, marschner_hair, scheuermann_hair
 
 __version__ = "0.1.0"
 
@@ -34,5 +34,5 @@ def get_num_threads() -> int:
 __all__ = [
     "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
-    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair",
+    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair",
 ]

@@ -145,3 +145,53 @@ def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCH
     return Closure(core, f"marschner_hair(sigma_a={s}, eta={eta:g}, eccentricity={eccentricity:g}, alpha_r={alpha_r:g}, "
                          f"beta_r={beta_r:g}, glint_scale={glint_scale:g}, caustic_width={caustic_width:g}, "
                          f"caustic_fade={caustic_fade:g}, caustic_limit={caustic_limit:g})")
+
+
+# --- d'Eon 2011 ---------------------------------------------------------------------------------
+# Pigment absorption (per unit concentration and diameter): seed 004 (d'Eon's constants) and
+# Cycles' (the same mapping Principled Hair uses, hairbsdf.absorption_from_melanin).
+DEON_EUMELANIN = (0.419, 0.697, 1.37)
+DEON_PHEOMELANIN = (0.187, 0.4, 1.05)
+DEON_DEFAULTS = {"melanin": 0.8, "melanin_redness": 1.0, "sigma_a": None, "pigments": "cycles", "eta": 1.55,
+                 "roughness": 0.1309, "tilt": 0.0349066, "tabulated": True}
+
+
+def deon_absorption(melanin: float, melanin_redness: float, pigments: str = "cycles") -> tuple[float, float, float]:
+    """sigma_a from melanin and redness: Cycles' concentration mapping
+    (q = -ln(max(1 - melanin, 1e-4)), eumelanin q (1 - r), pheomelanin q r) with Cycles' or d'Eon's
+    (seed 004) pigment constants."""
+    import math
+    from .principled import absorption_from_melanin
+    m = check.in_range("melanin", melanin, 0.0, 1.0)
+    r = check.in_range("melanin_redness", melanin_redness, 0.0, 1.0)
+    check.choice("pigments", pigments, ("cycles", "deon"))
+    if pigments == "cycles":
+        return tuple(absorption_from_melanin(m, r))
+    q = -math.log(max(1.0 - m, 1e-4))
+    return tuple(q * (1 - r) * e + q * r * p for e, p in zip(DEON_EUMELANIN, DEON_PHEOMELANIN))
+
+
+def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: float = DEON_DEFAULTS["melanin_redness"],
+              sigma_a=None, pigments: str = "cycles", eta: float = 1.55, roughness: float = 0.1309,
+              tilt: float = 0.0349066, tabulated: bool = True) -> Closure:
+    """d'Eon et al. 2011 energy-conserving hair with the Gaussian-detector azimuthal term (docs/models.md §5).
+
+    Colour: melanin, melanin_redness in [0, 1] (defaults 0.8, 1.0 as Principled Hair) with
+    pigments="cycles" (default) or "deon" (seed 004's constants), or sigma_a (RGB >= 0) directly;
+    eta: [1.1, 3]; roughness: beta_R in [0.02, 1] radians (default 7.5 deg; TT x1/2, TRT x2; the M
+    variance is beta^2 and the detector's sd beta); tilt: cuticle tilt in [-0.2, 0.2] rad (2 deg);
+    tabulated: tables over (|sin theta_o|, phi) (default) or direct quadrature.
+    Lobes: R, TT, TRT, TRRT+ (residual, so that sigma_a = 0 conserves energy).
+    """
+    if sigma_a is None:
+        s = deon_absorption(melanin, melanin_redness, pigments)
+    else:
+        s = check.color("sigma_a", sigma_a)
+        if any(x < 0 or x > 1e4 for x in s):
+            raise ValueError(f"sigma_a={sigma_a!r} is out of range; every channel must lie in [0, 10000]")
+    if not isinstance(tabulated, bool):
+        raise TypeError("tabulated: expected True or False")
+    core = _core.deon(s, check.in_range("eta", eta, 1.1, 3.0), check.in_range("roughness", roughness, 0.02, 1.0),
+                      check.in_range("tilt", tilt, -0.2, 0.2), tabulated)
+    return Closure(core, f"deon_hair(sigma_a={tuple(round(x, 6) for x in s)}, eta={eta:g}, roughness={roughness:g}, "
+                         f"tilt={tilt:g}, tabulated={tabulated})")
