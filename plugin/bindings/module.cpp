@@ -52,6 +52,7 @@ struct Extras {
     const double* pixel_coverage = nullptr;  // (N,)
     const double* near_field = nullptr;      // (N,) 0 / 1
     const double* random = nullptr;          // (N,) per-strand random (plugins)
+    const double* shadow = nullptr;          // (N,) Epic's light visibility through the hair volume
 };
 
 ShadingContext fibre_context(const double* wo, const double* h, size_t i, const Extras& x = {}) {
@@ -63,13 +64,14 @@ ShadingContext fibre_context(const double* wo, const double* h, size_t i, const 
     if (x.pixel_coverage) ctx.pixel_coverage = x.pixel_coverage[i];
     if (x.near_field) ctx.near_field = x.near_field[i] != 0.0;
     if (x.random) ctx.random = x.random[i];
+    if (x.shadow) ctx.shadow = x.shadow[i];
     return ctx;
 }
 
 bool same_context(const ShadingContext& a, const ShadingContext& b) {
     return a.wo.x == b.wo.x && a.wo.y == b.wo.y && a.wo.z == b.wo.z && a.h == b.h && a.normal.x == b.normal.x &&
            a.normal.y == b.normal.y && a.normal.z == b.normal.z && a.pixel_coverage == b.pixel_coverage &&
-           a.near_field == b.near_field && a.random == b.random;
+           a.near_field == b.near_field && a.random == b.random && a.shadow == b.shadow;
 }
 
 void store(double* out, size_t i, RGB c) {
@@ -120,7 +122,8 @@ void check_rows(const Array& a, size_t n, int cols, const char* name) {
 }
 
 Extras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
-                   std::vector<Array>& keep, const py::object& random = py::none()) {
+                   std::vector<Array>& keep, const py::object& random = py::none(),
+                   const py::object& shadow = py::none()) {
     Extras x;
     auto get = [&](const py::object& o, int cols, const char* name) -> const double* {
         if (o.is_none()) return nullptr;
@@ -132,6 +135,7 @@ Extras extras_from(const py::object& normal, const py::object& pixel_coverage, c
     x.pixel_coverage = get(pixel_coverage, 0, "pixel_coverage");
     x.near_field = get(near_field, 0, "near_field");
     x.random = get(random, 0, "random");
+    x.shadow = get(shadow, 0, "shadow");
     return x;
 }
 
@@ -391,6 +395,139 @@ py::dict plugin_params_dict(const PluginHair& m) {
     d["params"] = values;
     return d;
 }
+py::dict model_dict(const ChiangHair& m) { return chiang_params_dict(m.params()); }
+py::dict model_dict(const HuangHair& m) { return huang_params_dict(m); }
+
+// --- the model zoo (docs/models.md) -------------------------------------------------------------
+// Each dict carries "model" and, for hairbsdf.testing's quadrature panels, the narrowest lobe
+// widths as "v" (a variance in theta) and "s" (a scale in phi).
+py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
+    d["v"] = std::vector<double>{scales[0] * scales[0]};
+    d["s"] = std::vector<double>{scales[1]};
+    return d;
+}
+py::dict model_dict(const KajiyaKayHair& m) {
+    const KajiyaKayHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "kajiya_kay";
+    d["diffuse"] = std::array<double, 3>{p.diffuse.r, p.diffuse.g, p.diffuse.b};
+    d["specular"] = std::array<double, 3>{p.specular.r, p.specular.g, p.specular.b};
+    d["exponent"] = p.exponent;
+    d["specular_norm"] = m.specular_norm();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum kajiya_kay(std::array<double, 3> diffuse, std::array<double, 3> specular, double exponent) {
+    KajiyaKayHairParams p;
+    p.diffuse = rgb_from(diffuse);
+    p.specular = rgb_from(specular);
+    p.exponent = exponent;
+    return ClosureSum({Closure{RGB(1.0), KajiyaKayHair(p)}});
+}
+
+py::dict model_dict(const EpicHair& m) {
+    const EpicHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "epic";
+    d["base_color"] = std::array<double, 3>{p.base_color.r, p.base_color.g, p.base_color.b};
+    d["r_scale"] = p.r_scale;
+    d["scatter"] = p.scatter;
+    d["roughness"] = p.roughness;
+    d["shift"] = p.shift;
+    d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
+    d["betas"] = m.betas();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum epic(std::array<double, 3> base_color, double r_scale, double scatter, double roughness, double shift,
+                int variant) {
+    EpicHairParams p;
+    p.base_color = rgb_from(base_color);
+    p.r_scale = r_scale;
+    p.scatter = scatter;
+    p.roughness = roughness;
+    p.shift = shift;
+    p.variant = EpicVariant(variant);
+    return ClosureSum({Closure{RGB(1.0), EpicHair(p)}});
+}
+
+py::dict model_dict(const ScheuermannHair& m) {
+    const ScheuermannHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "scheuermann";
+    d["primary_color"] = std::array<double, 3>{p.primary_color.r, p.primary_color.g, p.primary_color.b};
+    d["secondary_color"] = std::array<double, 3>{p.secondary_color.r, p.secondary_color.g, p.secondary_color.b};
+    d["primary_exponent"] = p.primary_exponent;
+    d["secondary_exponent"] = p.secondary_exponent;
+    d["primary_shift"] = p.primary_shift;
+    d["secondary_shift"] = p.secondary_shift;
+    d["shift_texture"] = p.shift_texture;
+    d["noise"] = p.noise;
+    d["norms"] = m.norms();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum scheuermann(std::array<double, 3> c1, std::array<double, 3> c2, double p1, double p2, double s1, double s2,
+                       double shift_texture, double noise) {
+    ScheuermannHairParams p;
+    p.primary_color = rgb_from(c1);
+    p.secondary_color = rgb_from(c2);
+    p.primary_exponent = p1;
+    p.secondary_exponent = p2;
+    p.primary_shift = s1;
+    p.secondary_shift = s2;
+    p.shift_texture = shift_texture;
+    p.noise = noise;
+    return ClosureSum({Closure{RGB(1.0), ScheuermannHair(p)}});
+}
+py::dict model_dict(const MarschnerHair& m) {
+    const MarschnerHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "marschner";
+    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
+    d["eta"] = p.eta;
+    d["eccentricity"] = p.eccentricity;
+    d["alpha_r"] = p.alpha_r;
+    d["beta_r"] = p.beta_r;
+    d["glint_scale"] = p.glint_scale;
+    d["caustic_width"] = p.caustic_width;
+    d["caustic_fade"] = p.caustic_fade;
+    d["caustic_limit"] = p.caustic_limit;
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum marschner(std::array<double, 3> sigma_a, double eta, double eccentricity, double alpha_r, double beta_r,
+                     double glint_scale, double caustic_width, double caustic_fade, double caustic_limit) {
+    MarschnerHairParams p;
+    p.sigma_a = rgb_from(sigma_a);
+    p.eta = eta;
+    p.eccentricity = eccentricity;
+    p.alpha_r = alpha_r;
+    p.beta_r = beta_r;
+    p.glint_scale = glint_scale;
+    p.caustic_width = caustic_width;
+    p.caustic_fade = caustic_fade;
+    p.caustic_limit = caustic_limit;
+    return ClosureSum({Closure{RGB(1.0), MarschnerHair(p)}});
+}
+
+py::dict model_dict(const DeonHair& m) {
+    const DeonHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "deon";
+    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
+    d["eta"] = p.eta;
+    d["roughness"] = p.roughness;
+    d["tilt"] = p.tilt;
+    d["tabulated"] = p.tabulated;
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum deon(std::array<double, 3> sigma_a, double eta, double roughness, double tilt, bool tabulated) {
+    DeonHairParams p;
+    p.sigma_a = rgb_from(sigma_a);
+    p.eta = eta;
+    p.roughness = roughness;
+    p.tilt = tilt;
+    p.tabulated = tabulated;
+    return ClosureSum({Closure{RGB(1.0), DeonHair(p)}});
+}
+py::dict model_dict(const PluginHair& m) { return plugin_params_dict(m); }
 
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
@@ -536,31 +673,31 @@ PYBIND11_MODULE(_core, m) {
         // pixel_coverage (N,), near_field (N,) as 0 / 1.
         .def("eval_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, bool lobes, py::object normal,
-                py::object pixel_coverage, py::object near_field, py::object random) {
+                py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
                  return batch_eval(c, wo, wi, h, lobes, x);
              },
              py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("lobes"), py::arg("normal"), py::arg("pixel_coverage"),
-             py::arg("near_field"), py::arg("random") = py::none())
+             py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
         .def("pdf_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
-                py::object pixel_coverage, py::object near_field, py::object random) {
+                py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
                  return batch_pdf(c, wo, wi, h, x);
              },
              py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("normal"), py::arg("pixel_coverage"),
-             py::arg("near_field"), py::arg("random") = py::none())
+             py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
         .def("sample_ex",
              [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u, py::object normal,
-                py::object pixel_coverage, py::object near_field, py::object random) {
+                py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random);
+                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
                  return batch_sample(c, wo, h, u, x);
              },
              py::arg("wo"), py::arg("h"), py::arg("u"), py::arg("normal"), py::arg("pixel_coverage"),
-             py::arg("near_field"), py::arg("random") = py::none())
+             py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
         .def("albedo", &batch_albedo)
         .def("scaled",
              [](const ClosureSum& c, std::array<double, 3> w) {
@@ -583,13 +720,7 @@ PYBIND11_MODULE(_core, m) {
         .def("model_params", [](const ClosureSum& c) {
             py::list out;
             for (const Closure& k : c.closures()) {
-                if (const auto* chiang = std::get_if<ChiangHair>(&k.model)) {
-                    out.append(chiang_params_dict(chiang->params()));
-                } else if (const auto* plugin = std::get_if<PluginHair>(&k.model)) {
-                    out.append(plugin_params_dict(*plugin));
-                } else {
-                    out.append(huang_params_dict(std::get<HuangHair>(k.model)));
-                }
+                out.append(std::visit([](const auto& model) { return model_dict(model); }, k.model));
             }
             return out;
         })
@@ -632,6 +763,12 @@ PYBIND11_MODULE(_core, m) {
         return out;
     });
     m.def("chiang_from_params", &chiang_from_params);
+    m.def("kajiya_kay", &kajiya_kay);
+    m.def("epic", &epic);
+    m.def("scheuermann", &scheuermann);
+    m.def("marschner", &marschner);
+    m.def("deon", &deon);
+    m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
              std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,

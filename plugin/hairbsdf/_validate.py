@@ -95,6 +95,9 @@ def unit_interval(name: str, value) -> np.ndarray:
     return arr
 
 
+fractions = unit_interval  # the name the model zoo uses
+
+
 def flags(name: str, value) -> np.ndarray:
     """Scalar or (N,) booleans -> (N,) float64 of 0 / 1."""
     arr = np.asarray(value)
@@ -169,3 +172,23 @@ def keywords(function: str, given: dict, allowed: Iterable[str]) -> None:
             close = difflib.get_close_matches(key, allowed, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise TypeError(f"{function}() got an unknown keyword {key!r}{hint}; allowed: {', '.join(allowed)}")
+
+
+def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> float:
+    """A real number in [lo, hi] (or open at either end); the error names the range."""
+    v = real(name, value)
+    below = v <= lo if lo_open else v < lo
+    above = v >= hi if hi_open else v > hi
+    if below or above:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        raise ValueError(f"{name}={value!r} is out of range; allowed: {left}{lo:g}, {hi:g}{right}")
+    return v
+
+
+def color_in_range(name: str, value, lo: float, hi: float) -> tuple[float, float, float]:
+    """An RGB triple (or a number for grey) with every channel in [lo, hi]."""
+    c = color(name, value)
+    if any(x < lo or x > hi for x in c):
+        raise ValueError(f"{name}={value!r} is out of range; every channel must lie in [{lo:g}, {hi:g}]")
+    return c

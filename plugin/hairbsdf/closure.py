@@ -52,25 +52,31 @@ class Closure:
     #   random:         scalar or (N,) in [0, 1], the per-strand random number (Hair Info > Random)
     #                   passed to plugin models (hairbsdf.load_plugin); built-in models ignore it
     #                   (principled_hair takes it as the `random` keyword). Default 0.
-    def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None) -> np.ndarray:
+    #   shadow:         scalar or (N,) in [0, 1], the Epic model's light visibility through the hair
+    #                   volume (docs/models.md §2), default 1 = unoccluded; other models ignore it.
+    def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
+             shadow=None) -> np.ndarray:
         """BSDF value including the cosine factor (Cycles' convention), (N, 3)."""
-        return self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random)
+        return self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random, shadow)
 
-    def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None) -> np.ndarray:
+    def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
+                   shadow=None) -> np.ndarray:
         """Per-lobe values (N, 4, 3) in the order R, TT, TRT, TRRT+; they sum to eval."""
-        return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random)
+        return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow)
 
-    def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None) -> np.ndarray:
+    def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
+            shadow=None) -> np.ndarray:
         """The density `sample` reports for wi, per unit solid angle, (N,)."""
-        extra = _extras(normal, pixel_coverage, near_field, random)
+        extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
         if not extra:
             return self._core.pdf(*rows)
         return self._core.pdf_ex(*rows[:3], *_extra_args(extra, rows[3:]))
 
-    def sample(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None, random=None) -> SampleResult:
+    def sample(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None, random=None,
+               shadow=None) -> SampleResult:
         """Samples wi from 3 uniform numbers per row (docs/conventions.md for their roles)."""
-        extra = _extras(normal, pixel_coverage, near_field, random)
+        extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         rows = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u), **extra)
         if not extra:
             wi, weight, pdf, lobe = self._core.sample(*rows)
@@ -78,8 +84,8 @@ class Closure:
             wi, weight, pdf, lobe = self._core.sample_ex(*rows[:3], *_extra_args(extra, rows[3:]))
         return SampleResult(wi, weight, pdf, lobe)
 
-    def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field, random=None):
-        extra = _extras(normal, pixel_coverage, near_field, random)
+    def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field, random=None, shadow=None):
+        extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
         if not extra:
             return self._core.eval_lobes(*rows) if lobes else self._core.eval(*rows)
@@ -96,7 +102,7 @@ class Closure:
         rows = self._rows(wo=check.directions("wo", wo), wi=wi_arr, h=check.offsets("h", h), **extra)
         if wi is None:
             rows[1] = np.zeros((0, 3))
-        return self._core.huang_details(*rows[:3], *_extra_args(extra, rows[3:])[:3])
+        return self._core.huang_details(*rows[:3], *_extra_args(extra, rows[3:], _HUANG_ORDER))
 
     def sample_directions(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None) -> SampleResult:
         """Directions of the Huang mixture sampler and their density, without evaluating the BSDF
@@ -104,7 +110,7 @@ class Closure:
         Huang closure only."""
         extra = _extras(normal, pixel_coverage, near_field)
         rows = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u), **extra)
-        wi, pdf, lobe = self._core.huang_sample_directions(*rows[:3], *_extra_args(extra, rows[3:])[:3])
+        wi, pdf, lobe = self._core.huang_sample_directions(*rows[:3], *_extra_args(extra, rows[3:], _HUANG_ORDER))
         return SampleResult(wi, np.zeros_like(wi), pdf, lobe)
 
     def cycles_estimate(self, wo, wi, h, *, samples: int = 1, seed: int = 0, normal=None, pixel_coverage=None,
@@ -116,8 +122,8 @@ class Closure:
             raise ValueError("samples: must be an integer >= 1")
         extra = _extras(normal, pixel_coverage, near_field)
         rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
-        return self._core.huang_cycles_estimate(*rows[:3], *_extra_args(extra, rows[3:])[:3], samples,
-                                                int(seed) & 0xFFFFFFFF)
+        return self._core.huang_cycles_estimate(*rows[:3], *_extra_args(extra, rows[3:], _HUANG_ORDER), samples,
+                                                 int(seed) & 0xFFFFFFFF)
 
     def albedo(self, wo, h, *, panels_per_scale: float = 1.0, max_nodes: int = 4_000_000) -> np.ndarray:
         """Directional albedo, the integral of eval over all wi, by deterministic
@@ -157,10 +163,11 @@ class Closure:
         return check.broadcast_rows(**arrays)
 
 
-_EXTRA_ORDER = ("normal", "pixel_coverage", "near_field", "random")
+_EXTRA_ORDER = ("normal", "pixel_coverage", "near_field", "random", "shadow")
+_HUANG_ORDER = _EXTRA_ORDER[:3]
 
 
-def _extras(normal, pixel_coverage, near_field, random=None) -> dict:
+def _extras(normal, pixel_coverage, near_field, random=None, shadow=None) -> dict:
     """The given optional per-sample fields, validated (an empty dict when none is given)."""
     out = {}
     if normal is not None:
@@ -171,14 +178,16 @@ def _extras(normal, pixel_coverage, near_field, random=None) -> dict:
         out["near_field"] = check.flags("near_field", near_field)
     if random is not None:
         out["random"] = check.unit_interval("random", random)
+    if shadow is not None:
+        out["shadow"] = check.fractions("shadow", shadow)
     return out
 
 
-def _extra_args(extra: dict, arrays: list) -> list:
+def _extra_args(extra: dict, arrays: list, order=_EXTRA_ORDER) -> list:
     """Broadcast arrays of `extra` (in insertion order) -> the core's (normal, pixel_coverage,
-    near_field, random) arguments, None where not given."""
+    near_field, random, shadow) arguments, None where not given."""
     given = dict(zip(extra.keys(), arrays))
-    return [given.get(k) for k in _EXTRA_ORDER]
+    return [given.get(k) for k in order]
 
 
 def _fmt_weight(w) -> str:

@@ -25,6 +25,11 @@ struct ShadingContext {
     Vec3 normal{0, 0, 0};       // curve normal = ellipse major axis; zero: Cycles' fallback frame
     double pixel_coverage = 1;  // half a pixel's footprint at the hit, in units of the radius (0.5 dP / r)
     bool near_field = false;    // allow the near field (Cycles: camera rays hitting curves)
+    // Optional field used by the Epic model's multiple-scattering term only (docs/models.md §2):
+    // the light's visibility through the hair volume estimated by the engine (Karis 2016's
+    // "Shadow", deep-opacity / shadow-map fraction), 1 = unoccluded (the default), 0 = fully in
+    // the hair's shadow.
+    double shadow = 1;
 };
 
 constexpr int kLobeCount = 4;  // R, TT, TRT, TRRT+ (Chiang); models with fewer lobes leave the rest 0

@@ -8,15 +8,23 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/deon.h"
+#include "hairbsdf/models/epic.h"
 #include "hairbsdf/models/huang.h"
+#include "hairbsdf/models/kajiya_kay.h"
+#include "hairbsdf/models/marschner.h"
 #include "hairbsdf/models/plugin_hair.h"
+#include "hairbsdf/models/scheuermann.h"
 
 namespace hairbsdf {
 
-using HairModel = std::variant<ChiangHair, HuangHair, PluginHair>;
+using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair, ScheuermannHair, MarschnerHair, DeonHair,
+                               PluginHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
-using PreparedModel =
-    std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint, PluginHair::ShadingPoint>;
+using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
+                                   KajiyaKayHair::ShadingPoint, EpicHair::ShadingPoint,
+                                   ScheuermannHair::ShadingPoint, MarschnerHair::ShadingPoint,
+                                   DeonHair::ShadingPoint, PluginHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 namespace hairbsdf {
 
@@ -134,5 +135,133 @@ inline double cycles_curve_random(uint32_t curve_index) {
     // Cycles computes this in float32; round the same way so values match bit for bit.
     return double(float(lookup3_hash_uint2(curve_index, 0)) / float(0xFFFFFFFFu));
 }
+
+
+// ---------------------------------------------------------------------------------------------
+// Sampling helpers of the model zoo (docs/models.md).
+
+// Standard normal CDF and its inverse (Acklam's rational approximation refined by one Halley
+// step on erfc: relative error ~1e-15 over (0, 1)).
+inline double normal_cdf(double z) { return 0.5 * std::erfc(-z * 0.7071067811865476); }
+inline double inverse_normal_cdf(double p) {
+    if (!(p > 0.0)) return -40.0;
+    if (!(p < 1.0)) return 40.0;
+    static const double a[6] = {-3.969683028665376e+01, 2.209460984245205e+02, -2.759285104469687e+02,
+                                1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+    static const double b[5] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                                6.680131188771972e+01,  -1.328068155288572e+01};
+    static const double c[6] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                                -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+    static const double d[4] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                                3.754408661907416e+00};
+    double x;
+    if (p < 0.02425) {
+        const double q = std::sqrt(-2.0 * std::log(p));
+        x = (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+            ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+    } else if (p > 1.0 - 0.02425) {
+        const double q = std::sqrt(-2.0 * std::log1p(-p));
+        x = -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+            ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+    } else {
+        const double q = p - 0.5, r = q * q;
+        x = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
+            (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
+    }
+    const double e = normal_cdf(x) - p;
+    const double u = e * 2.5066282746310002 * std::exp(0.5 * x * x);
+    return x - u / (1.0 + 0.5 * x * u);
+}
+
+// A normal distribution (mean, sd) truncated to [lo, hi]: exact density and inverse-CDF sampler.
+// Works in the tail nearer to the interval so that far-tail intervals keep their precision;
+// mass() == 0 when the interval carries no representable probability (then nothing is sampled).
+class TruncatedNormal {
+public:
+    TruncatedNormal() = default;
+    TruncatedNormal(double mean, double sd, double lo, double hi) : mean_(mean), sd_(sd), lo_(lo), hi_(hi) {
+        const double za = (lo - mean) / sd, zb = (hi - mean) / sd;
+        upper_ = za > 0.0;  // interval right of the mean: use the upper tail Q(z) = Phi(-z)
+        ca_ = upper_ ? normal_cdf(-za) : normal_cdf(za);
+        cb_ = upper_ ? normal_cdf(-zb) : normal_cdf(zb);
+        mass_ = std::fabs(cb_ - ca_);
+    }
+    double mass() const { return mass_; }
+    // Density on [lo, hi] (0 outside).
+    double pdf(double x) const {
+        if (!(mass_ > 0.0) || x < lo_ || x > hi_) return 0.0;
+        const double z = (x - mean_) / sd_;
+        return std::exp(-0.5 * z * z) / (sd_ * 2.5066282746310002 * mass_);
+    }
+    double sample(double u) const {
+        const double p = ca_ + clamp(u, 0.0, 1.0) * (cb_ - ca_);
+        const double z = upper_ ? -inverse_normal_cdf(p) : inverse_normal_cdf(p);
+        return clamp(mean_ + sd_ * z, lo_, hi_);
+    }
+
+private:
+    double mean_ = 0, sd_ = 1, lo_ = -1, hi_ = 1;
+    double ca_ = 0, cb_ = 0, mass_ = 0;
+    bool upper_ = false;
+};
+
+// A piecewise-constant density on [lo, hi] with `bins` equal bins, each bin's weight the integral
+// of f over it (4-point Gauss-Legendre). Exact density and inverse-CDF sampling, also restricted
+// to a sub-interval [a, b] (the density is then renormalised by mass(a, b)).
+class PiecewiseConstant1D {
+public:
+    PiecewiseConstant1D() = default;
+    template <class F>
+    PiecewiseConstant1D(F f, double lo, double hi, int bins) : lo_(lo), hi_(hi), width_((hi - lo) / bins) {
+        static const double gx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
+        static const double gw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+        density_.resize(size_t(bins));
+        cdf_.assign(size_t(bins) + 1, 0.0);
+        for (int k = 0; k < bins; ++k) {
+            const double mid = lo + (k + 0.5) * width_;
+            double s = 0;
+            for (int j = 0; j < 4; ++j) s += gw[j] * std::max(0.0, f(mid + 0.5 * width_ * gx[j]));
+            cdf_[size_t(k) + 1] = cdf_[size_t(k)] + 0.5 * width_ * s;
+        }
+        const double total = cdf_.back();
+        for (int k = 0; k < bins; ++k)
+            density_[size_t(k)] = total > 0 ? (cdf_[size_t(k) + 1] - cdf_[size_t(k)]) / (total * width_) : 0.0;
+        for (double& c : cdf_) c = total > 0 ? c / total : 0.0;
+        cdf_.back() = total > 0 ? 1.0 : 0.0;
+        integral_ = total;
+    }
+    double integral() const { return integral_; }  // integral of f over [lo, hi] (bin quadrature)
+    double pdf(double x) const {
+        if (density_.empty() || x < lo_ || x > hi_) return 0.0;
+        return density_[bin(x)];
+    }
+    double cdf(double x) const {
+        if (density_.empty() || x <= lo_) return 0.0;
+        if (x >= hi_) return 1.0;
+        const size_t k = bin(x);
+        return cdf_[k] + density_[k] * (x - (lo_ + double(k) * width_));
+    }
+    double mass(double a, double b) const { return std::max(0.0, cdf(b) - cdf(a)); }
+    // Inverse CDF restricted to [a, b].
+    double sample(double u, double a, double b) const {
+        const double ca = cdf(a), cb = cdf(b);
+        const double target = ca + clamp(u, 0.0, 1.0) * (cb - ca);
+        size_t k = size_t(std::upper_bound(cdf_.begin(), cdf_.end(), target) - cdf_.begin());
+        k = k == 0 ? 0 : k - 1;
+        // skip empty bins so the sample lands where the density is positive
+        while (k + 1 < cdf_.size() && density_[std::min(k, density_.size() - 1)] <= 0.0) ++k;
+        k = std::min(k, density_.size() - 1);
+        const double x = lo_ + double(k) * width_ + (density_[k] > 0 ? (target - cdf_[k]) / density_[k] : 0.0);
+        return clamp(x, std::max(a, lo_ + double(k) * width_), std::min(b, lo_ + double(k + 1) * width_));
+    }
+
+private:
+    size_t bin(double x) const {
+        const double t = (x - lo_) / width_;
+        return size_t(clamp(std::floor(t), 0.0, double(density_.size() - 1)));
+    }
+    double lo_ = 0, hi_ = 1, width_ = 1, integral_ = 0;
+    std::vector<double> density_, cdf_;
+};
 
 }  // namespace hairbsdf
