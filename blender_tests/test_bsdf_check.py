@@ -10,15 +10,15 @@ and are cached under build/blender_tests/bsdf_check/, keyed by a hash of the
 scene/case code and the Blender version.
 
 Case sets: "small" (60 renders per Blender, a few seconds) and "full" (945 renders
-per Blender, ~30 s each; marked ``slow``).  All tests are marked ``blender``.
+per Blender, ~30 s each; both run in CI).  All tests are marked ``blender``.
 
 Environment:
-  BSDF_CHECK_CASES=small,full   case sets to run (default: both; deselect with -m "not slow")
+  BSDF_CHECK_CASES=small,full   case sets to run (default: both)
   BSDF_CHECK_REFRESH=1          re-render even if a cached npz exists
   BLENDER=/path/to/blender      Blender 3.x executable (default: `blender` on PATH)
   BSDF_CHECK_BPY_PYTHON=...     Python with the bpy module (default: .venv/bin/python)
 
-Run: .venv/bin/python -m pytest blender_tests/test_bsdf_check.py -s [-m "not slow"]
+Run: .venv/bin/python -m pytest blender_tests/test_bsdf_check.py -s
 """
 
 import fcntl
@@ -125,9 +125,8 @@ pytestmark = pytest.mark.blender
 def _params():
     out = []
     for case_set in CASE_SETS:
-        marks = [pytest.mark.slow] if case_set != "small" else []
         for which, label in (("bpy", "bpy4.5"), ("blender", "blender3.4")):
-            out.append(pytest.param((which, case_set), id="%s-%s" % (label, case_set), marks=marks))
+            out.append(pytest.param((which, case_set), id="%s-%s" % (label, case_set)))
     return out
 
 

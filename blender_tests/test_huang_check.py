@@ -43,7 +43,7 @@ REFRESH = os.environ.get("HUANG_CHECK_REFRESH", "") not in ("", "0")
 FULL = os.environ.get("HUANG_CHECK_FULL", "" if os.environ.get("CI") else "1") not in ("", "0")
 MEDIAN_TOL, P99_TOL, FLOOR = 1e-3, 1e-2, 1e-3
 
-pytestmark = [pytest.mark.blender, pytest.mark.slow]
+pytestmark = pytest.mark.blender
 
 
 def _bpy_python():

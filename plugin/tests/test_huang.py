@@ -1,7 +1,7 @@
 """Huang hair (principled_hair(model="huang")): API, semantics (near / far field, ellipse,
 transparency), agreement with the independent float64 reference and with Cycles' stochastic
 estimator, the mixture sampler (chi-square, pdf, weights) and the furnace.
-Cheap enough for CI (about a minute on 2 cores); the grids are in test_huang_slow.py."""
+Cheap enough for CI (about a minute on 2 cores); the brute-force grid is in test_huang_bruteforce.py (slow: scripts/test --full)."""
 
 import numpy as np
 import pytest

@@ -5,13 +5,15 @@ callables return and names the problem."""
 
 import importlib.util
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import hairbsdf
 from hairbsdf import testing
-from conftest import EXAMPLE
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "plugins" / "kajiya_kay"
 
 
 def numpy_kajiya_kay():
