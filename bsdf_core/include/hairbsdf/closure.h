@@ -51,6 +51,21 @@ struct BsdfSample {
     int lobe = -1;  // -1: no sample (zero weight)
 };
 
+// The sample in direction wi from the closure's evaluation there (weight = value / pdf), or no
+// sample when the pdf is not positive or anything is not finite.
+inline BsdfSample sample_from_eval(Vec3 wi, const BsdfEval& e, int lobe) {
+    BsdfSample out;
+    const RGB value = e.value();
+    const RGB weight = (1.0 / e.pdf) * value;
+    if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight) || !isfinite(wi)) return out;
+    out.wi = wi;
+    out.value = value;
+    out.pdf = e.pdf;
+    out.weight = weight;
+    out.lobe = lobe;
+    return out;
+}
+
 // The per-shading-point frame Cycles uses for hair (cycles-hair-notes §4.1):
 // x = tangent, y = normalize(x × wo), z = x × y. The view direction sits at phi = -pi/2.
 struct FibreFrame {

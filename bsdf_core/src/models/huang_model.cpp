@@ -1036,17 +1036,10 @@ BsdfSample HuangHair::sample(const ShadingPoint& sp, const std::array<double, 3>
     const int lobe = sample_direction(sp, u, O);
     if (lobe < 0) return out;
 
-    const std::array<RGB, 4> lobes = eval_local(sp, O);
-    const double pdf = pdf_local(sp, O);
-    const RGB value = lobes[0] + lobes[1] + lobes[2] + lobes[3];
-    const RGB weight = (1.0 / pdf) * value;
-    if (!(pdf > 0.0) || !std::isfinite(pdf) || !isfinite(weight)) return out;
-    out.wi = to_world(sp, O);
-    out.value = value;
-    out.pdf = pdf;
-    out.weight = weight;
-    out.lobe = lobe;
-    return out;
+    BsdfEval e;
+    e.lobes = eval_local(sp, O);
+    e.pdf = pdf_local(sp, O);
+    return sample_from_eval(to_world(sp, O), e, lobe);
 }
 
 // --- Cycles' sampler (pdf reported as 1) --------------------------------------------------------

@@ -163,15 +163,7 @@ public:
             wi = t * sp.fake_normal + cos_from_sin(t) * (std::cos(psi) * sp.frame.x + std::sin(psi) * b);
         }
         const BsdfEval e = eval(sp, wi);
-        const RGB value = e.value();
-        const RGB weight = (1.0 / e.pdf) * value;
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight)) return out;
-        out.wi = wi;
-        out.value = value;
-        out.pdf = e.pdf;
-        out.weight = weight;
-        out.lobe = p;
-        return out;
+        return sample_from_eval(wi, e, p);
     }
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
         return sample(prepare(ctx), u);

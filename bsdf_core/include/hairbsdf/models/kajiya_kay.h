@@ -90,16 +90,9 @@ public:
             sin_theta_i = sp.spec.sample((u[2] - w_semicircle_) / w_normal_);
         }
         const BsdfEval e = eval_local(sp, sin_theta_i);
-        const RGB value = e.value();
-        const RGB weight = (1.0 / e.pdf) * value;
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight)) return out;
-        out.wi = sp.frame.direction(sin_theta_i, cos_from_sin(sin_theta_i), -0.5 * kPi + kTwoPi * u[0]);
-        out.value = value;
-        out.pdf = e.pdf;
-        out.weight = weight;
+        const Vec3 wi = sp.frame.direction(sin_theta_i, cos_from_sin(sin_theta_i), -0.5 * kPi + kTwoPi * u[0]);
         // Report the lobe that dominates the value.
-        out.lobe = luminance(e.lobes[LobeR]) >= luminance(e.lobes[LobeTRRT]) ? LobeR : LobeTRRT;
-        return out;
+        return sample_from_eval(wi, e, luminance(e.lobes[LobeR]) >= luminance(e.lobes[LobeTRRT]) ? LobeR : LobeTRRT);
     }
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
         return sample(prepare(ctx), u);

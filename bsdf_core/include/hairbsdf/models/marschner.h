@@ -194,15 +194,7 @@ public:
         }
         const Vec3 wi = sp.frame.direction(sin_theta_i, cos_from_sin(sin_theta_i), phi - 0.5 * kPi);
         const BsdfEval e = eval(sp, wi);
-        const RGB value = e.value();
-        const RGB weight = (1.0 / e.pdf) * value;
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight)) return out;
-        out.wi = wi;
-        out.value = value;
-        out.pdf = e.pdf;
-        out.weight = weight;
-        out.lobe = p < 3 ? p : (luminance(e.lobes[0]) >= luminance(e.lobes[1]) ? 0 : 1);
-        return out;
+        return sample_from_eval(wi, e, p < 3 ? p : (luminance(e.lobes[0]) >= luminance(e.lobes[1]) ? 0 : 1));
     }
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
         return sample(prepare(ctx), u);

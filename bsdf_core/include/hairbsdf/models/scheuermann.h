@@ -181,15 +181,7 @@ public:
         const double r = cos_from_sin(t);
         const Vec3 wi = t * sp.tangent[k] + (r * std::cos(psi)) * sp.basis[k][0] + (r * std::sin(psi)) * sp.basis[k][1];
         const BsdfEval e = eval(sp, wi);
-        const RGB value = e.value();
-        const RGB weight = (1.0 / e.pdf) * value;
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight) || !isfinite(wi)) return out;
-        out.wi = wi;
-        out.value = value;
-        out.pdf = e.pdf;
-        out.weight = weight;
-        out.lobe = k == 0 ? LobeR : LobeTRT;
-        return out;
+        return sample_from_eval(wi, e, k == 0 ? LobeR : LobeTRT);
     }
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
         return sample(prepare(ctx), u);
