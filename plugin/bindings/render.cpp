@@ -128,6 +128,26 @@ E as_enum(py::handle h, const std::string& key, std::initializer_list<std::pair<
     fail(key, "'" + s + "' is not allowed; use one of " + allowed);
 }
 
+void read_environment(py::handle h, EnvironmentDesc& env) {
+    const std::string key = "['world']['texture']";
+    const py::dict t = as_dict(h, key);
+    auto px = as_array<float>(get(t, key, "pixels"), sub(key, "pixels"));
+    if (!px || px.ndim() != 3 || px.shape(2) != 3 || px.shape(0) < 1 || px.shape(1) < 1)
+        fail(sub(key, "pixels"), "expected shape (height, width, 3) with height, width >= 1");
+    env.height = int(px.shape(0));
+    env.width = int(px.shape(1));
+    env.pixels.assign(px.data(), px.data() + px.size());
+    env.weight = as_rgb(get(t, key, "weight"), sub(key, "weight"));
+    if (auto o = get_optional(t, "interpolation"))
+        env.closest = as_enum<bool>(*o, sub(key, "interpolation"), {{"LINEAR", false}, {"CLOSEST", true}});
+    if (auto o = get_optional(t, "matrix")) {
+        auto m = as_array<double>(*o, sub(key, "matrix"));
+        if (!m || m.ndim() != 2 || (m.shape(0) != 3 && m.shape(0) != 4) || m.shape(1) != 4)
+            fail(sub(key, "matrix"), "expected a 3x4 or 4x4 matrix");
+        for (int i = 0; i < 12; ++i) env.matrix[size_t(i)] = m.data()[i];
+    }
+}
+
 void read_curves(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("curves") || scene["curves"].is_none()) return;
     const std::string key = "['curves']";
@@ -417,6 +437,7 @@ SceneDesc scene_from_dict(const py::dict& scene) {
     if (auto w = get_optional(scene, "world")) {
         const py::dict wd = as_dict(*w, "['world']");
         if (auto c = get_optional(wd, "color")) out.world = as_rgb(*c, "['world']['color']");
+        if (auto t = get_optional(wd, "texture")) read_environment(*t, out.world_texture);
     }
     read_integrator(scene, out);
     return out;

@@ -299,6 +299,29 @@ def _check_world(scene, out):
         return
     w = _Checker.dict("scene['world']", scene["world"])
     out["world"] = {"color": _Checker.vector("scene['world']['color']", w.get("color", (0.0, 0.0, 0.0)), 3)}
+    if w.get("texture") is not None:
+        key = "scene['world']['texture']"
+        t = _Checker.dict(key, w["texture"])
+        try:
+            pixels = np.asarray(_Checker.required(key, t, "pixels"), dtype=np.float32)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{key}['pixels']: expected an array of numbers") from exc
+        if pixels.ndim != 3 or pixels.shape[2] != 3 or pixels.shape[0] < 1 or pixels.shape[1] < 1:
+            raise ValueError(f"{key}['pixels']: expected shape (height, width, 3) with height, width >= 1, "
+                             f"got {pixels.shape}")
+        tex = {"pixels": np.ascontiguousarray(pixels),
+               "weight": _Checker.vector(f"{key}['weight']", _Checker.required(key, t, "weight"), 3),
+               "interpolation": _Checker.choice(f"{key}['interpolation']", t.get("interpolation", "LINEAR"),
+                                                ("LINEAR", "CLOSEST"))}
+        if t.get("matrix") is not None:
+            try:
+                m = np.asarray(t["matrix"], dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise TypeError(f"{key}['matrix']: expected a 3x4 or 4x4 matrix") from exc
+            if m.shape not in ((3, 4), (4, 4)):
+                raise ValueError(f"{key}['matrix']: expected a 3x4 or 4x4 matrix, got shape {m.shape}")
+            tex["matrix"] = np.ascontiguousarray(m[:3])
+        out["world"]["texture"] = tex
 
 
 def _check_integrator(scene, out):

@@ -107,8 +107,12 @@ static Vec3 sample_uniform_sphere(double u0, double u1) {
     return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-Light::Light(RGB world_radiance) : world_(true), radiance_(world_radiance) {
+Light::Light(RGB world_radiance, const EnvironmentDesc& texture) : world_(true), radiance_(world_radiance) {
     contributes_ = !is_zero(world_radiance) && isfinite(world_radiance);
+    if (texture.has_texture() && !is_zero(texture.weight)) {
+        environment_ = std::make_shared<const EnvironmentMap>(texture);
+        contributes_ = true;
+    }
     use_mis_ = true;
 }
 
@@ -220,11 +224,16 @@ bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
     if (!contributes_) return false;
     out.use_mis = use_mis_;
     if (world_) {
-        out.wi = sample_uniform_sphere(u0, u1);
         out.distance = kInf;
-        out.radiance = radiance_;
-        out.pdf = 1.0 / (4.0 * kPi);
-        return true;
+        if (environment_) {
+            out.wi = environment_->sample(u0, u1, out.pdf);
+            out.radiance = radiance_ + environment_->eval(out.wi);
+        } else {
+            out.wi = sample_uniform_sphere(u0, u1);
+            out.radiance = radiance_;
+            out.pdf = 1.0 / (4.0 * kPi);
+        }
+        return out.pdf > 0;
     }
     switch (type_) {
         case LightType::Sun: {
@@ -386,8 +395,8 @@ bool Light::eval_direction(Vec3 dir, LightHit& out) const {
     if (!contributes_) return false;
     if (world_) {
         out.t = kInf;
-        out.radiance = radiance_;
-        out.pdf = 1.0 / (4.0 * kPi);
+        out.radiance = environment_ ? radiance_ + environment_->eval(dir) : radiance_;
+        out.pdf = environment_ ? environment_->pdf(dir) : 1.0 / (4.0 * kPi);
         return true;
     }
     if (type_ != LightType::Sun || !(half_angle_ > 0)) return false;
@@ -408,7 +417,7 @@ LightSet::LightSet(const SceneDesc& scene) {
         }
         lights_.push_back(l);
     }
-    Light world(scene.world);
+    Light world(scene.world, scene.world_texture);
     if (world.has_contribution()) {
         world_ = int(lights_.size());
         lights_.push_back(world);

@@ -225,7 +225,25 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         s.world = RGB(0.0);
         warnings.push_back("world: NaN/Inf color set to black");
     }
-    bool any_emission = !(s.world.r == 0 && s.world.g == 0 && s.world.b == 0);
+    EnvironmentDesc& env = s.world_texture;
+    if (env.width > 0 || env.height > 0 || !env.pixels.empty()) {
+        bool ok = env.has_texture() && isfinite(env.weight);
+        for (double m : env.matrix) ok = ok && std::isfinite(m);
+        size_t bad_texels = 0;
+        for (float& v : env.pixels) {
+            if (!std::isfinite(v) || v < 0) {
+                v = 0;
+                ++bad_texels;
+            }
+        }
+        if (bad_texels) warnings.push_back("world: " + plural(bad_texels, "texture value") + " NaN/Inf or negative set to 0");
+        if (!ok) {
+            env = EnvironmentDesc{};
+            warnings.push_back("world: environment texture with a bad size, weight or matrix removed");
+        }
+    }
+    bool any_emission = !(s.world.r == 0 && s.world.g == 0 && s.world.b == 0) ||
+                        (env.has_texture() && !(env.weight.r == 0 && env.weight.g == 0 && env.weight.b == 0));
     for (const LightDesc& l : s.lights) any_emission = any_emission || !(l.strength.r == 0 && l.strength.g == 0 && l.strength.b == 0);
     for (const MaterialDesc& m : s.materials)
         for (const ClosureDesc& c : m.closures)

@@ -1,11 +1,45 @@
 """World export: a uniform background colour (Background/Emission colour x strength, Mix
-and Add Shader folded); textures and other nodes are reported and their socket values
-used."""
+and Add Shader folded) plus at most one equirectangular Environment Texture feeding a
+Background / Emission Color (optionally through a Mapping node on Texture Coordinate >
+Generated); other nodes are reported and their socket values used."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from ._common import find_socket, rgb
 from .export_materials import MaterialTranslator
+from .images import read_image_linear
+
+
+def _euler_xyz(rx, ry, rz):
+    """Blender's XYZ Euler rotation matrix (X applied first)."""
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return z @ y @ x
+
+
+def mapping_matrix(vector_type, location, rotation, scale):
+    """3 x 4 matrix M with lookup = M (direction, 1) for a Mapping node (Blender's formulas)."""
+    r = _euler_xyz(*rotation)
+    s = np.asarray(scale, dtype=np.float64)
+    t = np.asarray(location, dtype=np.float64)
+    m = np.zeros((3, 4))
+    if vector_type == "POINT":
+        m[:, :3], m[:, 3] = r * s[None, :], t
+    elif vector_type == "VECTOR":
+        m[:, :3] = r * s[None, :]
+    elif vector_type == "NORMAL":  # the lookup normalises: the final normalize does not matter
+        with np.errstate(divide="ignore"):
+            m[:, :3] = r * np.where(s != 0, 1.0 / s, 0.0)[None, :]
+    else:  # TEXTURE: the inverse transform
+        with np.errstate(divide="ignore"):
+            inv_s = np.where(s != 0, 1.0 / s, 0.0)
+        m[:, :3] = inv_s[:, None] * r.T
+        m[:, 3] = -(m[:, :3] @ t)
+    return m
 
 
 def export_world(scene, report) -> dict:
@@ -29,14 +63,23 @@ def export_world(scene, report) -> dict:
         tr.warn("the Volume output is not supported and is ignored")
     src = tr._link_source(find_socket(out.inputs, "Surface"))
     color = [0.0, 0.0, 0.0]
+    texture = {}
 
     def walk(node, weight, depth=0):
         if depth > 32:
             return
         t = node.bl_idname
         if t in ("ShaderNodeBackground", "ShaderNodeEmission"):
-            c = tr.value(node, "Color", "color", (0.05, 0.05, 0.05))
             s = tr.value(node, "Strength", "float", 1.0)
+            linked = tr._link_source(find_socket(node.inputs, "Color"))
+            if linked is not None and linked[0].bl_idname == "ShaderNodeTexEnvironment" and not linked[0].mute:
+                tex_weight = tuple(w * s for w in weight)
+                if texture:
+                    tr.warn(f"only one Environment Texture is supported; '{linked[0].name}' is ignored")
+                elif any(w != 0 for w in tex_weight):
+                    texture.update(_environment_texture(tr, linked[0], linked[1], tex_weight))
+                return
+            c = tr.value(node, "Color", "color", (0.05, 0.05, 0.05))
             for k in range(3):
                 color[k] += weight[k] * c[k] * s
         elif t == "ShaderNodeMixShader":
@@ -56,4 +99,60 @@ def export_world(scene, report) -> dict:
 
     if src is not None:
         walk(src[0], (1.0, 1.0, 1.0))
-    return {"color": tuple(float(c) for c in color)}
+    result = {"color": tuple(float(c) for c in color)}
+    if texture.get("pixels") is not None:
+        result["texture"] = texture
+    return result
+
+
+def _environment_texture(tr, node, output, weight) -> dict:
+    """The scene_desc texture entry of an Environment Texture node, {} when unusable (warned)."""
+    if output.identifier != "Color":
+        tr.warn(f"'{node.name}' > {output.name} is not supported (only Color); ignored")
+        return {}
+    if node.projection != "EQUIRECTANGULAR":
+        tr.warn(f"'{node.name}': projection {node.projection} is not supported (only Equirectangular); ignored")
+        return {}
+    if node.image is None:
+        # Cycles shows its missing-texture colour (magenta); say so rather than guess.
+        tr.warn(f"'{node.name}' has no image; Cycles renders its missing-texture colour, hairbsdf black")
+        return {}
+    interpolation = {"Closest": "CLOSEST", "Linear": "LINEAR"}.get(node.interpolation)
+    if interpolation is None:
+        tr.warn(f"'{node.name}': interpolation {node.interpolation} is not supported; using Linear")
+        interpolation = "LINEAR"
+    matrix = _lookup_matrix(tr, node)
+    pixels = read_image_linear(node.image, tr.warn)
+    if pixels is None or matrix is None:
+        return {}
+    return {"pixels": pixels, "weight": tuple(float(w) for w in weight), "interpolation": interpolation,
+            "matrix": matrix}
+
+
+def _lookup_matrix(tr, node):
+    """The Vector input: unlinked (the direction), or Mapping on Texture Coordinate > Generated."""
+    src = tr._link_source(find_socket(node.inputs, "Vector"))
+    if src is None:
+        return np.eye(3, 4)
+    mapping, _ = src
+    if mapping.bl_idname == "ShaderNodeTexCoord" and src[1].identifier in ("Generated", "Object"):
+        return np.eye(3, 4)
+    if mapping.bl_idname != "ShaderNodeMapping":
+        tr.warn(f"'{node.name}' > Vector from '{mapping.name}' is not supported (use none, or Mapping on "
+                "Texture Coordinate > Generated); using the view direction")
+        return np.eye(3, 4)
+    inner = tr._link_source(find_socket(mapping.inputs, "Vector"))
+    if inner is None or inner[0].bl_idname != "ShaderNodeTexCoord" or inner[1].identifier not in ("Generated",
+                                                                                                  "Object"):
+        tr.warn(f"Mapping '{mapping.name}' must take Texture Coordinate > Generated; ignoring the mapping")
+        return np.eye(3, 4)
+    values = {}
+    for name in ("Location", "Rotation", "Scale"):
+        sock = find_socket(mapping.inputs, name)
+        if sock is None or not getattr(sock, "enabled", True):
+            values[name] = (0.0, 0.0, 0.0) if name != "Scale" else (1.0, 1.0, 1.0)
+            continue
+        if tr._link_source(sock) is not None:
+            tr.warn(f"Mapping '{mapping.name}' > {name} is linked; using its socket value")
+        values[name] = tuple(float(v) for v in sock.default_value)
+    return mapping_matrix(mapping.vector_type, values["Location"], values["Rotation"], values["Scale"])

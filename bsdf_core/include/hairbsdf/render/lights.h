@@ -13,7 +13,7 @@
 //   AREA: eval_fac = 1 / (pi * area), area = |u| |v| (x pi/4 for DISK / ELLIPSE), one-sided
 //     along the light's -Z; spread < pi attenuates by max((tan(spread/2) - tan a) N, 0)
 //     with Cycles' normalisation N.
-//   WORLD: uniform radiance.
+//   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
 // Next-event estimation picks one light uniformly (Cycles 4.x uses a light tree, which
@@ -23,8 +23,10 @@
 // counts each as a transparent bounce) and they cast no shadows.
 #pragma once
 
+#include <memory>
 #include <vector>
 
+#include "hairbsdf/render/environment.h"
 #include "hairbsdf/render/geometry.h"
 
 namespace hairbsdf::render {
@@ -49,7 +51,8 @@ struct LightHit {
 class Light {
 public:
     Light(const LightDesc& desc);       // scene light
-    explicit Light(RGB world_radiance);  // uniform world
+    // The world: uniform radiance plus the environment texture, if any.
+    Light(RGB world_radiance, const EnvironmentDesc& texture);
     bool is_world() const { return world_; }
     bool is_distant() const { return world_ || type_ == LightType::Sun; }
     bool use_mis() const { return use_mis_; }
@@ -67,6 +70,7 @@ private:
     double spread_attenuation(Vec3 to_light) const;
 
     bool world_ = false;
+    std::shared_ptr<const EnvironmentMap> environment_;  // world texture, or null
     bool contributes_ = true;
     bool use_mis_ = true;
     bool visible_camera_ = true;
@@ -107,7 +111,7 @@ public:
     int intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const;
     // Sun discs crossed by an escaping ray. Same visibility rule. Returns the number written.
     int eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const;
-    // The uniform world, if any (index into lights, or -1).
+    // The world, if any (index into lights, or -1).
     int world_index() const { return world_; }
 
 private:

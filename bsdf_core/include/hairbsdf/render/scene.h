@@ -108,6 +108,19 @@ struct IntegratorSettings {
     Accuracy accuracy = Accuracy::Cycles;   // Chiang's special functions: Cycles' or exact
 };
 
+// An equirectangular Environment Texture on the world, as Cycles reads it: the lookup vector
+// is matrix x (direction, 1) (a Mapping node; identity without one), u = 0.5 - atan2(y, x) / 2 pi,
+// v = 1 - acos(z) / pi (v = 1 at the zenith), texels repeat in both axes, Linear (bilinear) or
+// Closest interpolation. World radiance = world + weight x texture(direction).
+struct EnvironmentDesc {
+    int width = 0, height = 0;
+    std::vector<float> pixels;  // (height, width, 3) scene-linear RGB; row 0 = the image's top row
+    RGB weight{0.0};            // Background strength x Mix / Add weights
+    bool closest = false;       // interpolation Closest (else Linear)
+    std::array<double, 12> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // row-major 3 x 4
+    bool has_texture() const { return width > 0 && height > 0 && pixels.size() == size_t(width) * height * 3; }
+};
+
 struct SceneDesc {
     CurveData curves;
     CurveShape curve_shape = CurveShape::Thick;
@@ -121,6 +134,7 @@ struct SceneDesc {
     CameraDesc camera;
     std::vector<LightDesc> lights;
     RGB world{0.0};
+    EnvironmentDesc world_texture;
     IntegratorSettings integrator;
 };
 
