@@ -72,6 +72,13 @@ SCENES = {
         title="Mixed shaders on a scalp",
         description="A diffuse mesh scalp with two particle-hair systems: Mix Shader (Principled Hair, Hair BSDF "
                     "reflection) and Add Shader (Principled Hair, Hair BSDF transmission)."),
+    "hdri_swatch": dict(
+        module="hdri_swatch", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        title="Swatch under an HDRI, Cycles' default settings",
+        description="The swatch's strands lit only by an equirectangular environment texture (sky gradient, "
+                    "ground, a soft sun blob), with Cycles' default Filter Glossy 1, Clamp Indirect 10 and "
+                    "Light Threshold 0.01."),
     "huang_ellipse": dict(
         module="huang_ellipse", kind="noisy", model="huang", min_blender=(4, 0, 0), variants=None,
         ci=dict(res=(128, 96), spp=8, seeds=8), full=dict(res=(320, 240), spp=32, seeds=8),

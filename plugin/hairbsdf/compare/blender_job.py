@@ -5,7 +5,8 @@
 
 job.json:
   action "build":  build a library scene (catalog module) into an empty file and save it
-                   {scenes_dir, module, cfg, blend_out, info_out}
+                   {scenes_dir, module, cfg, blend_out, info_out}; the builder's cfg gets
+                   asset_dir = the folder of blend_out, for files the scene refers to
   action "render": open a .blend, set seed / samples / size / engine, render one linear EXR
                    {blend, engine: CYCLES|HAIRBSDF, accuracy: CYCLES|EXACT, seed, spp, res,
                     threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites}
@@ -60,7 +61,9 @@ def do_build(job):
     mod = importlib.import_module(job["module"])
     t0 = time.time()
     scene = lib.reset_scene()
-    info = mod.build(scene, job["cfg"]) or {}
+    # asset_dir: where a builder may write files the .blend refers to (e.g. an HDRI)
+    cfg = dict(job["cfg"], asset_dir=os.path.dirname(os.path.abspath(job["blend_out"])))
+    info = mod.build(scene, cfg) or {}
     settings, warnings = lib.read_parity_settings(scene)
     bpy.ops.wm.save_as_mainfile(filepath=job["blend_out"], check_existing=False)
     _write_json(job["info_out"], dict(ok=True, info=info, settings=settings, parity_warnings=warnings,
