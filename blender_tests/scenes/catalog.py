@@ -10,6 +10,8 @@ Each entry:
   min_blender  oldest Blender that can build it ((4, 0, 0) for 4.x-only features)
   variants     None, or names of variants that are compared separately (e.g. curve shapes)
   image_mean   True: also gate |image mean / Cycles' image mean - 1| (the furnace)
+  cycles_defaults  True: the scene keeps Cycles' default Filter Glossy, Clamp Indirect and Light
+               Threshold on purpose (the report lists them as parity warnings)
   ci / full    default sizes: res (W, H), spp per render, seeds (independent renders per engine)
   title, description  for the report and --list-scenes
 """
@@ -74,6 +76,7 @@ SCENES = {
                     "reflection) and Add Shader (Principled Hair, Hair BSDF transmission)."),
     "hdri_swatch": dict(
         module="hdri_swatch", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        cycles_defaults=True,
         ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
         title="Swatch under an HDRI, Cycles' default settings",
         description="The swatch's strands lit only by an equirectangular environment texture (sky gradient, "
