@@ -416,6 +416,18 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
                                          {{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}});
     if (auto o = get_optional(in, "accuracy"))
         s.accuracy = as_enum<Accuracy>(*o, sub(key, "accuracy"), {{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}});
+    if (auto o = get_optional(in, "passes")) {
+        if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
+            fail(sub(key, "passes"), "expected a list of pass names");
+        for (py::handle name : *o) {
+            const std::string pass = as_str(name, sub(key, "passes"));
+            if (pass == "hair_lobes") s.pass_hair_lobes = true;
+            else if (pass == "depth") s.pass_depth = true;
+            else if (pass == "normal") s.pass_normal = true;
+            else if (pass == "variance") s.pass_variance = true;
+            else fail(sub(key, "passes"), "'" + pass + "' is not allowed; use 'hair_lobes', 'depth', 'normal', 'variance'");
+        }
+    }
 }
 
 SceneDesc scene_from_dict(const py::dict& scene) {
@@ -512,6 +524,25 @@ py::dict py_render(const py::dict& scene_dict, py::object progress, py::object c
     py::dict result;
     result["combined"] = combined;
     result["stats"] = stats;
+    const py::ssize_t h = out.height, w = out.width;
+    auto image = [&](const std::vector<float>& data, std::vector<py::ssize_t> shape, size_t offset, size_t stride,
+                     size_t channels) {
+        py::array_t<float> a(shape);
+        float* dst = a.mutable_data();
+        const size_t n = size_t(h) * size_t(w);
+        for (size_t i = 0; i < n; ++i)
+            for (size_t c = 0; c < channels; ++c) dst[i * channels + c] = data[i * stride + offset + c];
+        return a;
+    };
+    const Film::Passes& passes = out.passes;
+    if (!passes.hair_lobes.empty()) {
+        const char* names[kLobeCount] = {"hair_r", "hair_tt", "hair_trt", "hair_trrt"};
+        for (size_t k = 0; k < size_t(kLobeCount); ++k)
+            result[names[k]] = image(passes.hair_lobes, {h, w, 3}, 3 * k, 3 * kLobeCount, 3);
+    }
+    if (!passes.depth.empty()) result["depth"] = image(passes.depth, {h, w}, 0, 1, 1);
+    if (!passes.normal.empty()) result["normal"] = image(passes.normal, {h, w, 3}, 0, 3, 3);
+    if (!passes.variance.empty()) result["variance"] = image(passes.variance, {h, w, 3}, 0, 3, 3);
     return result;
 }
 
@@ -522,5 +553,7 @@ PYBIND11_MODULE(_render, m) {
     m.def("render", &py_render, py::arg("scene"), py::arg("progress") = py::none(), py::arg("cancel") = py::none(),
           py::arg("threads") = 0,
           "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
-          "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}}.");
+          "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}} "
+          "plus the passes asked for in integrator['passes']: 'hair_r', 'hair_tt', 'hair_trt', 'hair_trrt', "
+          "'normal', 'variance' (H, W, 3) and 'depth' (H, W).");
 }

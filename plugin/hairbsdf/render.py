@@ -4,6 +4,7 @@
     out = render(scene, progress=lambda f: ..., cancel=lambda: False, threads=0)
     out["combined"]          # (H, W, 4) float32 linear RGBA, row 0 at the top
     out["stats"]             # samples, seconds, rays, peak_memory_bytes, nan_count, warnings, ...
+    out["hair_r"], ...       # the passes named in scene["integrator"]["passes"] (PASSES below)
 
 This module validates the dict's structure (a missing key, a wrong type or shape, an unknown
 enum value raises ValueError / TypeError naming the key) and converts arrays to the dtypes
@@ -33,6 +34,9 @@ HAIR_MODELS = ("CHIANG", "HUANG")
 PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
 ACCURACIES = ("cycles", "exact")
+# integrator["passes"] -> result keys: hair_lobes -> hair_r, hair_tt, hair_trt, hair_trrt (H, W, 3);
+# depth -> depth (H, W); normal -> normal (H, W, 3); variance -> variance (H, W, 3) (docs/engine.md)
+PASSES = ("hair_lobes", "depth", "normal", "variance")
 HAIR_INPUTS = ("color", "melanin", "melanin_redness", "tint", "absorption_coefficient", "roughness",
                "radial_roughness", "coat", "ior", "offset", "random_color", "random_roughness", "random",
                "aspect_ratio", "reflection", "transmission", "secondary_reflection")  # the last four: Huang
@@ -346,6 +350,9 @@ def _check_integrator(scene, out):
         d["tilt"] = _Checker.choice(f"{key}['tilt']", s["tilt"], TILTS)
     if s.get("accuracy") is not None:
         d["accuracy"] = _Checker.choice(f"{key}['accuracy']", s["accuracy"], ACCURACIES)
+    if s.get("passes") is not None:
+        names = _Checker.list(f"{key}['passes']", s["passes"])
+        d["passes"] = [_Checker.choice(f"{key}['passes'][{i}]", n, PASSES) for i, n in enumerate(names)]
     out["integrator"] = d
 
 
@@ -372,7 +379,7 @@ def render(scene: dict, *, progress: Optional[Callable[[float], None]] = None,
            cancel: Optional[Callable[[], bool]] = None, threads: int = 0) -> dict:
     """Renders `scene` (docs/scene_desc.md) and returns {"combined": (H, W, 4) float32 RGBA,
     "stats": {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled,
-    warnings}}. `progress(fraction)` is called a few times per second; `cancel()` is polled
+    warnings}} plus the passes scene["integrator"]["passes"] asks for (PASSES). `progress(fraction)` is called a few times per second; `cancel()` is polled
     every 50 ms and stops the render (the image then holds the samples done so far).
     `threads` = 0 uses all cores. The GIL is released while rendering."""
     if progress is not None and not callable(progress):

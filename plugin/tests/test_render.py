@@ -429,3 +429,103 @@ def test_huang_strand_pixels_equal_bsdf_eval():
     assert total < 0.02, f"strand total off by {total:.3%}"
     rel = np.abs(got - expected) / np.maximum(np.abs(expected), 1e-3 * expected.max())
     assert np.median(rel) < 0.05, f"median relative error {np.median(rel):.2e}"
+
+
+# --------------------------------------------------------------------------------------
+# Passes: hair lobes of the first hair hit, depth, normal, variance of the pixel mean
+
+def _lobe_scene(wo, wi, shape="THICK", passes=("hair_lobes", "depth", "normal"), **integrator):
+    height, across = 120, 90
+    pixel = 2 * R / across
+    camera, yc = _ortho_camera(wo, height * pixel, (3, height))
+    scene = {"version": 1, "curves": _straight_strand(), "curve_shape": shape,
+             "materials": [_hair_material(melanin=0.3, roughness=0.25)], "camera": camera,
+             "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (2.0,) * 3, "angle": 0.0}],
+             "world": {"color": (0, 0, 0)}, "integrator": _integrator(passes=list(passes), **integrator)}
+    rows = np.arange(height)
+    s = ((height - 1 - rows) + 0.5 - height / 2) * pixel
+    return scene, s, yc
+
+
+def test_hair_lobe_passes_are_the_lobes_of_the_eval():
+    """Direct light only, one delta sun, 1 spp at the pixel centre: each lobe pass is the sun
+    strength times that lobe of eval(wo, wi, h), and the four add up to Combined."""
+    wo, wi = _unit((0.0, 0.45, 0.9)), _unit((0.3, -0.6, 0.5))
+    scene, s, yc = _lobe_scene(wo, wi)
+    out = render(scene)
+    x = np.array([1.0, 0, 0])
+    y = _unit(np.cross(x, wo))
+    z = np.cross(x, y)
+    h = -s * np.dot(yc, y) / R
+    inside = np.abs(h) < 0.98
+    frame = lambda w: np.array([w @ x, w @ y, w @ z])  # noqa: E731
+    bsdf = hairbsdf.principled_hair(parametrization="melanin", melanin=0.3, roughness=0.25,
+                                    random=hairbsdf.cycles_curve_random(0))
+    n = int(inside.sum())
+    lobes = 2.0 * bsdf.eval_lobes(np.tile(frame(wo), (n, 1)), np.tile(frame(wi), (n, 1)), h[inside])
+    for k, name in enumerate(("hair_r", "hair_tt", "hair_trt", "hair_trrt")):
+        got = out[name][inside, 1].astype(np.float64)
+        want = lobes[:, :, k] if lobes.shape[1] == 3 else lobes[:, k, :]
+        scale = max(float(np.abs(want).max()), 1e-12)
+        assert np.max(np.abs(got - want)) <= 1e-4 * scale, (name, np.max(np.abs(got - want)), scale)
+    total = sum(out[n][..., :3] for n in ("hair_r", "hair_tt", "hair_trt", "hair_trrt"))
+    np.testing.assert_allclose(total, out["combined"][..., :3], rtol=1e-5, atol=1e-7)
+    # Depth and normal of the hit: wo is perpendicular to the strand, so the surface point
+    # at offset h is sqrt(1 - h^2) radii in front of the axis, 0.25 from the camera.
+    depth = out["depth"][inside, 1]
+    np.testing.assert_allclose(depth, 0.25 - R * np.sqrt(1 - h[inside] ** 2), atol=2e-6)
+    assert np.all(out["depth"][np.abs(h) > 1.05, 1] == 1e10)  # background
+    normal = out["normal"][inside, 1]
+    np.testing.assert_allclose(np.linalg.norm(normal, axis=1), 1.0, atol=1e-5)
+    np.testing.assert_allclose(normal @ x, 0.0, atol=1e-5)
+    np.testing.assert_allclose(normal @ wo, np.sqrt(1 - h[inside] ** 2), atol=1e-4)
+
+
+@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+def test_hair_lobe_passes_add_up_to_combined_with_bounces(shape):
+    """With multiple scattering, a world and a transparent film every contribution comes after
+    the camera ray's first hair hit, so the lobe passes add up to Combined pixel by pixel; TRT
+    and TRRT+ are not empty."""
+    camera, _ = _ortho_camera(_unit((0.2, 0.1, 1.0)), 1.2, (24, 24))
+    scene = {"curves": _clump(), "curve_shape": shape, "materials": [_hair_material(melanin=0.2)],
+             "camera": camera, "lights": [{"type": "SUN", "direction": (0.3, 0.2, 0.9), "strength": (2.0,) * 3,
+                                           "angle": 0.1}],
+             "world": {"color": (0.2, 0.25, 0.3)},
+             "integrator": _integrator(samples=8, max_bounces=8, glossy_bounces=8, transmission_bounces=8,
+                                       filter_width=1.5, passes=["hair_lobes"])}
+    out = render(scene, threads=2)
+    total = sum(out[n] for n in ("hair_r", "hair_tt", "hair_trt", "hair_trrt"))
+    combined = out["combined"][..., :3]
+    assert combined.max() > 0.05
+    np.testing.assert_allclose(total, combined, rtol=1e-4, atol=1e-6)
+    for name in ("hair_r", "hair_tt", "hair_trt", "hair_trrt"):
+        assert out[name].sum() > 0.002 * combined.sum(), name
+    assert "depth" not in out and "variance" not in out  # only what was asked for
+
+
+def test_variance_pass_is_the_variance_of_the_pixel_mean():
+    """The variance pass of one render predicts the spread of the pixel means over independent
+    seeds (averaged over the pixels: ratio within 15 %)."""
+    camera, _ = _ortho_camera(_unit((0.2, 0.1, 1.0)), 1.2, (16, 16))
+    scene = {"curves": _clump(), "materials": [_hair_material(melanin=0.2)], "camera": camera,
+             "lights": [{"type": "POINT", "position": (0.5, 0.4, 1.0), "strength": (20.0,) * 3, "radius": 0.3}],
+             "world": {"color": (0.1, 0.1, 0.1)},
+             "integrator": _integrator(samples=16, max_bounces=4, glossy_bounces=4, transmission_bounces=4,
+                                       filter_width=1.5, film_transparent=False, passes=["variance"])}
+    means, predicted = [], []
+    for seed in range(12):
+        out = render(dict(scene, integrator=dict(scene["integrator"], seed=seed)), threads=2)
+        means.append(out["combined"][..., :3])
+        predicted.append(out["variance"])
+    observed = np.var(np.array(means), axis=0, ddof=1)
+    pred = np.mean(np.array(predicted), axis=0)
+    busy = pred > np.percentile(pred, 50)  # pixels with noise
+    ratio = observed[busy].mean() / pred[busy].mean()
+    assert 0.85 < ratio < 1.15, ratio
+    assert np.all(np.array(predicted) >= 0)
+
+
+def test_unknown_pass_names_the_key():
+    scene, _, _ = _lobe_scene(_unit((0, 0.4, 0.9)), _unit((0.3, -0.6, 0.5)), passes=("hair_lobes", "mist"))
+    with pytest.raises(ValueError, match=r"\['passes'\]\[1\].*'mist' is not allowed"):
+        render(scene)

@@ -100,4 +100,78 @@ void Film::resolve(float* rgba, double exposure, bool film_transparent) const {
     }
 }
 
+void Film::enable_passes(const IntegratorSettings& st) {
+    const size_t n = size_t(width_) * size_t(height_);
+    if (st.pass_hair_lobes) lobes_.assign(n * kLobeCount * 3, 0.0);
+    if (st.pass_depth) depth_.assign(n, 0.0);
+    if (st.pass_normal) normal_.assign(n * 3, 0.0);
+    if (st.pass_depth || st.pass_normal) hits_.assign(n, 0);
+    if (st.pass_variance) square_.assign(n * 3, 0.0);
+}
+
+void Film::add_passes(size_t pixel, const std::array<RGB, kLobeCount>& lobes, bool hit, double depth, Vec3 normal,
+                      RGB radiance) {
+    if (!lobes_.empty()) {
+        double* l = &lobes_[pixel * kLobeCount * 3];
+        for (size_t k = 0; k < size_t(kLobeCount); ++k) {
+            l[3 * k] += lobes[k].r;
+            l[3 * k + 1] += lobes[k].g;
+            l[3 * k + 2] += lobes[k].b;
+        }
+    }
+    if (hit && !hits_.empty()) {
+        ++hits_[pixel];
+        if (!depth_.empty()) depth_[pixel] += depth;
+        if (!normal_.empty()) {
+            normal_[3 * pixel] += normal.x;
+            normal_[3 * pixel + 1] += normal.y;
+            normal_[3 * pixel + 2] += normal.z;
+        }
+    }
+    if (!square_.empty()) {
+        square_[3 * pixel] += radiance.r * radiance.r;
+        square_[3 * pixel + 1] += radiance.g * radiance.g;
+        square_[3 * pixel + 2] += radiance.b * radiance.b;
+    }
+}
+
+Film::Passes Film::resolve_passes(double exposure) const {
+    const size_t n = size_t(width_) * size_t(height_);
+    Passes out;
+    auto finite = [](double v) { return std::isfinite(v) ? float(v) : 0.0f; };
+    if (!lobes_.empty()) {
+        out.hair_lobes.resize(lobes_.size());
+        for (size_t i = 0; i < n; ++i) {
+            const double inv = count_[i] ? exposure / double(count_[i]) : 0.0;
+            for (size_t j = 0; j < size_t(kLobeCount) * 3; ++j)
+                out.hair_lobes[i * kLobeCount * 3 + j] = finite(lobes_[i * kLobeCount * 3 + j] * inv);
+        }
+    }
+    if (!depth_.empty()) {
+        out.depth.resize(n);
+        for (size_t i = 0; i < n; ++i) out.depth[i] = hits_[i] ? finite(depth_[i] / hits_[i]) : 1e10f;
+    }
+    if (!normal_.empty()) {
+        out.normal.resize(n * 3);
+        for (size_t i = 0; i < n * 3; ++i) out.normal[i] = hits_[i / 3] ? finite(normal_[i] / hits_[i / 3]) : 0.0f;
+    }
+    if (!square_.empty()) {
+        out.variance.resize(n * 3);
+        for (size_t i = 0; i < n; ++i) {
+            const int c = count_[i];
+            for (size_t ch = 0; ch < 3; ++ch) {
+                if (c < 2) {
+                    out.variance[3 * i + ch] = 0.0f;
+                    continue;
+                }
+                const double mean = sum_[4 * i + ch] / c;
+                // Sample variance of one sample, divided by c: the variance of the pixel's mean.
+                const double var = std::max(0.0, (square_[3 * i + ch] - c * mean * mean) / double(c - 1)) / c;
+                out.variance[3 * i + ch] = finite(exposure * exposure * var);
+            }
+        }
+    }
+    return out;
+}
+
 }  // namespace hairbsdf::render

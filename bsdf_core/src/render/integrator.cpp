@@ -19,6 +19,15 @@ std::vector<MaterialShader> build_materials(const SceneDesc& scene) {
 
 double max_abs(RGB c) { return std::max(std::fabs(c.r), std::max(std::fabs(c.g), std::fabs(c.b))); }
 
+// Each lobe's share of `value`, per channel (0 where the value is 0).
+std::array<RGB, kLobeCount> lobe_shares(const std::array<RGB, kLobeCount>& lobes, RGB value) {
+    auto share = [](double part, double whole) { return whole != 0 ? part / whole : 0.0; };
+    std::array<RGB, kLobeCount> out;
+    for (size_t k = 0; k < out.size(); ++k)
+        out[k] = RGB(share(lobes[k].r, value.r), share(lobes[k].g, value.g), share(lobes[k].b, value.b));
+    return out;
+}
+
 struct SurfacePoint {
     Vec3 p;
     ShadingGeometry g;
@@ -135,9 +144,14 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     double mis_ray_pdf = 0.0;
     double min_ray_pdf = std::numeric_limits<double>::infinity();
     SkipPrim skip;
+    // Hair lobe passes: the lobe shares of the first hair hit's sampled direction, once chosen.
+    const bool lobe_passes = is.pass_hair_lobes;
+    bool split = false;
+    std::array<RGB, kLobeCount> shares{};
 
-    // Adds a contribution; `light_bounce` < 1 counts as direct light for clamping.
-    auto add = [&](RGB c, int light_bounce) {
+    // Adds a contribution; `light_bounce` < 1 counts as direct light for clamping. Returns
+    // the contribution as added (clamped, finite).
+    auto add = [&](RGB c, int light_bounce) -> RGB {
         if (!isfinite(c)) {
             ++counters.nan;
             c = RGB(std::isfinite(c.r) ? c.r : 0.0, std::isfinite(c.g) ? c.g : 0.0, std::isfinite(c.b) ? c.b : 0.0);
@@ -148,6 +162,9 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             if (sum > limit) c = (limit / sum) * c;
         }
         res.radiance += c;
+        if (split)
+            for (size_t k = 0; k < shares.size(); ++k) res.lobes[k] += shares[k] * c;
+        return c;
     };
     auto forward_mis = [&](double light_pdf) { return camera ? 1.0 : power_heuristic(mis_ray_pdf, light_pdf); };
 
@@ -182,6 +199,13 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
 
         SurfacePoint sp = surface_point(s, ray, hit);
         const MaterialShader& material = s.materials[size_t(sp.material)];
+        if (camera && !res.hit) {
+            res.hit = true;
+            res.depth = s.camera.depth(sp.p);
+            res.normal = sp.g.n;
+        }
+        // The camera ray's first hair interaction (a transparent Huang hit keeps `camera`).
+        const bool first_hair = lobe_passes && camera && hit.kind == PrimKind::Curve;
 
         // Russian roulette (decided before shading, applied after the emission).
         double q = 1.0;
@@ -201,7 +225,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         Bsdf& bsdf = scratch.bsdf;
         sp.g.near_field = camera && hit.kind == PrimKind::Curve;
         const uint32_t huang_seed = material.has_huang() ? uint32_t(rng.next() * 4294967296.0) : 0u;
-        bsdf.set(material, sp.g, blur, huang_seed);
+        bsdf.set(material, sp.g, blur, huang_seed, first_hair);
         if (bsdf.empty()) return res;
 
         // Next-event estimation.
@@ -216,7 +240,13 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
                     const double tmax = std::isfinite(ls.distance) ? ls.distance : 1e30;
                     const Ray shadow = leaving_ray(sp, ls.wi, tmax);
                     ++counters.rays;
-                    if (!s.geometry.occluded(shadow, sp.self)) add(c, bounce);
+                    if (!s.geometry.occluded(shadow, sp.self)) {
+                        const RGB added = add(c, bounce);
+                        if (first_hair) {
+                            const auto direct = lobe_shares(b.lobes, b.value);
+                            for (size_t k = 0; k < direct.size(); ++k) res.lobes[k] += direct[k] * added;
+                        }
+                    }
                 }
             }
         }
@@ -237,6 +267,10 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             if (++transparent >= is.transparent_bounces) terminate_after = true;
             ray.tmin = std::nextafter(float(hit.t), std::numeric_limits<float>::infinity());
             continue;
+        }
+        if (first_hair) {
+            shares = lobe_shares(sc.lobes, sc.value);
+            split = true;
         }
         mis_ray_pdf = sc.pdf;
         min_ray_pdf = std::min(min_ray_pdf, sc.blur_pdf);

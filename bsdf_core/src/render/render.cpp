@@ -67,6 +67,9 @@ void RenderJob::run() {
         const PreparedScene prepared(scene_);
         out.stats.build_seconds = seconds_since(t0);
         Film film(width, height);
+        film.enable_passes(scene_.integrator);
+        const IntegratorSettings& st = scene_.integrator;
+        const bool any_pass = st.pass_hair_lobes || st.pass_depth || st.pass_normal || st.pass_variance;
         const std::vector<Tile> tiles = make_tiles(width, height, threads);
         tbb::enumerable_thread_specific<PathScratch> scratch;
         tbb::enumerable_thread_specific<PathCounters> counters;
@@ -89,6 +92,7 @@ void RenderJob::run() {
                                 if (cancelled()) return;
                                 const PathResult p = trace_pixel_sample(prepared, x, y, uint32_t(s), sc, pc);
                                 film.add(pixel, p.radiance, p.transparent);
+                                if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
                             }
                         }
                     }
@@ -105,6 +109,7 @@ void RenderJob::run() {
         out.stats.samples = done_samples;
         out.stats.cancelled = cancelled();
         film.resolve(out.rgba.data(), scene_.integrator.exposure, scene_.integrator.film_transparent);
+        out.passes = film.resolve_passes(scene_.integrator.exposure);
         for (const PathCounters& c : counters) {
             out.stats.rays += c.rays;
             out.stats.nan_count += c.nan;

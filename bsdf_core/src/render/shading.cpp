@@ -68,8 +68,10 @@ ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness) {
     return b;
 }
 
-void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, uint32_t seed) {
+void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, uint32_t seed,
+               bool lobes) {
     count_ = 0;
+    lobes_ = lobes;
     huang_rng_ = seed;
     total_sample_weight_ = 0;
     hair_ctx_.tangent = g.tangent;
@@ -137,12 +139,17 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
     if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
-RGB Bsdf::eval_huang(int i, Vec3 wi) const {
+std::array<RGB, kLobeCount> Bsdf::eval_huang(int i, Vec3 wi) const {
     const Entry& e = entries_[size_t(i)];
     const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
-    const std::array<RGB, 4> lobes = e.huang->eval_cycles_stochastic(sp, e.huang->to_local(sp, wi), huang_rng_);
-    return e.weight * (lobes[0] + lobes[1] + lobes[2] + lobes[3]);
+    std::array<RGB, kLobeCount> lobes = e.huang->eval_cycles_stochastic(sp, e.huang->to_local(sp, wi), huang_rng_);
+    for (RGB& l : lobes) l = e.weight * l;
+    return lobes;
 }
+
+namespace {
+RGB lobe_sum(const std::array<RGB, kLobeCount>& lobes) { return lobes[0] + lobes[1] + lobes[2] + lobes[3]; }
+}  // namespace
 
 BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     const Entry& e = entries_[size_t(i)];
@@ -151,12 +158,16 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     if (e.kind == Entry::Kind::Huang) {
         const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
         out.pdf = e.huang->pdf(sp, wi);
-        if (out.pdf > 0) out.value = eval_huang(i, wi);
+        if (out.pdf > 0) {
+            out.lobes = eval_huang(i, wi);
+            out.value = lobe_sum(out.lobes);
+        }
         return out;
     }
     if (e.kind == Entry::Kind::Hair) {
         const BsdfEval r = e.hair->eval(*points_[size_t(i)], wi);
-        out.value = e.weight * r.value();
+        for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+        out.value = lobe_sum(out.lobes);
         out.pdf = r.pdf;
     } else {
         // Cycles' diffuse eval tests only N; its sampler also requires Ng . wi > 0.
@@ -177,6 +188,7 @@ BsdfValue Bsdf::eval(Vec3 wi) const {
         if (v.pdf != 0.0) {  // Cycles accumulates a closure only where its pdf is non-zero
             out.value += v.value;
             out.pdf += e.sample_weight * v.pdf;
+            for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
         }
     }
     out.pdf /= total_sample_weight_;
@@ -218,7 +230,8 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         out.wi = e.huang->to_world(sp, local);
         own.pdf = e.huang->pdf_local(sp, local);
         if (!(own.pdf > 0)) return out;
-        own.value = eval_huang(picked, out.wi);
+        own.lobes = eval_huang(picked, out.wi);
+        own.value = lobe_sum(own.lobes);
         out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
     } else if (e.kind == Entry::Kind::Hair) {
         const BsdfSample s = e.hair->sample(*points_[size_t(picked)], {u0, u1, u2});
@@ -226,6 +239,10 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         out.wi = s.wi;
         own.value = e.weight * s.value;
         own.pdf = s.pdf;
+        if (lobes_) {
+            const BsdfEval r = e.hair->eval(*points_[size_t(picked)], s.wi);
+            for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+        }
         out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
     } else {
         out.wi = sample_cos_hemisphere(n_, u0, u1);
@@ -238,12 +255,14 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
     // Combine with the other closures at the sampled direction.
     RGB value = own.value;
     double pdf = e.sample_weight * own.pdf;
+    out.lobes = own.lobes;
     for (int i = 0; i < count_; ++i) {
         if (i == picked) continue;
         const BsdfValue v = eval_entry(i, out.wi);
         if (v.pdf != 0.0) {
             value += v.value;
             pdf += entries_[size_t(i)].sample_weight * v.pdf;
+            for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
         }
     }
     out.pdf = pdf / total_sample_weight_;

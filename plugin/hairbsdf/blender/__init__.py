@@ -23,11 +23,12 @@ def register():
         return
     import bpy
 
-    from . import engine, ui
+    from . import engine, passes, ui
 
     for cls in engine.classes:
         bpy.utils.register_class(cls)
     ui.register()
+    passes.register()
     _registered = True
     if not bpy.app.binary_path:
         # bpy module: classes still registered at interpreter exit make the process hang in
@@ -43,8 +44,9 @@ def unregister():
         return
     import bpy
 
-    from . import engine, ui
+    from . import engine, passes, ui
 
+    passes.unregister()
     ui.unregister()
     for cls in reversed(engine.classes):
         try:

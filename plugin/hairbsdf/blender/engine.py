@@ -2,7 +2,7 @@
 
 render(depsgraph): export the evaluated scene (export_scene), call hairbsdf.render.render
 (imported lazily, so a missing or broken native renderer is an error message, not a failed
-add-on), and write the Combined pass.  Progress, stats and cancellation go through
+add-on), and write the Combined pass and the passes the view layer asks for (passes.py).  Progress, stats and cancellation go through
 update_progress / update_stats / test_break; every failure is reported with
 report({'ERROR'}) and never escapes into Blender.
 
@@ -24,6 +24,7 @@ import traceback
 
 import bpy
 
+from . import passes
 from .export_scene import ExportError, engine_settings, export_scene, save_scene
 
 ENGINE_ID = "HAIRBSDF"
@@ -103,6 +104,12 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
                     f.write(json.dumps(info, default=str) + "\n")
             except OSError as exc:  # pragma: no cover
                 print(f"hairbsdf: cannot write {path}: {exc}")
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        try:
+            passes.register_passes(self, scene, renderlayer)
+        except Exception as exc:  # pragma: no cover - never fail Blender's pass sync
+            print(f"hairbsdf: update_render_passes failed: {exc}")
 
     # ------------------------------------------------------------------ render
     def render(self, depsgraph):
@@ -188,7 +195,8 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
                 return
             raise RuntimeError("the renderer returned no 'combined' image")
         # A cancelled render still shows the samples done so far, as Cycles does.
-        self._write_combined(depsgraph, combined, width, height)
+        extra = passes.blender_passes(desc["integrator"].get("passes", []))
+        self._write_result(depsgraph, combined, result, extra, width, height)
         if cancelled:
             info["status"] = "cancelled"
             self._log("INFO", "render cancelled after %s samples" % stats.get("samples", "?"))
@@ -196,22 +204,37 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
         self.update_progress(1.0)
         info["status"] = "ok"
 
-    def _write_combined(self, depsgraph, img, width, height):
+    def _write_result(self, depsgraph, img, images, extra, width, height):
+        """Combined plus the `extra` passes (passes.blender_passes) from the renderer's `images`."""
         import numpy as np
 
         img = np.asarray(img, dtype=np.float32)
         if img.shape != (height, width, 4):
             raise RuntimeError(f"the renderer returned an image of shape {img.shape}, expected "
                                f"{(height, width, 4)}")
-        # Blender's rect row 0 is the bottom row; the renderer's row 0 is the top.
-        flat = np.ascontiguousarray(img[::-1]).reshape(-1)
         layer_name = depsgraph.view_layer.name if depsgraph.view_layer else ""
+        for _, label, channels, chan_id, _kind in extra:
+            try:
+                self.add_pass(label, channels, chan_id, layer=layer_name)
+            except Exception as exc:  # pragma: no cover - e.g. a pass Blender already made
+                print(f"hairbsdf: add_pass {label}: {exc}")
         result = self.begin_result(0, 0, width, height, layer=layer_name)
         try:
             if result is None or not len(result.layers):
                 raise RuntimeError("Blender gave no render layer to write the image to")
-            combined = result.layers[0].passes["Combined"]
-            write_rect(combined, flat, width * height)
+            layer = result.layers[0]
+            # Blender's rect row 0 is the bottom row; the renderer's row 0 is the top.
+            write_rect(layer.passes["Combined"], np.ascontiguousarray(img[::-1]).reshape(-1), width * height)
+            for key, label, channels, _chan_id, _kind in extra:
+                data = images.get(key)
+                target = layer.passes.find_pass(label, "") if hasattr(layer.passes, "find_pass") else None
+                if target is None:
+                    target = next((p for p in layer.passes if p.name == label), None)
+                if data is None or target is None:
+                    self._log("WARNING", f"pass '{label}' could not be written")
+                    continue
+                flat = np.ascontiguousarray(np.asarray(data, dtype=np.float32)[::-1]).reshape(-1)
+                write_rect(target, flat, width * height)
         finally:
             if result is not None:
                 self.end_result(result)

@@ -24,6 +24,7 @@ from .export_lights import export_light
 from .export_materials import MaterialTable
 from .export_mesh import MESH_LIKE, MeshBuffer, MeshCache, export_mesh_object
 from .export_world import export_world
+from . import passes
 
 SCENE_DESC_VERSION = 1
 
@@ -100,6 +101,7 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "clamp_indirect": float(g("sample_clamp_indirect", 10.0)),
         "tilt": tilt,
         "accuracy": settings.get("accuracy", "CYCLES").lower(),
+        "passes": passes.requested(view_layer) if render else [],
     }
 
 

@@ -22,6 +22,9 @@ public:
     // are the clip distances along it (clipping planes perpendicular to the view axis).
     Ray generate(double raster_x, double raster_y) const;
 
+    // Camera-space depth of a world point: its distance along the view axis.
+    double depth(Vec3 p) const { return dot(p - origin_, axis_z_); }
+
     // Image row (0 = top) -> Cycles raster row (0 = bottom).
     int pixel_row_to_raster_y(int row) const { return height_ - 1 - row; }
 

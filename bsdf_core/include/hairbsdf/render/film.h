@@ -14,6 +14,7 @@
 
 #include <vector>
 
+#include "hairbsdf/closure.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {
@@ -31,11 +32,14 @@ private:
     std::vector<float> table_;
 };
 
-// Per-pixel sums of sample radiance and background transparency, in samples order.
+// Per-pixel sums of sample radiance and background transparency, in samples order, plus
+// the sums of the passes the settings ask for.
 class Film {
 public:
     Film(int width, int height) : width_(width), height_(height), sum_(size_t(width) * height * 4, 0.0),
                                   count_(size_t(width) * height, 0) {}
+    // Allocates the pass sums (before the first add).
+    void enable_passes(const IntegratorSettings& settings);
     int width() const { return width_; }
     int height() const { return height_; }
     // Pixel index = row * width + column, row 0 at the top.
@@ -47,15 +51,31 @@ public:
         s[3] += transparent;
         ++count_[pixel];
     }
+    // The passes of one sample (only the enabled ones are kept).
+    void add_passes(size_t pixel, const std::array<RGB, kLobeCount>& lobes, bool hit, double depth, Vec3 normal,
+                    RGB radiance);
     // (H, W, 4) RGBA: exposure x mean radiance; alpha = 1 - mean transparency when the
     // film is transparent, else 1. Pixels without samples are 0.
     void resolve(float* rgba, double exposure, bool film_transparent) const;
-    size_t memory_bytes() const { return sum_.size() * sizeof(double) + count_.size() * sizeof(int); }
+    // Pass images, row 0 at the top: hair lobes (H, W, 4 lobes, 3) x exposure, depth (H, W)
+    // averaged over the samples that hit a surface (1e10 where none did, as Cycles' background),
+    // normal (H, W, 3) averaged likewise, variance (H, W, 3) of the pixel mean x exposure^2.
+    // Each is empty when not enabled.
+    struct Passes {
+        std::vector<float> hair_lobes, depth, normal, variance;
+    };
+    Passes resolve_passes(double exposure) const;
+    size_t memory_bytes() const {
+        return (sum_.size() + lobes_.size() + depth_.size() + normal_.size() + square_.size()) * sizeof(double) +
+               (count_.size() + hits_.size()) * sizeof(int);
+    }
 
 private:
     int width_, height_;
     std::vector<double> sum_;
     std::vector<int> count_;
+    std::vector<double> lobes_, depth_, normal_, square_;  // pass sums
+    std::vector<int> hits_;                                // samples that hit a surface
 };
 
 }  // namespace hairbsdf::render

@@ -25,6 +25,11 @@
 //    are zeroed and counted (Cycles' ensure_finite).
 //  * Self-intersection: rays leave curves from the hit point skipping the whole curve;
 //    triangles skip themselves and offset the origin by a few ULPs.
+//  * Hair lobe passes: light leaving the camera ray's first hair hit is split by lobe of that
+//    hit. The light sample there by the lobes' shares of the BSDF value towards the light;
+//    everything the sampled path brings back by the lobes' shares of the value in the sampled
+//    direction (per channel). The four passes add up to that part of Combined, and each has
+//    the expectation of its lobe alone.
 #pragma once
 
 #include <memory>
@@ -58,6 +63,11 @@ struct PathCounters {
 struct PathResult {
     RGB radiance;
     double transparent = 0;  // background transparency of a transparent film
+    // Passes (filled when the settings ask for them):
+    std::array<RGB, kLobeCount> lobes{};  // radiance leaving the first hair hit, per lobe of that hit
+    bool hit = false;        // the camera ray hit a surface (depth and normal are set)
+    double depth = 0;        // camera-space depth of the first hit
+    Vec3 normal;             // world-space shading normal of the first hit
 };
 
 // Per-thread scratch state of the integrator (no allocation per sample).

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "hairbsdf/render/film.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {
@@ -33,6 +34,7 @@ struct RenderStats {
 struct RenderOutput {
     int width = 0, height = 0;
     std::vector<float> rgba;  // (height, width, 4), row 0 at the top
+    Film::Passes passes;      // the enabled extra passes (film.h)
     RenderStats stats;
     std::vector<std::string> warnings;
 };

@@ -106,6 +106,11 @@ struct IntegratorSettings {
     double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
     TiltConvention tilt = TiltConvention::Blender42;
     Accuracy accuracy = Accuracy::Cycles;   // Chiang's special functions: Cycles' or exact
+    // Extra passes besides Combined (docs/engine.md, Passes).
+    bool pass_hair_lobes = false;  // R, TT, TRT, TRRT+ of the light leaving the first hair hit
+    bool pass_depth = false;       // camera-space depth of the first hit
+    bool pass_normal = false;      // world-space shading normal of the first hit
+    bool pass_variance = false;    // variance of the pixel's mean radiance (squared standard error)
 };
 
 // An equirectangular Environment Texture on the world, as Cycles reads it: the lookup vector

@@ -78,11 +78,13 @@ struct ShadingGeometry {
 struct BsdfValue {
     RGB value;       // sum of weight x eval (cosine included)
     double pdf = 0;  // mixture density
+    std::array<RGB, kLobeCount> lobes{};  // the hair closures' share of value per lobe (when asked)
 };
 
 struct BsdfScatter {
     Vec3 wi;
     RGB value;
+    std::array<RGB, kLobeCount> lobes{};  // the hair closures' share of value per lobe (when asked)
     double pdf = 0;
     double blur_pdf = 0;  // the pdf Cycles' Filter Glossy sees (Huang reports 1)
     uint8_t label = LabelNone;
@@ -92,9 +94,10 @@ struct BsdfScatter {
 class Bsdf {
 public:
     // blur_roughness > 0 applies Cycles' Filter Glossy to the hair closures. `seed` drives
-    // the random microfacet normals of Huang's stochastic eval at this hit.
+    // the random microfacet normals of Huang's stochastic eval at this hit. `lobes`: fill
+    // the per-lobe values of eval and sample (costs an extra eval per sample).
     void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
-             uint32_t seed = 0);
+             uint32_t seed = 0, bool lobes = false);
     bool empty() const { return count_ == 0; }
     BsdfValue eval(Vec3 wi) const;
     BsdfScatter sample(double u0, double u1, double u2) const;
@@ -108,7 +111,7 @@ private:
         const HuangHair* huang;
     };
     BsdfValue eval_entry(int i, Vec3 wi) const;
-    RGB eval_huang(int i, Vec3 wi) const;
+    std::array<RGB, kLobeCount> eval_huang(int i, Vec3 wi) const;
     std::array<Entry, kMaxBsdfClosures> entries_{};
     std::array<std::optional<ChiangHair>, kMaxBsdfClosures> storage_;
     std::array<std::optional<ChiangHair::ShadingPoint>, kMaxBsdfClosures> points_;  // view terms, once per hit
@@ -116,6 +119,7 @@ private:
     std::array<HuangHair::ShadingPoint, kMaxBsdfClosures> huang_points_;
     mutable uint32_t huang_rng_ = 0;  // Cycles-style LCG state of the stochastic eval
     int count_ = 0;
+    bool lobes_ = false;
     double total_sample_weight_ = 0;
     ShadingContext hair_ctx_;
     Vec3 n_, ng_;

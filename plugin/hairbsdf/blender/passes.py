@@ -1,0 +1,114 @@
+"""Render passes of the HAIRBSDF engine besides Combined.
+
+Blender's own view-layer switches: Data > Z (Depth: camera-space depth of the first hit,
+1e10 on the background) and Data > Normal (world-space shading normal of the first hit), both
+averaged over the pixel's samples. The engine's own (view_layer.hairbsdf, panel "hairbsdf
+Passes" in the View Layer properties):
+  Hair Lobes  "Hair R", "Hair TT", "Hair TRT", "Hair TRRT": the light leaving the camera
+              ray's first hair hit, split by the lobe of that hit (they add up to that part of
+              Combined; Cycles has no such passes);
+  Variance    the variance of each pixel's mean (squared standard error, per channel), for
+              noise-aware comparisons.
+The passes show as Render Layers outputs in the compositor and in multilayer EXRs.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+# (result key of hairbsdf.render, Blender pass name, channels, channel ids, socket type)
+LOBE_PASSES = (("hair_r", "Hair R"), ("hair_tt", "Hair TT"), ("hair_trt", "Hair TRT"), ("hair_trrt", "Hair TRRT"))
+
+
+class HairBsdfViewLayerSettings(bpy.types.PropertyGroup):
+    pass_hair_lobes: bpy.props.BoolProperty(
+        name="Hair Lobes", default=False,
+        description="Passes Hair R, TT, TRT and TRRT: the light leaving the first hair hit, split by lobe")
+    pass_variance: bpy.props.BoolProperty(
+        name="Variance", default=False,
+        description="Variance of each pixel's mean (squared standard error), for noise-aware comparisons")
+
+
+def _layer_settings(view_layer):
+    return getattr(view_layer, "hairbsdf", None) if view_layer is not None else None
+
+
+def requested(view_layer) -> list:
+    """The integrator's pass names (hairbsdf.render.PASSES) this view layer asks for."""
+    if view_layer is None:
+        return []
+    out = []
+    s = _layer_settings(view_layer)
+    if s is not None and s.pass_hair_lobes:
+        out.append("hair_lobes")
+    if getattr(view_layer, "use_pass_z", False):
+        out.append("depth")
+    if getattr(view_layer, "use_pass_normal", False):
+        out.append("normal")
+    if s is not None and s.pass_variance:
+        out.append("variance")
+    return out
+
+
+def blender_passes(names):
+    """[(result key, pass name, channels, chan_id, socket type)] for the requested passes."""
+    out = []
+    for name in names:
+        if name == "hair_lobes":
+            out += [(key, label, 3, "RGB", "COLOR") for key, label in LOBE_PASSES]
+        elif name == "depth":
+            out.append(("depth", "Depth", 1, "Z", "VALUE"))
+        elif name == "normal":
+            out.append(("normal", "Normal", 3, "XYZ", "VECTOR"))
+        elif name == "variance":
+            out.append(("variance", "Variance", 3, "RGB", "COLOR"))
+    return out
+
+
+def register_passes(engine, scene, view_layer):
+    """RenderEngine.update_render_passes: the compositor's Render Layers sockets."""
+    engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
+    for _, label, channels, chan_id, kind in blender_passes(requested(view_layer)):
+        engine.register_pass(scene, view_layer, label, channels, chan_id, kind)
+
+
+class HAIRBSDF_VIEWLAYER_PT_passes(bpy.types.Panel):
+    bl_label = "hairbsdf Passes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "view_layer"
+    COMPAT_ENGINES = {"HAIRBSDF"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        view_layer = context.view_layer
+        col = layout.column(heading="Include")
+        col.prop(view_layer, "use_pass_z", text="Depth")
+        col.prop(view_layer, "use_pass_normal", text="Normal")
+        col.prop(view_layer.hairbsdf, "pass_hair_lobes")
+        col.prop(view_layer.hairbsdf, "pass_variance")
+
+
+classes = (HairBsdfViewLayerSettings, HAIRBSDF_VIEWLAYER_PT_passes)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.ViewLayer.hairbsdf = bpy.props.PointerProperty(type=HairBsdfViewLayerSettings)
+
+
+def unregister():
+    if hasattr(bpy.types.ViewLayer, "hairbsdf"):
+        del bpy.types.ViewLayer.hairbsdf
+    for cls in reversed(classes):
+        try:
+            bpy.utils.unregister_class(cls)
+        except RuntimeError:  # pragma: no cover
+            pass
