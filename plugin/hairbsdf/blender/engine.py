@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import json
 import os
+
+import numpy as np
 import threading
 import time
 import traceback
@@ -28,6 +30,8 @@ from . import passes
 from .export_scene import ExportError, engine_settings, export_scene, save_scene
 
 ENGINE_ID = "HAIRBSDF"
+# Material / world / light previews (Properties editor thumbnails): samples per pixel.
+PREVIEW_SAMPLES = 32
 LAST_RENDER: dict = {}
 # Set from any thread to stop the running render as Esc would (background mode and the
 # bpy module have no Esc); cleared when a render starts.
@@ -61,7 +65,7 @@ def _load_renderer():
 class HairBsdfRenderEngine(bpy.types.RenderEngine):
     bl_idname = ENGINE_ID
     bl_label = "hairbsdf"
-    bl_use_preview = False
+    bl_use_preview = True  # material previews render with this engine (PREVIEW_SAMPLES spp)
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False  # keep Cycles' shader node editor
     bl_use_eevee_viewport = True
@@ -140,11 +144,16 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
         t0 = time.perf_counter()
         self.update_stats("", "hairbsdf: exporting scene")
         desc, rep = export_scene(depsgraph, render=True, settings=settings, cancel=self._cancelled)
+        if self.is_preview:
+            desc["integrator"]["samples"] = min(int(desc["integrator"]["samples"]), PREVIEW_SAMPLES)
+            desc["integrator"]["passes"] = []
+            info["preview"] = True
         t_export = time.perf_counter() - t0
         info.update(export=rep.as_dict(), export_seconds=t_export, counts=dict(rep.counts))
         for w in rep.all_warnings():
             info["warnings"].append(w)
-            self._log("WARNING", w)
+            if not self.is_preview:  # the preview scenes' own materials would only add noise
+                self._log("WARNING", w)
         dump = os.environ.get("HAIRBSDF_DUMP_SCENE")
         if dump:
             save_scene(dump, desc, extra={"report": rep.as_dict()})
@@ -202,6 +211,7 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
             self._log("INFO", "render cancelled after %s samples" % stats.get("samples", "?"))
             return
         self.update_progress(1.0)
+        info["image_mean"] = float(np.asarray(combined)[..., :3].mean())
         info["status"] = "ok"
 
     def _write_result(self, depsgraph, img, images, extra, width, height):
