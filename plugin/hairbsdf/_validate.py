@@ -28,6 +28,16 @@ def _check_finite(name: str, arr: np.ndarray) -> None:
         raise ValueError(f"{name}: contains NaN or Inf; all values must be finite")
 
 
+def _per_row(name: str, value) -> np.ndarray:
+    """Scalar or (N,) finite float64 -> (N,)."""
+    arr = _as_float_array(name, value)
+    if arr.ndim > 1:
+        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
+    arr = np.atleast_1d(arr)
+    _check_finite(name, arr)
+    return arr
+
+
 def _triples(name: str, value) -> np.ndarray:
     """(N,3) or (3,) finite float64 rows."""
     arr = _as_float_array(name, value)
@@ -50,11 +60,7 @@ def directions(name: str, value) -> np.ndarray:
 
 def offsets(name: str, value) -> np.ndarray:
     """Scalar or (N,) h in [-1, 1] -> (N,) float64."""
-    arr = _as_float_array(name, value)
-    if arr.ndim > 1:
-        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
-    arr = np.atleast_1d(arr)
-    _check_finite(name, arr)
+    arr = _per_row(name, value)
     if np.any(np.abs(arr) > 1.0 + 1e-6):
         raise ValueError(f"{name}: values must lie in [-1, 1] (the offset across the fibre)")
     return np.clip(arr, -1.0, 1.0)
@@ -62,22 +68,12 @@ def offsets(name: str, value) -> np.ndarray:
 
 def normals(name: str, value) -> np.ndarray:
     """(N,3) or (3,) curve normals -> (N,3) float64; zero rows are allowed (Cycles' fallback frame)."""
-    arr = _as_float_array(name, value)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name}: shape {tuple(np.shape(value))} is not allowed; pass (N, 3) or (3,)")
-    _check_finite(name, arr)
-    return arr
+    return _triples(name, value)
 
 
 def coverages(name: str, value) -> np.ndarray:
     """Scalar or (N,) pixel coverage (half a pixel in units of the fibre radius), > 0."""
-    arr = _as_float_array(name, value)
-    if arr.ndim > 1:
-        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
-    arr = np.atleast_1d(arr)
-    _check_finite(name, arr)
+    arr = _per_row(name, value)
     if np.any(arr <= 0.0):
         raise ValueError(f"{name}: values must be > 0 (half a pixel's footprint in units of the radius)")
     return arr
@@ -85,11 +81,7 @@ def coverages(name: str, value) -> np.ndarray:
 
 def unit_interval(name: str, value) -> np.ndarray:
     """Scalar or (N,) values in [0, 1] -> (N,) float64."""
-    arr = _as_float_array(name, value)
-    if arr.ndim > 1:
-        raise ValueError(f"{name}: shape {arr.shape} is not allowed; pass a scalar or (N,)")
-    arr = np.atleast_1d(arr)
-    _check_finite(name, arr)
+    arr = _per_row(name, value)
     if np.any(arr < 0.0) or np.any(arr > 1.0):
         raise ValueError(f"{name}: values must lie in [0, 1]")
     return arr
