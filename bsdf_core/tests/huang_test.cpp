@@ -343,3 +343,63 @@ TEST(HuangHair, PrincipledMapping) {
     in.roughness = 5;
     EXPECT_EQ(HuangHair(huang_params_from_principled(in)).alpha(), 1.0);
 }
+
+// The mixture sampler's directions follow its pdf, for the full and the renderer's coarse
+// mixture: counts in 16 x 32 bins of (y, phi) of the local direction against N x the pdf
+// integrated over each bin (4 x 4 midpoint cells).
+TEST(HuangHair, MixtureSamplerFollowsItsPdfFullAndCoarse) {
+    for (auto detail : {HuangHairParams::MixtureDetail::Full, HuangHairParams::MixtureDetail::Coarse}) {
+        HuangHairParams p = clear_fibre(0.3, 0.035, 0.8);
+        p.mixture_detail = detail;
+        const HuangHair m(p);
+        const auto sp = m.prepare(context(Vec3{0.3, 0.1, 0.95}, 0.35, false, 1.0, Vec3{0, 1, 0.3}));
+        constexpr int kY = 16, kPhi = 32, kSub = 4;
+        const long n = test::scaled(400000);
+        std::vector<double> counts(kY * kPhi, 0.0);
+        std::mt19937_64 rng(21);
+        std::uniform_real_distribution<double> uni;
+        long produced = 0;
+        auto bin = [&](Vec3 o) {
+            const int by = std::min(kY - 1, int((clamp(o.y, -1.0, 1.0) + 1) * 0.5 * kY));
+            const double phi = std::atan2(o.z, o.x) + kPi;
+            const int bp = std::min(kPhi - 1, int(phi / kTwoPi * kPhi));
+            return by * kPhi + bp;
+        };
+        for (long i = 0; i < n; ++i) {
+            Vec3 o;
+            if (m.sample_direction(sp, {uni(rng), uni(rng), uni(rng)}, o) < 0) continue;
+            ++produced;
+            counts[size_t(bin(o))] += 1;
+        }
+        ASSERT_GT(produced, n / 2);
+        double worst = 0;
+        for (int by = 0; by < kY; ++by)
+            for (int bp = 0; bp < kPhi; ++bp) {
+                double integral = 0;
+                for (int a = 0; a < kSub; ++a)
+                    for (int b = 0; b < kSub; ++b) {
+                        const double y = -1 + 2.0 * (by + (a + 0.5) / kSub) / kY;
+                        const double phi = kTwoPi * (bp + (b + 0.5) / kSub) / kPhi - kPi;
+                        const double r = std::sqrt(std::max(0.0, 1 - y * y));
+                        integral += m.pdf_local(sp, Vec3{r * std::cos(phi), y, r * std::sin(phi)});
+                    }
+                integral *= (2.0 / kY) * (kTwoPi / kPhi) / (kSub * kSub);
+                const double expected = double(n) * integral, observed = counts[size_t(by * kPhi + bp)];
+                const double z = std::fabs(observed - expected) / std::sqrt(expected + 25.0);
+                worst = std::max(worst, z - 0.03 * expected / std::sqrt(expected + 25.0));
+            }
+        EXPECT_LT(worst, 5.0) << (detail == HuangHairParams::MixtureDetail::Coarse ? "coarse" : "full");
+    }
+}
+
+// The coarse mixture has far fewer components than the full one (what makes it cheaper).
+TEST(HuangHair, CoarseMixtureIsSmaller) {
+    HuangHairParams p = clear_fibre(0.1, 0.035, 0.8);
+    const HuangHair full(p);
+    p.mixture_detail = HuangHairParams::MixtureDetail::Coarse;
+    const HuangHair coarse(p);
+    const ShadingContext ctx = context(Vec3{0.3, 0.1, 0.95}, 0.35);
+    const auto a = full.prepare(ctx), b = coarse.prepare(ctx);
+    EXPECT_LE(b.reflection.size() + b.exits.size(), 44u);
+    EXPECT_GT(a.reflection.size() + a.exits.size(), 3 * (b.reflection.size() + b.exits.size()));
+}

@@ -797,9 +797,14 @@ void HuangHair::build_sampler(ShadingPoint& sp) const {
         c.probability = p;
         return c;
     };
+    // Component counts: h positions per lobe and entry / internal-reflection points per h.
+    const bool coarse = params_.mixture_detail == HuangHairParams::MixtureDetail::Coarse;
+    const double max_r = coarse ? 12.0 : 48.0, max_tt = coarse ? 4.0 : 16.0, max_trt = coarse ? 2.0 : 8.0;
+    const int tt_grid = coarse ? 2 : 3;   // tt_grid x tt_grid entry points
+    const int trt_entries = coarse ? 2 : 4;  // of the 2 x 2 disk grid (coarse: two opposite corners)
     // R: visible-normal reflection around mesonormals spread uniformly in h (Cycles samples h uniformly).
     double e_r = 0.0;
-    const int k_r = int(clamp(std::ceil(range / (0.5 * alpha_)), 1.0, 48.0));
+    const int k_r = int(clamp(std::ceil(range / (0.5 * alpha_)), 1.0, max_r));
     for (int k = 0; k < k_r; ++k) {
         const double h = lo + (k + 0.5) * range / k_r;
         const double gamma = h_to_gamma(h, I);
@@ -852,13 +857,13 @@ void HuangHair::build_sampler(ShadingPoint& sp) const {
     double e_tt = 0.0, e_trt = 0.0, e_trrt = 0.0;
     long tt_tries = 0, trt_tries = 0;
     if (factors_[1] > 0.0) {
-        const int k_t = int(clamp(std::ceil(range / alpha_), 1.0, 16.0));
+        const int k_t = int(clamp(std::ceil(range / alpha_), 1.0, max_tt));
         for (int k = 0; k < k_t; ++k) {
             const double gamma = h_to_gamma(lo + (k + 0.5) * range / k_t, I);
-            for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 3; ++j) {
+            for (int i = 0; i < tt_grid; ++i) {
+                for (int j = 0; j < tt_grid; ++j) {
                     ++tt_tries;
-                    const Entry e = entry(gamma, std::sqrt((i + 0.5) / 3.0), kTwoPi * (j + 0.5) / 3.0);
+                    const Entry e = entry(gamma, std::sqrt((i + 0.5) / tt_grid), kTwoPi * (j + 0.5) / tt_grid);
                     if (!e.ok) continue;
                     const Vec3 v = -1.0 * e.wt;
                     const double w = e.t1 * luminance(e.a_t) * (1.0 - ggx::fresnel(dot(v, e.wmt), inv_eta_));
@@ -871,10 +876,11 @@ void HuangHair::build_sampler(ShadingPoint& sp) const {
         e_tt *= factors_[1] / double(std::max(tt_tries, 1L));
     }
     if (factors_[2] > 0.0) {
-        const int k_t = int(clamp(std::ceil(range / alpha_), 1.0, 8.0));
+        const int k_t = int(clamp(std::ceil(range / alpha_), 1.0, max_trt));
         for (int k = 0; k < k_t; ++k) {
             const double gamma = h_to_gamma(lo + (k + 0.5) * range / k_t, I);
-            for (int i = 0; i < 4; ++i) {
+            for (int n = 0; n < trt_entries; ++n) {
+                const int i = coarse ? 3 * n : n;
                 const Entry e = entry(gamma, std::sqrt((i / 2 + 0.5) / 2.0), kTwoPi * (i % 2 + 0.5) / 2.0);
                 for (int j = 0; j < 4; ++j) {
                     ++trt_tries;

@@ -7,6 +7,13 @@ namespace hairbsdf::render {
 
 namespace {
 
+// Huang in the renderer: the coarse sampling mixture (exact pdf, fewer components: noise only).
+HuangHairParams render_huang_params(const PrincipledHairInputs& in) {
+    HuangHairParams p = huang_params_from_principled(in);
+    p.mixture_detail = HuangHairParams::MixtureDetail::Coarse;
+    return p;
+}
+
 bool hair_depends_on_random(const PrincipledHairInputs& in) {
     if (in.random_roughness != 0.0) return true;
     return in.parametrization == Parametrization::Melanin && in.random_color != 0.0;
@@ -31,7 +38,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
                     if (h.huang)
-                        h.fixed_huang.emplace(huang_params_from_principled(in));
+                        h.fixed_huang.emplace(render_huang_params(in));
                     else
                         h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
@@ -92,7 +99,7 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
                 } else {
                     PrincipledHairInputs in = h.inputs;
                     in.random = g.random;
-                    params = huang_params_from_principled(in);
+                    params = render_huang_params(in);
                 }
                 if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
                 huang_storage_[size_t(slot)].emplace(params);

@@ -75,6 +75,10 @@ struct HuangHairParams {
     int simpson_refinement = 1;  // measurements only: Cycles' Simpson steps divided by this
     long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
     HuangSampler sampler = HuangSampler::Mixture;
+    // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
+    // point) or Coarse (up to 12, 16 and 16: the renderer's choice; the pdf stays exact, only
+    // the importance sampling is rougher, so renders get noisier but not biased).
+    enum class MixtureDetail { Full, Coarse } mixture_detail = MixtureDetail::Full;
 };
 
 class HuangHair {
