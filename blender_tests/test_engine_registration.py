@@ -71,7 +71,7 @@ emit(res)
 def test_register_unregister(run_blender, blender_kind):
     r = run_blender(blender_kind, REGISTRATION).result
     assert "HAIRBSDF" in r["engines"] and r["label"] == "hairbsdf"
-    assert (r["preview"], r["postprocess"], r["custom_nodes"]) == (False, True, False)
+    assert (r["preview"], r["postprocess"], r["custom_nodes"]) == (True, True, False)  # previews: test_engine_preview.py
     assert r["engine_set"] == "HAIRBSDF"
     assert r["settings"] == [0, "AUTO", "CYCLES"]
     assert r["before"] == []
