@@ -1,4 +1,5 @@
-"""The engine's hair model override (plugin/hairbsdf/blender/model_override.py) in bpy 4.5: the
+"""The engine's hair model override (plugin/hairbsdf/blender/model_override.py) in bpy 4.5 and
+Blender 3.4: the
 material's property group is filled from the model's schema, the exporter replaces each
 Principled Hair closure by a `hair_model` closure of the same weight (other closures stay), and
 the engine renders it, with a zoo model and with the example plugin; a bad value is an error
@@ -85,9 +86,9 @@ emit(out)
 '''
 
 
-def test_override_exports_and_renders(run_blender, renderer_available, kk_plugin):
-    need_renderer("bpy", renderer_available)
-    r = run_blender("bpy", OVERRIDE_SCENE, args={"kk": str(kk_plugin)}).result
+def test_override_exports_and_renders(run_blender, blender_kind, renderer_available, kk_plugin):
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, OVERRIDE_SCENE, args={"kk": str(kk_plugin)}).result
     assert r["none"] == []
     # the items are the schema, at its defaults
     schema = {p["name"]: p for p in r["epic_schema"]}
