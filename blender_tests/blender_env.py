@@ -250,3 +250,53 @@ def need_renderer(kind: str, available: dict):
         where = ("the venv (pip install -e . via scripts/setup)" if kind == "bpy"
                  else "build/blender_site/current (scripts/setup stages it for Blender's Python)")
         skip_or_fail(f"hairbsdf._render is not available in {where} yet")
+
+
+# --------------------------------------------------------------------------- plugins
+
+CRASHING_PLUGIN = r'''
+// A hair BSDF plugin that loads fine and segfaults on its first eval, sample or pdf: the
+// harness must contain it (blender_tests/test_harness_compare.py).
+#include <hairbsdf/plugin.h>
+#include <csignal>
+namespace {
+const hairbsdf_param kParams[] = {{"albedo", HAIRBSDF_PARAM_FLOAT, {0.5}, 0, 1, "unused"}};
+int crash() { std::raise(SIGSEGV); return 1; }
+void* create(const double*, char*, size_t) { static int instance; return &instance; }
+void destroy(void*) {}
+int eval(const void*, size_t, const double*, const double*, const double*, const double*, double*, double*) { return crash(); }
+int sample(const void*, size_t, const double*, const double*, const double*, const double*, double*, double*, double*,
+           int32_t*) { return crash(); }
+int pdf(const void*, size_t, const double*, const double*, const double*, const double*, double*) { return crash(); }
+const hairbsdf_plugin kPlugin = {HAIRBSDF_PLUGIN_ABI_VERSION, 0, "crasher", "segfaults", 1, kParams,
+                                 create, destroy, eval, sample, pdf};
+}  // namespace
+HAIRBSDF_PLUGIN_ENTRY { return host_abi_version == HAIRBSDF_PLUGIN_ABI_VERSION ? &kPlugin : nullptr; }
+'''
+
+
+def build_plugin(source: Path, out: Path) -> Path:
+    """Compiles a one-file plugin against bsdf_core/include (docs/plugins.md §2, by hand)."""
+    cxx = shutil.which("c++") or shutil.which("g++")
+    if not cxx:
+        skip_or_fail("no C++ compiler to build a test plugin")
+    r = subprocess.run([cxx, "-O2", "-std=c++17", "-shared", "-fPIC", "-fvisibility=hidden",
+                        f"-I{ROOT / 'bsdf_core' / 'include'}", str(source), "-o", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return out
+
+
+def kajiya_kay_plugin(tmp: Path) -> Path:
+    """The example plugin (examples/plugins/kajiya_kay), or $HAIRBSDF_KAJIYA_KAY_PLUGIN."""
+    given = os.environ.get("HAIRBSDF_KAJIYA_KAY_PLUGIN")
+    if given:
+        return Path(given)
+    return build_plugin(ROOT / "examples" / "plugins" / "kajiya_kay" / "kajiya_kay.cpp",
+                        tmp / "hairbsdf_plugin_kajiya_kay.so")
+
+
+def crashing_plugin(tmp: Path) -> Path:
+    src = tmp / "crasher.cpp"
+    src.write_text(CRASHING_PLUGIN)
+    return build_plugin(src, tmp / "crasher.so")

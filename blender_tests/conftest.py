@@ -2,8 +2,8 @@
 
 import pytest
 
-from blender_env import (KINDS, ensure_staged, need_renderer, require, run_snippet,  # noqa: F401
-                         skip_or_fail, staged_has, venv_has_render)
+from blender_env import (KINDS, crashing_plugin, ensure_staged, kajiya_kay_plugin, need_renderer,  # noqa: F401
+                         require, run_snippet, skip_or_fail, staged_has, venv_has_render)
 
 
 # --------------------------------------------------------------------------- fixtures
@@ -31,3 +31,15 @@ def renderer_available():
     ensure_staged()
     ok["blender"] = staged_has("_render*.so")
     return ok
+
+
+@pytest.fixture(scope="session")
+def kk_plugin(tmp_path_factory):
+    """The Kajiya-Kay example plugin, built once per session."""
+    return kajiya_kay_plugin(tmp_path_factory.mktemp("kk_plugin"))
+
+
+@pytest.fixture(scope="session")
+def crash_plugin(tmp_path_factory):
+    """A plugin that segfaults on its first call (blender_env.CRASHING_PLUGIN)."""
+    return crashing_plugin(tmp_path_factory.mktemp("crash_plugin"))

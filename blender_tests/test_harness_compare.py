@@ -10,6 +10,8 @@
 * The harness itself, without the engine: Cycles against Cycles on other seeds must pass (a
   null test of the statistics on real renders); a crashing or hanging engine render fails its
   case and nothing else; shards merge into the full report; the command-line entry points.
+* `--model`: the example plugin with its mapping writes a report naming the model (expected to
+  FAIL parity with Principled Hair); a plugin that segfaults fails its case as CRASH only.
 """
 
 import importlib
@@ -160,6 +162,55 @@ def test_unknown_engine_is_no_output(tmp_path):
 
 
 @pytest.mark.blender
+def test_model_plugin_report(tmp_path, kk_plugin):
+    """--model plugin:PATH:mapping.py renders our side with the plugin and says so in the report."""
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    try:
+        importlib.import_module("hairbsdf._render")
+    except ImportError:
+        pytest.xfail("engine not built yet")
+    mapping = REPO / "examples" / "plugins" / "kajiya_kay" / "mapping.py"
+    rc, log, data = compare("--scene", "fiber_gonio:front", "--ci", "--model", "plugin:%s:%s" % (kk_plugin, mapping),
+                            "--jobs", "2", "--out", str(tmp_path))
+    assert data is not None, log[-3000:]
+    label = "plugin:%s (mapping mapping.py)" % kk_plugin.name
+    assert data["runs"][0]["hair_model"]["label"] == label
+    (c,) = data["cases"]
+    assert c["status"] in ("PASS", "FAIL"), (c["status"], c["reason"], c.get("log_tail", "")[-2000:])
+    assert c["hair_model"]["model"] == "plugin" and c["hair_model"]["path"] == str(kk_plugin)
+    assert c["engine_label"] == "hairbsdf [%s]" % label
+    params = c["hair_model_params"]
+    assert params and all(set(p) == {"color", "specular_color", "specular", "exponent"} for p in params.values())
+    assert len({tuple(p["color"]) for p in params.values()}) > 1  # the mapping followed each material's inputs
+    html = (tmp_path / "index.html").read_text()
+    assert html.count(label) >= 3  # run line, captions, the hair model box
+    assert (tmp_path / "cases" / c["dir"] / "hairbsdf.png").exists()
+    assert rc == (0 if c["status"] == "PASS" else 1)
+
+
+@pytest.mark.blender
+def test_crashing_plugin_is_contained(tmp_path, crash_plugin):
+    """A plugin that segfaults crashes its own render processes only: CRASH for the case, the
+    Cycles renders and the report complete."""
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    try:
+        importlib.import_module("hairbsdf._render")
+    except ImportError:
+        pytest.xfail("engine not built yet")
+    rc, log, data = compare("--scene", "fiber_gonio:front", "--ci", "--model", "plugin:%s" % crash_plugin,
+                            "--timeout", "120", "--jobs", "2", "--out", str(tmp_path))
+    assert rc == 1 and data is not None, log[-3000:]
+    (c,) = data["cases"]
+    assert c["status"] == "CRASH", (c["status"], c["reason"])
+    assert all(r["ok"] for r in c["renders"] if r["kind"] == "cycles")
+    ours = [r for r in c["renders"] if r["kind"] == "ours"]
+    assert ours and ours[0]["status"] == "CRASH" and "signal" in ours[0]["error"]
+    assert 'class="badge CRASH"' in (tmp_path / "index.html").read_text()
+
+
+@pytest.mark.blender
 def test_shards_merge_into_the_full_report(tmp_path):
     if not _have_blender("bpy4.5"):
         _skip_or_fail("bpy is not installed")
@@ -194,7 +245,12 @@ def test_command_line_help():
     r = subprocess.run([str(REPO / "scripts" / "compare"), "--help"], capture_output=True, text=True)
     assert r.returncode == 0 and "--scene" in r.stdout
     r = subprocess.run([PY, "-m", "hairbsdf.compare", "--model", "plugin:x.so"], capture_output=True, text=True)
-    assert r.returncode == 2 and "reserved" in r.stderr
+    assert r.returncode == 2 and "x.so: no such file" in r.stderr
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--model", "yan"], capture_output=True, text=True)
+    assert r.returncode == 2 and "'yan' is not a model; use one of kajiya_kay" in r.stderr
+    r = subprocess.run([PY, "-m", "hairbsdf.compare", "--model", "epic", "--engine", "CYCLES"], capture_output=True,
+                       text=True)
+    assert r.returncode == 2 and "--model needs --engine HAIRBSDF" in r.stderr
     r = subprocess.run([PY, "-m", "hairbsdf.compare", "--scene", "no_such_scene"], capture_output=True, text=True)
     assert r.returncode == 2 and "unknown scene" in r.stderr
 

@@ -13,8 +13,10 @@
 
 #include "hairbsdf/albedo.h"
 #include "hairbsdf/closures.h"
+#include "hairbsdf/models/model_factory.h"
 #include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
+#include "model_params.h"
 
 namespace py = pybind11;
 using namespace hairbsdf;
@@ -416,13 +418,6 @@ py::dict model_dict(const KajiyaKayHair& m) {
     d["specular_norm"] = m.specular_norm();
     return zoo_scales(d, m.angular_scales());
 }
-ClosureSum kajiya_kay(std::array<double, 3> diffuse, std::array<double, 3> specular, double exponent) {
-    KajiyaKayHairParams p;
-    p.diffuse = rgb_from(diffuse);
-    p.specular = rgb_from(specular);
-    p.exponent = exponent;
-    return ClosureSum({Closure{RGB(1.0), KajiyaKayHair(p)}});
-}
 
 py::dict model_dict(const EpicHair& m) {
     const EpicHairParams& p = m.params();
@@ -436,17 +431,6 @@ py::dict model_dict(const EpicHair& m) {
     d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
     d["betas"] = m.betas();
     return zoo_scales(d, m.angular_scales());
-}
-ClosureSum epic(std::array<double, 3> base_color, double r_scale, double scatter, double roughness, double shift,
-                int variant) {
-    EpicHairParams p;
-    p.base_color = rgb_from(base_color);
-    p.r_scale = r_scale;
-    p.scatter = scatter;
-    p.roughness = roughness;
-    p.shift = shift;
-    p.variant = EpicVariant(variant);
-    return ClosureSum({Closure{RGB(1.0), EpicHair(p)}});
 }
 
 py::dict model_dict(const ScheuermannHair& m) {
@@ -464,19 +448,6 @@ py::dict model_dict(const ScheuermannHair& m) {
     d["norms"] = m.norms();
     return zoo_scales(d, m.angular_scales());
 }
-ClosureSum scheuermann(std::array<double, 3> c1, std::array<double, 3> c2, double p1, double p2, double s1, double s2,
-                       double shift_texture, double noise) {
-    ScheuermannHairParams p;
-    p.primary_color = rgb_from(c1);
-    p.secondary_color = rgb_from(c2);
-    p.primary_exponent = p1;
-    p.secondary_exponent = p2;
-    p.primary_shift = s1;
-    p.secondary_shift = s2;
-    p.shift_texture = shift_texture;
-    p.noise = noise;
-    return ClosureSum({Closure{RGB(1.0), ScheuermannHair(p)}});
-}
 py::dict model_dict(const MarschnerHair& m) {
     const MarschnerHairParams& p = m.params();
     py::dict d;
@@ -492,20 +463,6 @@ py::dict model_dict(const MarschnerHair& m) {
     d["caustic_limit"] = p.caustic_limit;
     return zoo_scales(d, m.angular_scales());
 }
-ClosureSum marschner(std::array<double, 3> sigma_a, double eta, double eccentricity, double alpha_r, double beta_r,
-                     double glint_scale, double caustic_width, double caustic_fade, double caustic_limit) {
-    MarschnerHairParams p;
-    p.sigma_a = rgb_from(sigma_a);
-    p.eta = eta;
-    p.eccentricity = eccentricity;
-    p.alpha_r = alpha_r;
-    p.beta_r = beta_r;
-    p.glint_scale = glint_scale;
-    p.caustic_width = caustic_width;
-    p.caustic_fade = caustic_fade;
-    p.caustic_limit = caustic_limit;
-    return ClosureSum({Closure{RGB(1.0), MarschnerHair(p)}});
-}
 
 py::dict model_dict(const DeonHair& m) {
     const DeonHairParams& p = m.params();
@@ -518,16 +475,32 @@ py::dict model_dict(const DeonHair& m) {
     d["tabulated"] = p.tabulated;
     return zoo_scales(d, m.angular_scales());
 }
-ClosureSum deon(std::array<double, 3> sigma_a, double eta, double roughness, double tilt, bool tabulated) {
-    DeonHairParams p;
-    p.sigma_a = rgb_from(sigma_a);
-    p.eta = eta;
-    p.roughness = roughness;
-    p.tilt = tilt;
-    p.tabulated = tabulated;
-    return ClosureSum({Closure{RGB(1.0), DeonHair(p)}});
-}
 py::dict model_dict(const PluginHair& m) { return plugin_params_dict(m); }
+
+// A model's schema (models/model_factory.h) as dicts: name, type ("float", "rgb", "choice",
+// "bool"), default (a number, an (r, g, b) tuple, a choice's name or a bool), min, max,
+// choices, optional, description.
+py::list schema_list(const std::vector<ModelParamSpec>& schema) {
+    py::list out;
+    for (const ModelParamSpec& p : schema) {
+        py::dict d;
+        d["name"] = p.name;
+        const std::array<double, 3>& v = p.default_value;
+        switch (p.kind) {
+            case ParamKind::Float: d["type"] = "float", d["default"] = v[0]; break;
+            case ParamKind::RGB: d["type"] = "rgb", d["default"] = py::make_tuple(v[0], v[1], v[2]); break;
+            case ParamKind::Choice: d["type"] = "choice", d["default"] = p.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d["type"] = "bool", d["default"] = v[0] != 0.0; break;
+        }
+        d["min"] = p.min_value;
+        d["max"] = p.max_value;
+        d["choices"] = p.choices;
+        d["optional"] = p.optional;
+        d["description"] = p.description;
+        out.append(d);
+    }
+    return out;
+}
 
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
@@ -745,6 +718,16 @@ PYBIND11_MODULE(_core, m) {
         return std::const_pointer_cast<PluginLibrary>(load_plugin(path));
     });
 
+    // The model factory (models/model_factory.h): the zoo's constructors and hair_model closures.
+    m.def("zoo_model_names", &zoo_model_names);
+    m.def("model_schema", [](const std::string& model, const std::string& path) { return schema_list(model_schema(model, path)); },
+          py::arg("model"), py::arg("path") = "");
+    m.def("make_model",
+          [](const std::string& model, const py::dict& params, const std::string& path) {
+              const ModelParams given = bindings::model_params_from_dict(params, [](const std::string& n) { return n; });
+              return ClosureSum({Closure{RGB(1.0), make_model(model, path, given)}});
+          },
+          py::arg("model"), py::arg("params"), py::arg("path") = "");
     m.def("principled_chiang", &principled_chiang);
     m.def("principled_huang", &principled_huang);
     m.def("huang_from_params", &huang_from_params);
@@ -763,11 +746,6 @@ PYBIND11_MODULE(_core, m) {
         return out;
     });
     m.def("chiang_from_params", &chiang_from_params);
-    m.def("kajiya_kay", &kajiya_kay);
-    m.def("epic", &epic);
-    m.def("scheuermann", &scheuermann);
-    m.def("marschner", &marschner);
-    m.def("deon", &deon);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

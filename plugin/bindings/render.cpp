@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "hairbsdf/render/render.h"
+#include "model_params.h"
 
 namespace py = pybind11;
 using namespace hairbsdf;
@@ -255,7 +256,8 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
             cd.type = as_enum<ClosureDesc::Type>(get(c, ck, "type"), sub(ck, "type"),
                                                  {{"principled_hair", ClosureDesc::Type::PrincipledHair},
                                                   {"diffuse", ClosureDesc::Type::Diffuse},
-                                                  {"emission", ClosureDesc::Type::Emission}});
+                                                  {"emission", ClosureDesc::Type::Emission},
+                                                  {"hair_model", ClosureDesc::Type::Model}});
             cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
             if (cd.type == ClosureDesc::Type::PrincipledHair) {
                 if (c.contains("model")) {
@@ -273,6 +275,14 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
                 cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve);
                 cd.hair.parametrization = param;
+            } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by models/model_factory.h
+                cd.model_name = as_str(get(c, ck, "model"), sub(ck, "model"));
+                if (c.contains("path") && !c["path"].is_none()) cd.model_path = as_str(c["path"], sub(ck, "path"));
+                if (c.contains("params")) {
+                    const std::string pk = sub(ck, "params");
+                    cd.model_params = bindings::model_params_from_dict(
+                        as_dict(c["params"], pk), [&](const std::string& n) { return "scene" + pk + "['" + n + "']"; });
+                }
             } else {
                 if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
                 if (cd.type == ClosureDesc::Type::Emission && c.contains("strength"))

@@ -29,7 +29,7 @@ SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 LIGHT_TYPES = ("SUN", "POINT", "SPOT", "AREA")
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 FILTER_TYPES = ("BLACKMAN_HARRIS", "GAUSSIAN", "BOX")
-CLOSURE_TYPES = ("principled_hair", "diffuse", "emission")
+CLOSURE_TYPES = ("principled_hair", "diffuse", "emission", "hair_model")
 HAIR_MODELS = ("CHIANG", "HUANG")
 PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
@@ -193,11 +193,45 @@ def _check_meshes(scene, out):
     out["meshes"] = {"vertices": vertices, "triangles": triangles, "triangle_material": material}
 
 
+def _check_model_param(key, value):
+    """A hair_model parameter: a bool, a number, a string (a choice) or an RGB triple."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, numbers.Real):
+        return float(value)
+    if value is None or isinstance(value, dict) or not hasattr(value, "__len__"):
+        raise TypeError(f"{key}: expected a number, an RGB triple, a string or a bool, got {type(value).__name__}")
+    return _Checker.vector(key, value, 3, "numbers (r, g, b)")
+
+
+def _check_hair_model(key, c, out):
+    """The `hair_model` closure: structure here; names, types and ranges against the model's
+    schema in the model factory when the renderer builds it (errors name the material)."""
+    from . import _core
+
+    allowed = tuple(_core.zoo_model_names()) + ("plugin",)
+    out["model"] = _Checker.choice(f"{key}['model']", _Checker.required(key, c, "model"), allowed)
+    if out["model"] == "plugin":
+        path = _Checker.required(key, c, "path")
+        if not isinstance(path, str):
+            raise TypeError(f"{key}['path']: expected a string (the plugin library's path)")
+        out["path"] = path
+    params = _Checker.dict(f"{key}['params']", c.get("params", {}))
+    for name in params:
+        if not isinstance(name, str):
+            raise TypeError(f"{key}['params']: parameter names must be strings, got {name!r}")
+    out["params"] = {name: _check_model_param(f"{key}['params']['{name}']", v) for name, v in params.items()}
+
+
 def _check_closure(key, c):
     c = _Checker.dict(key, c)
     kind = _Checker.choice(f"{key}['type']", _Checker.required(key, c, "type"), CLOSURE_TYPES)
     out = {"type": kind, "weight": _Checker.vector(f"{key}['weight']", c.get("weight", (1.0, 1.0, 1.0)), 3)}
-    if kind == "principled_hair":
+    if kind == "hair_model":
+        _check_hair_model(key, c, out)
+    elif kind == "principled_hair":
         out["model"] = _Checker.choice(f"{key}['model']", c.get("model", "CHIANG"), HAIR_MODELS)
         out["parametrization"] = _Checker.choice(f"{key}['parametrization']", c.get("parametrization", "COLOR"),
                                                  PARAMETRIZATIONS)

@@ -1,6 +1,11 @@
 """The model zoo (issue 7): classic and real-time hair models behind the common closure
 interface. Formulas, defaults and their sources: docs/models.md. Every constructor works with no
-arguments; out-of-range parameters raise ValueError naming the parameter and the allowed range."""
+arguments; out-of-range parameters raise ValueError naming the parameter and the allowed range.
+
+The parameter names, defaults and ranges live in one table, the C++ model factory
+(bsdf_core/include/hairbsdf/models/model_factory.h); `model_schema(name)` returns it and
+`make_model(name, params)` builds a model from named values, as the renderer's `hair_model`
+closure and the Blender engine's material override do."""
 
 from __future__ import annotations
 
@@ -8,9 +13,41 @@ from . import _core
 from . import _validate as check
 from .closure import Closure
 
+
+def zoo_model_names() -> list[str]:
+    """The zoo's model names: kajiya_kay, epic, scheuermann, marschner, deon."""
+    return list(_core.zoo_model_names())
+
+
+def model_schema(model: str, path: str | None = None) -> list[dict]:
+    """The parameters of a zoo model, or of the plugin at `path` (model "plugin"): dicts with
+    name, type ("float", "rgb", "choice", "bool"), default, min, max, choices, optional and
+    description. ValueError for an unknown model."""
+    if not isinstance(model, str):
+        raise TypeError(f"model: expected a string, got {type(model).__name__}")
+    if model == "plugin" and not isinstance(path, str):
+        raise TypeError("path: the plugin model needs the path of the plugin library")
+    return _core.model_schema(model, path or "")
+
+
+def make_model(model: str, params: dict | None = None, *, path: str | None = None) -> Closure:
+    """A zoo model (or, with model="plugin", the plugin at `path`) from a dict of named
+    parameters; missing ones take their defaults (model_schema). Values: a number, an RGB
+    triple (or a number for grey), a choice's name, a bool."""
+    params = dict(params or {})
+    if model == "plugin" and not isinstance(path, str):
+        raise TypeError("path: the plugin model needs the path of the plugin library")
+    core = _core.make_model(model, params, path or "")
+    args = ", ".join(f"{k}={v!r}" for k, v in params.items())
+    return Closure(core, f"make_model({model!r}, {{{args}}}" + (f", path={path!r})" if path else ")"))
+
+
+def _defaults(model: str) -> dict:
+    return {p["name"]: p["default"] for p in _core.model_schema(model, "") if not p["optional"]}
+
+
 # --- Kajiya-Kay 1989 ----------------------------------------------------------------------------
-KAJIYA_KAY_DEFAULTS = {"diffuse": (0.5, 0.5, 0.5), "specular": (0.5, 0.5, 0.5), "exponent": 60.0}
-KAJIYA_KAY_MAX_EXPONENT = 10_000.0
+KAJIYA_KAY_DEFAULTS = _defaults("kajiya_kay")
 
 
 def kajiya_kay_hair(*, diffuse=KAJIYA_KAY_DEFAULTS["diffuse"], specular=KAJIYA_KAY_DEFAULTS["specular"],
@@ -23,20 +60,13 @@ def kajiya_kay_hair(*, diffuse=KAJIYA_KAY_DEFAULTS["diffuse"], specular=KAJIYA_K
     (defaults 0.5, 0.5); exponent: p in [0, 10000] (default 60, a lobe about 7.4 degrees wide).
     Lobes: eval_lobes index 0 = specular, 3 = diffuse.
     """
-    kd = check.color_in_range("diffuse", diffuse, 0.0, 1.0)
-    ks = check.color_in_range("specular", specular, 0.0, 1.0)
-    if any(a + b > 1.0 + 1e-12 for a, b in zip(kd, ks)):
-        raise ValueError(f"diffuse + specular = {tuple(a + b for a, b in zip(kd, ks))} is out of range; "
-                         "each channel of the sum must lie in [0, 1] (energy bound)")
-    p = check.in_range("exponent", exponent, 0.0, KAJIYA_KAY_MAX_EXPONENT)
-    core = _core.kajiya_kay(kd, ks, p)
+    kd, ks, p = check.color("diffuse", diffuse), check.color("specular", specular), check.real("exponent", exponent)
+    core = _core.make_model("kajiya_kay", {"diffuse": kd, "specular": ks, "exponent": p})
     return Closure(core, f"kajiya_kay_hair(diffuse={kd}, specular={ks}, exponent={p:g})")
 
 
 # --- Epic / Unreal 2016 (Karis) -----------------------------------------------------------------
-EPIC_DEFAULTS = {"base_color": (0.017513, 0.005763, 0.002059), "specular": 0.5, "scatter": 0.0,
-                 "roughness": 0.35, "shift": 0.035, "variant": "direct"}
-EPIC_VARIANTS = {"direct": 0, "environment": 1}
+EPIC_DEFAULTS = _defaults("epic")
 
 
 def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_DEFAULTS["specular"],
@@ -55,24 +85,18 @@ def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_
     (the light's visibility through the hair volume, default 1).
     Lobes: R, TT, TRT, and the multiple-scattering term in slot 3.
     """
-    c = check.color_in_range("base_color", base_color, 0.0, 1.0)
-    spec = check.in_range("specular", specular, 0.0, 1.0)
-    scat = check.in_range("scatter", scatter, 0.0, 1.0)
-    rough = check.in_range("roughness", roughness, 0.0, 1.0)
-    sh = check.in_range("shift", shift, -0.25, 0.25)
-    check.choice("variant", variant, EPIC_VARIANTS)
-    core = _core.epic(c, spec / 0.5, scat, rough, sh, EPIC_VARIANTS[variant])
+    c, spec, scat = check.color("base_color", base_color), check.real("specular", specular), check.real("scatter", scatter)
+    rough, sh = check.real("roughness", roughness), check.real("shift", shift)
+    if not isinstance(variant, str):
+        raise TypeError(f"variant: expected a string, got {variant!r}")
+    core = _core.make_model("epic", {"base_color": c, "specular": spec, "scatter": scat, "roughness": rough,
+                                     "shift": sh, "variant": variant})
     return Closure(core, f"epic_hair(base_color={c}, specular={spec:g}, scatter={scat:g}, roughness={rough:g}, "
                          f"shift={sh:g}, variant={variant!r})")
 
 
 # --- Scheuermann (ATI) 2004 ---------------------------------------------------------------------
-SCHEUERMANN_DEFAULTS = {
-    "primary_color": (0.5, 0.5, 0.5), "secondary_color": (0.5, 0.35, 0.2),
-    "primary_exponent": 240.0, "secondary_exponent": 60.0,
-    "primary_shift": 0.0349208, "secondary_shift": -0.0699268,  # tan 2 deg, -tan 4 deg
-    "shift_texture": 0.5, "noise": 1.0,
-}
+SCHEUERMANN_DEFAULTS = _defaults("scheuermann")
 
 
 def scheuermann_hair(*, primary_color=SCHEUERMANN_DEFAULTS["primary_color"],
@@ -93,28 +117,20 @@ def scheuermann_hair(*, primary_color=SCHEUERMANN_DEFAULTS["primary_color"],
     noise: [0, 1], the noise texture value masking the secondary lobe (default 1).
     Lobes: eval_lobes index 0 = primary, 2 = secondary.
     """
-    c1 = check.color_in_range("primary_color", primary_color, 0.0, 1.0)
-    c2 = check.color_in_range("secondary_color", secondary_color, 0.0, 1.0)
-    if any(a + b > 1.0 + 1e-12 for a, b in zip(c1, c2)):
-        raise ValueError(f"primary_color + secondary_color = {tuple(a + b for a, b in zip(c1, c2))} is out of range; "
-                         "each channel of the sum must lie in [0, 1] (energy bound)")
-    p1 = check.in_range("primary_exponent", primary_exponent, 0.0, 10_000.0)
-    p2 = check.in_range("secondary_exponent", secondary_exponent, 0.0, 10_000.0)
-    s1 = check.in_range("primary_shift", primary_shift, -1.0, 1.0)
-    s2 = check.in_range("secondary_shift", secondary_shift, -1.0, 1.0)
-    st = check.in_range("shift_texture", shift_texture, 0.0, 1.0)
-    nz = check.in_range("noise", noise, 0.0, 1.0)
-    core = _core.scheuermann(c1, c2, p1, p2, s1, s2, st, nz)
+    c1, c2 = check.color("primary_color", primary_color), check.color("secondary_color", secondary_color)
+    p1, p2 = check.real("primary_exponent", primary_exponent), check.real("secondary_exponent", secondary_exponent)
+    s1, s2 = check.real("primary_shift", primary_shift), check.real("secondary_shift", secondary_shift)
+    st, nz = check.real("shift_texture", shift_texture), check.real("noise", noise)
+    core = _core.make_model("scheuermann", {
+        "primary_color": c1, "secondary_color": c2, "primary_exponent": p1, "secondary_exponent": p2,
+        "primary_shift": s1, "secondary_shift": s2, "shift_texture": st, "noise": nz})
     return Closure(core, f"scheuermann_hair(primary_color={c1}, secondary_color={c2}, primary_exponent={p1:g}, "
                          f"secondary_exponent={p2:g}, primary_shift={s1:g}, secondary_shift={s2:g}, "
                          f"shift_texture={st:g}, noise={nz:g})")
 
 
 # --- Marschner 2003 -----------------------------------------------------------------------------
-MARSCHNER_DEFAULTS = {
-    "sigma_a": (0.245531, 0.52, 1.365), "eta": 1.55, "eccentricity": 0.9, "alpha_r": -0.1309, "beta_r": 0.1309,
-    "glint_scale": 0.5, "caustic_width": 0.2618, "caustic_fade": 0.3, "caustic_limit": 0.5,
-}
+MARSCHNER_DEFAULTS = _defaults("marschner")
 
 
 def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCHNER_DEFAULTS["eta"],
@@ -135,45 +151,35 @@ def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCH
     The cross-section's major axis is the per-sample `normal=` (zero: the view-dependent frame).
     """
     s = check.color("sigma_a", sigma_a)
-    if any(x < 0 or x > 1e4 for x in s):
-        raise ValueError(f"sigma_a={sigma_a!r} is out of range; every channel must lie in [0, 10000]")
-    core = _core.marschner(
-        s, check.in_range("eta", eta, 1.1, 3.0), check.in_range("eccentricity", eccentricity, 0.5, 1.0),
-        check.in_range("alpha_r", alpha_r, -0.35, 0.35), check.in_range("beta_r", beta_r, 0.005, 0.7),
-        check.in_range("glint_scale", glint_scale, 0.0, 5.0), check.in_range("caustic_width", caustic_width, 0.01, 0.7),
-        check.in_range("caustic_fade", caustic_fade, 0.0, 1.0), check.in_range("caustic_limit", caustic_limit, 0.0, 1.0))
+    reals = {"eta": eta, "eccentricity": eccentricity, "alpha_r": alpha_r, "beta_r": beta_r, "glint_scale": glint_scale,
+             "caustic_width": caustic_width, "caustic_fade": caustic_fade, "caustic_limit": caustic_limit}
+    core = _core.make_model("marschner", {"sigma_a": s, **{k: check.real(k, v) for k, v in reals.items()}})
     return Closure(core, f"marschner_hair(sigma_a={s}, eta={eta:g}, eccentricity={eccentricity:g}, alpha_r={alpha_r:g}, "
                          f"beta_r={beta_r:g}, glint_scale={glint_scale:g}, caustic_width={caustic_width:g}, "
                          f"caustic_fade={caustic_fade:g}, caustic_limit={caustic_limit:g})")
 
 
 # --- d'Eon 2011 ---------------------------------------------------------------------------------
-# Pigment absorption (per unit concentration and diameter): seed 004 (d'Eon's constants) and
-# Cycles' (the same mapping Principled Hair uses, hairbsdf.absorption_from_melanin).
-DEON_EUMELANIN = (0.419, 0.697, 1.37)
-DEON_PHEOMELANIN = (0.187, 0.4, 1.05)
-DEON_DEFAULTS = {"melanin": 0.8, "melanin_redness": 1.0, "sigma_a": None, "pigments": "cycles", "eta": 1.55,
-                 "roughness": 0.1309, "tilt": 0.0349066, "tabulated": True}
+DEON_DEFAULTS = {**_defaults("deon"), "sigma_a": None}
 
 
 def deon_absorption(melanin: float, melanin_redness: float, pigments: str = "cycles") -> tuple[float, float, float]:
     """sigma_a from melanin and redness: Cycles' concentration mapping
     (q = -ln(max(1 - melanin, 1e-4)), eumelanin q (1 - r), pheomelanin q r) with Cycles' or d'Eon's
-    (seed 004) pigment constants."""
-    import math
-    from .principled import absorption_from_melanin
-    m = check.in_range("melanin", melanin, 0.0, 1.0)
-    r = check.in_range("melanin_redness", melanin_redness, 0.0, 1.0)
-    check.choice("pigments", pigments, ("cycles", "deon"))
-    if pigments == "cycles":
-        return tuple(absorption_from_melanin(m, r))
-    q = -math.log(max(1.0 - m, 1e-4))
-    return tuple(q * (1 - r) * e + q * r * p for e, p in zip(DEON_EUMELANIN, DEON_PHEOMELANIN))
+    (seed 004) pigment constants (the model factory's, so deon_hair agrees)."""
+    if not isinstance(pigments, str):
+        raise TypeError(f"pigments: expected a string, got {pigments!r}")
+    core = _core.make_model("deon", {"melanin": check.real("melanin", melanin), "pigments": pigments,
+                                     "melanin_redness": check.real("melanin_redness", melanin_redness),
+                                     "tabulated": False})
+    (d,) = core.model_params()
+    return tuple(d["sigma_a"])
 
 
 def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: float = DEON_DEFAULTS["melanin_redness"],
-              sigma_a=None, pigments: str = "cycles", eta: float = 1.55, roughness: float = 0.1309,
-              tilt: float = 0.0349066, tabulated: bool = True) -> Closure:
+              sigma_a=None, pigments: str = DEON_DEFAULTS["pigments"], eta: float = DEON_DEFAULTS["eta"],
+              roughness: float = DEON_DEFAULTS["roughness"], tilt: float = DEON_DEFAULTS["tilt"],
+              tabulated: bool = DEON_DEFAULTS["tabulated"]) -> Closure:
     """d'Eon et al. 2011 energy-conserving hair with the Gaussian-detector azimuthal term (docs/models.md §5).
 
     Colour: melanin, melanin_redness in [0, 1] (defaults 0.8, 1.0 as Principled Hair) with
@@ -183,15 +189,16 @@ def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: flo
     tabulated: tables over (|sin theta_o|, phi) (default) or direct quadrature.
     Lobes: R, TT, TRT, TRRT+ (residual, so that sigma_a = 0 conserves energy).
     """
-    if sigma_a is None:
-        s = deon_absorption(melanin, melanin_redness, pigments)
-    else:
-        s = check.color("sigma_a", sigma_a)
-        if any(x < 0 or x > 1e4 for x in s):
-            raise ValueError(f"sigma_a={sigma_a!r} is out of range; every channel must lie in [0, 10000]")
     if not isinstance(tabulated, bool):
         raise TypeError("tabulated: expected True or False")
-    core = _core.deon(s, check.in_range("eta", eta, 1.1, 3.0), check.in_range("roughness", roughness, 0.02, 1.0),
-                      check.in_range("tilt", tilt, -0.2, 0.2), tabulated)
+    if not isinstance(pigments, str):
+        raise TypeError(f"pigments: expected a string, got {pigments!r}")
+    params = {"melanin": check.real("melanin", melanin), "melanin_redness": check.real("melanin_redness", melanin_redness),
+              "pigments": pigments, "eta": check.real("eta", eta), "roughness": check.real("roughness", roughness),
+              "tilt": check.real("tilt", tilt), "tabulated": tabulated}
+    if sigma_a is not None:
+        params["sigma_a"] = check.color("sigma_a", sigma_a)
+    core = _core.make_model("deon", params)
+    (s,) = [tuple(d["sigma_a"]) for d in core.model_params()]
     return Closure(core, f"deon_hair(sigma_a={tuple(round(x, 6) for x in s)}, eta={eta:g}, roughness={roughness:g}, "
                          f"tilt={tilt:g}, tabulated={tabulated})")

@@ -54,6 +54,11 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
             case ClosureDesc::Type::Emission:
                 emission_ += c.strength * (c.weight * c.color);
                 break;
+            case ClosureDesc::Type::Model:  // render/model_closure.h
+                if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
+                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures))
+                    models_.push_back(build_model_closure(c, "material '" + desc.name + "'"));
+                break;
         }
     }
 }
@@ -143,6 +148,16 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
         total_sample_weight_ += entries_[size_t(count_)].sample_weight;
         ++count_;
     }
+    for (const ModelClosure& m : material.models()) {  // hair_model closures (render/model_closure.h)
+        if (count_ >= kMaxBsdfClosures) break;
+        ShadingContext ctx = hair_ctx_;
+        ctx.random = g.random;
+        ctx.normal = g.curve_normal;
+        model_points_[size_t(count_)].prepare(m, ctx);
+        entries_[size_t(count_)] = {Entry::Kind::Model, m.weight, std::fabs(average(m.weight)), nullptr, nullptr};
+        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
+        ++count_;
+    }
     if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
@@ -162,6 +177,13 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     const Entry& e = entries_[size_t(i)];
     BsdfValue out;
     if (e.kind == Entry::Kind::Transparent) return out;  // a delta: no value in any sampled direction
+    if (e.kind == Entry::Kind::Model) {
+        const BsdfEval r = model_points_[size_t(i)].eval(wi);
+        for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+        out.value = lobe_sum(out.lobes);
+        out.pdf = r.pdf;
+        return out;
+    }
     if (e.kind == Entry::Kind::Huang) {
         const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
         out.pdf = e.huang->pdf(sp, wi);
@@ -248,6 +270,18 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         own.pdf = s.pdf;
         if (lobes_) {
             const BsdfEval r = e.hair->eval(*points_[size_t(picked)], s.wi);
+            for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+        }
+        out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
+    } else if (e.kind == Entry::Kind::Model) {
+        const PreparedModelClosure& m = model_points_[size_t(picked)];
+        const BsdfSample s = m.sample({u0, u1, u2});
+        if (s.lobe < 0) return out;
+        out.wi = s.wi;
+        own.value = e.weight * s.value;
+        own.pdf = s.pdf;
+        if (lobes_) {
+            const BsdfEval r = m.eval(s.wi);
             for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
         }
         out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));

@@ -23,12 +23,13 @@ def register():
         return
     import bpy
 
-    from . import engine, passes, ui
+    from . import engine, model_override, passes, ui
 
     for cls in engine.classes:
         bpy.utils.register_class(cls)
     ui.register()
     passes.register()
+    model_override.register()
     _registered = True
     if not bpy.app.binary_path:
         # bpy module: classes still registered at interpreter exit make the process hang in
@@ -44,8 +45,9 @@ def unregister():
         return
     import bpy
 
-    from . import engine, passes, ui
+    from . import engine, model_override, passes, ui
 
+    model_override.unregister()
     passes.unregister()
     ui.unregister()
     for cls in reversed(engine.classes):

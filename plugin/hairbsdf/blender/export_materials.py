@@ -9,6 +9,8 @@ Supported (everything else is reported with a warning naming the node and socket
     into the Principled Hair's Random socket (-> None: per-curve random).
 A material without nodes is a diffuse of its viewport colour and a missing material is
 Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
+A material whose hair model override is set (Material tab, model_override.py) has its
+Principled Hair closures replaced by `hair_model` closures of the same weights.
 """
 
 from __future__ import annotations
@@ -165,6 +167,8 @@ class MaterialTranslator:
         closures = []
         self._shader(src[0], src[1], (1.0, 1.0, 1.0), closures, 0)
         out["closures"] = [c for c in closures if max(c["weight"]) > 0.0 or min(c["weight"]) < 0.0]
+        from .model_override import override_closures  # bpy: imported only in Blender
+        out["closures"] = override_closures(material, out["closures"], self.warn)
         return out
 
     def _shader(self, node, out_socket, weight, closures, depth):

@@ -9,7 +9,8 @@ job.json:
                    asset_dir = the folder of blend_out, for files the scene refers to
   action "render": open a .blend, set seed / samples / size / engine, render one linear EXR
                    {blend, engine: CYCLES|HAIRBSDF, accuracy: CYCLES|EXACT, seed, spp, res,
-                    threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites}
+                    threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites,
+                    hair_model: null or {model, path, mapping, label} (--model, HAIRBSDF only)}
 Writes meta_out / info_out (JSON) last, so its presence means the job finished.  Uses only
 bpy and the standard library: Blender 3.4's Python has no access to the venv.
 """
@@ -118,6 +119,15 @@ def ensure_hairbsdf(sites):
 
 # --------------------------------------------------------------------------- render
 
+def apply_hair_model(spec):
+    """--model: every material with a Principled Hair node renders with spec's zoo model or
+    plugin, its parameters from the user's mapping (or the defaults). Needs the engine's
+    package (registered by ensure_hairbsdf). Returns {material: parameters}."""
+    from hairbsdf.blender import model_override
+    mapping = model_override.load_mapping(spec["mapping"]) if spec.get("mapping") else None
+    return model_override.override_materials(bpy.data.materials, spec["model"], spec.get("path"), mapping)
+
+
 def _fault_hook(job):
     """Test hook (blender_tests/test_harness_compare.py): HAIRBSDF_COMPARE_FAULT=crash|hang
     makes every render that is not Cycles abort or hang, to check that the harness survives."""
@@ -192,6 +202,8 @@ def do_render(job):
                 meta["error"] = "the engine has no accuracy setting"
                 meta["status"] = "NOT AVAILABLE"
                 return meta
+            if job.get("hair_model"):
+                meta["hair_model_params"] = apply_hair_model(job["hair_model"])
             if os.path.exists(engine_report):
                 os.remove(engine_report)
             os.environ["HAIRBSDF_REPORT_FILE"] = engine_report

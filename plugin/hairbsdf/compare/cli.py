@@ -19,6 +19,8 @@ examples:
   hairbsdf compare --scene all --blender bpy --blender blender --ci --shard 2/4 --out out/shard2
   hairbsdf report merge out/shard1 out/shard2 out/shard3 out/shard4 --out out/compare
   hairbsdf compare --scene swatch --engine CYCLES   null test: Cycles against itself on other seeds
+  hairbsdf compare --scene swatch --model epic      our engine renders Epic in place of Principled Hair
+  hairbsdf compare --model plugin:build/kk.so:examples/plugins/kajiya_kay/mapping.py    your BSDF plugin
 
 how it judges (details: docs/compare.md):
   noise-free scenes (fiber_gonio): per-pixel relative error, median <= 1e-4 and p99 <= 2e-3
@@ -68,8 +70,10 @@ def build_parser(prog="hairbsdf compare"):
     p.add_argument("--threads", type=int, default=0, help="threads per render (default: cores / jobs)")
     p.add_argument("--shard", metavar="I/N", help="render only shard I of N of the sorted case list (CI matrices; "
                                                   "join the reports with `hairbsdf report merge`)")
-    p.add_argument("--model", metavar="plugin:PATH",
-                   help="reserved: compare a BSDF plugin instead of the built-in model (not implemented yet)")
+    p.add_argument("--model", metavar="NAME|plugin:PATH[:mapping.py]",
+                   help="render our side with a zoo model (kajiya_kay, epic, scheuermann, marschner, deon) or a BSDF "
+                        "plugin in place of every Principled Hair closure; mapping.py maps the node's inputs to the "
+                        "model's parameters (map_inputs), else the model's defaults (docs/compare.md)")
     p.add_argument("--engine", default="HAIRBSDF",
                    help="engine under test (default HAIRBSDF; CYCLES renders Cycles on other seeds, a null test of "
                         "the statistics)")
@@ -119,10 +123,17 @@ def run_compare(args, argv_text=""):
             print("%-14s %-13s %s+  %s.%s\n%16s%s" % (name, m["kind"], ".".join(map(str, m["min_blender"][:2])),
                                                       m["title"], v, "", m["description"]))
         return 0
+    hair_model = None
     if args.model:
-        print("error: --model %s: plugin models are reserved for a later version; the built-in engine is compared"
-              % args.model, file=sys.stderr)
-        return 2
+        from .model_spec import ModelSpecError, parse_model_spec
+        try:
+            hair_model = parse_model_spec(args.model)
+        except ModelSpecError as exc:
+            print("error: --model %s: %s" % (args.model, exc), file=sys.stderr)
+            return 2
+        if args.engine.upper() != "HAIRBSDF":
+            print("error: --model needs --engine HAIRBSDF (the override is our engine's)", file=sys.stderr)
+            return 2
     try:
         thr = Thresholds.load(args.thresholds or default_thresholds())
     except ThresholdError as exc:
@@ -136,7 +147,7 @@ def run_compare(args, argv_text=""):
             print("error: --blender %s: %s" % (spec, exc), file=sys.stderr)
             return 2
     try:
-        exact = 0 if args.no_exact else args.exact_seeds
+        exact = 0 if (args.no_exact or hair_model) else args.exact_seeds  # accuracy is Chiang's only
         cases = expand_cases(args.scene or [default_scene], targets, ci=args.ci, spp=args.spp,
                              res=parse_res(args.res), seeds=args.seeds, exact_seeds=exact, catalog=catalog)
         cases = shard(cases, args.shard)
@@ -152,7 +163,7 @@ def run_compare(args, argv_text=""):
     opts = Options(out=out, cache=Path(args.cache) if args.cache else default_cache_dir(), jobs=jobs,
                    threads=args.threads, timeout=args.timeout, use_cache=not args.no_cache, refresh=args.refresh,
                    osl=args.cycles_osl, engine=args.engine.upper(), force_parity=args.force_parity, thresholds=thr,
-                   flip=not args.no_flip, ci=args.ci, progress=not args.quiet, argv=sys.argv)
+                   flip=not args.no_flip, ci=args.ci, progress=not args.quiet, argv=sys.argv, hair_model=hair_model)
     runner = Runner(cases, opts)
     if not args.quiet:
         print("hairbsdf compare: %d case%s (%s) -> %s" % (len(cases), "" if len(cases) == 1 else "s",
@@ -174,6 +185,7 @@ def run_compare(args, argv_text=""):
                command=argv_text or " ".join(shlex.quote(a) for a in sys.argv), hairbsdf=ver,
                host=platform.node(), python=sys.version.split()[0], seconds=round(runner.seconds, 1),
                shard=args.shard, targets=[t.as_dict() for t in targets], engine=opts.engine,
+               hair_model=hair_model,
                thresholds=thr.source, cache=str(opts.cache))
     index = report.write_report(out, results, run)
     summ = report.summarize(results)

@@ -274,6 +274,12 @@ def _case_html(case):
             case["log_tail"]))
     sizes = dict(case.get("sizes") or {})
     sizes["engine"] = case.get("engine")
+    if case.get("hair_model"):
+        sizes["hair model (--model)"] = case["hair_model"].get("label")
+        parts.append("<details open><summary>hair model: %s in place of Principled Hair</summary><pre>%s</pre>"
+                     "</details>" % (html.escape(case["hair_model"].get("label", "")), html.escape(json.dumps(
+                         dict(model=case["hair_model"], parameters_per_material=case.get("hair_model_params")),
+                         indent=1, default=str))))
     sizes["Cycles shading system"] = "OSL" if case.get("osl") else "SVM"
     parts.append("<details><summary>sizes, settings and versions</summary><div class=figs>%s%s%s</div></details>" % (
         _kv_table(sizes), _kv_table(case.get("settings")), _kv_table(dict(
@@ -308,9 +314,11 @@ def render_index(cases, run):
         n = summ["total"] - summ["counts"].get("PENDING", 0) - summ["counts"].get("SKIPPED", 0)
         verdict, vcls = ("the case passes" if summ["total"] == 1 else "all %d gated cases pass" % n), "ok"
     runs = run if isinstance(run, list) else [run]
-    run_txt = " | ".join("%s; %s; %s%s" % (html.escape(r.get("created", "")), html.escape(r.get("command", "")),
-                                           html.escape(r.get("hairbsdf", "")),
-                                           " (git %s)" % html.escape(r["git"]) if r.get("git") else "")
+    run_txt = " | ".join("%s; %s; %s%s%s" % (html.escape(r.get("created", "")), html.escape(r.get("command", "")),
+                                             html.escape(r.get("hairbsdf", "")),
+                                             " (git %s)" % html.escape(r["git"]) if r.get("git") else "",
+                                             "; hair model: %s" % html.escape(r["hair_model"]["label"])
+                                             if r.get("hair_model") else "")
                          for r in runs if r)
     legend = ("PASS: every gating metric within its threshold (blender_tests/thresholds.toml); FAIL: one is not; "
               "CRASH / NO OUTPUT: the engine's render crashed or produced no image; ERROR: the scene or the Cycles "

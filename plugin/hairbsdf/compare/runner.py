@@ -337,6 +337,7 @@ class Options:
     ci: bool = False
     progress: bool = True
     argv: list = dataclasses.field(default_factory=list)
+    hair_model: dict = None  # --model (model_spec.py): our renders override Principled Hair with it
 
 
 class Runner:
@@ -411,7 +412,8 @@ class Runner:
         exr, meta_path = str(base) + ".exr", str(base) + ".json"
         job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=int(seed), spp=spp, res=res,
                    threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
-                   meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites)
+                   meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites,
+                   hair_model=None if engine == "CYCLES" else self.o.hair_model)
         lock = _Lock(base) if cycles else None
         if lock:
             lock.__enter__()
@@ -510,6 +512,8 @@ class Runner:
         return futs
 
     def _ours_label(self):
+        if self.o.hair_model:
+            return "hairbsdf [%s]" % self.o.hair_model["label"]
         return {"HAIRBSDF": "hairbsdf", "CYCLES": "Cycles (self-check)", "CYCLES_SELF": "Cycles (self-check)"}.get(
             self.o.engine, self.o.engine)
 
@@ -519,6 +523,7 @@ class Runner:
         return dict(id=c.id, dir=c.dirname, scene=c.scene, variant=c.variant, file=c.file, kind=c.kind,
                     title=c.meta.get("title", c.scene), description=c.meta.get("description", ""),
                     model=c.meta.get("model"), blender=c.target.as_dict(), engine=self.o.engine,
+                    hair_model=self.o.hair_model, engine_label=self._ours_label(),
                     sizes=dict(res=list(c.res) if c.res else None, spp=c.spp, seeds=c.seeds,
                                exact_seeds=c.exact_seeds, threads=self.threads),
                     osl=self.o.osl, profile="ci" if self.o.ci else "full", pending=lim.get("pending"),
@@ -568,6 +573,10 @@ class Runner:
                 if w not in ew:
                     ew.append(w)
         res["engine_warnings"] = ew
+        for r in renders["ours"]:  # --model: the parameters each material got (blender_job.py)
+            if r.get("hair_model_params") is not None:
+                res["hair_model_params"] = r["hair_model_params"]
+                break
         maps = {}
         bad_c = [r for r in renders["cycles"] if not r.get("ok")]
         bad_o = [r for r in renders["ours"] if not r.get("ok")]

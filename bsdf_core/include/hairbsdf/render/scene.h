@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hairbsdf/models/model_params.h"
 #include "hairbsdf/params/principled_hair.h"
 
 namespace hairbsdf::render {
@@ -34,7 +35,7 @@ struct MeshData {
 
 // One entry of a material's flat weighted closure sum.
 struct ClosureDesc {
-    enum class Type { PrincipledHair, Diffuse, Emission };
+    enum class Type { PrincipledHair, Diffuse, Emission, Model };  // Model: scene_desc.md `hair_model`
     enum class HairModel { Chiang, Huang };  // Principled Hair's model enum (Blender 4.0+)
     Type type = Type::Diffuse;
     HairModel hair_model = HairModel::Chiang;
@@ -46,6 +47,11 @@ struct ClosureDesc {
     // diffuse / emission
     RGB color{0.8};
     double strength = 1.0;  // emission only
+    // hair_model: a zoo model ("kajiya_kay", "epic", ...) or "plugin" (the library at
+    // model_path) with named parameters; built by models/model_factory.h.
+    std::string model_name;
+    std::string model_path;
+    ModelParams model_params;
 };
 
 struct MaterialDesc {

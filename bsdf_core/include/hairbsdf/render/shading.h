@@ -10,7 +10,9 @@
 //     the mixture sampler's exact density; near field for camera rays; a hit outside the
 //     projected ellipse makes the closure a transparent one (label TRANSPARENT);
 //   diffuse -> Lambert, cosine-sampled, label DIFFUSE REFLECT;
-//   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure).
+//   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure);
+//   hair_model -> a zoo model or a plugin (render/model_closure.h): label GLOSSY, REFLECT for
+//     lobe R, TRANSMIT for the others, as Chiang's; Filter Glossy does not blur it.
 #pragma once
 
 #include <optional>
@@ -18,6 +20,7 @@
 
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang.h"
+#include "hairbsdf/render/model_closure.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {
@@ -48,7 +51,8 @@ public:
     const std::vector<HairClosure>& hair() const { return hair_; }
     const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
     RGB emission() const { return emission_; }
-    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty(); }
+    const std::vector<ModelClosure>& models() const { return models_; }  // hair_model closures
+    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty() || !models_.empty(); }
     bool has_huang() const { return has_huang_; }
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
@@ -56,6 +60,7 @@ public:
 private:
     std::vector<HairClosure> hair_;
     std::vector<DiffuseClosure> diffuse_;
+    std::vector<ModelClosure> models_;
     RGB emission_{0.0};
     bool has_huang_ = false;
     TiltConvention tilt_;
@@ -104,7 +109,7 @@ public:
 
 private:
     struct Entry {
-        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse } kind;
+        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse, Model } kind;
         RGB weight;
         double sample_weight;
         const ChiangHair* hair;
@@ -117,6 +122,7 @@ private:
     std::array<std::optional<ChiangHair::ShadingPoint>, kMaxBsdfClosures> points_;  // view terms, once per hit
     std::array<std::optional<HuangHair>, kMaxBsdfClosures> huang_storage_;
     std::array<HuangHair::ShadingPoint, kMaxBsdfClosures> huang_points_;
+    std::array<PreparedModelClosure, kMaxBsdfClosures> model_points_;  // hair_model closures at this hit
     mutable uint32_t huang_rng_ = 0;  // Cycles-style LCG state of the stochastic eval
     int count_ = 0;
     bool lobes_ = false;

@@ -1,0 +1,37 @@
+// Zoo models and plugins by name: each model's parameter schema (the one table of the zoo's
+// parameter names, defaults and ranges, docs/models.md) and a builder from named values.
+// Used by the Python constructors (hairbsdf.zoo through _core.make_model), by the renderer's
+// `hair_model` closure and, through the schema, by Blender's engine panel.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hairbsdf/closures.h"
+#include "hairbsdf/models/model_params.h"
+
+namespace hairbsdf {
+
+// "kajiya_kay", "epic", "scheuermann", "marschner", "deon".
+const std::vector<std::string>& zoo_model_names();
+bool is_zoo_model(const std::string& model);
+
+// The schema of a zoo model; ModelError for an unknown name (the message lists the names).
+const std::vector<ModelParamSpec>& zoo_model_schema(const std::string& model);
+// A plugin's schema (hairbsdf/plugin.h) in the same form: FLOAT -> Float, RGB -> RGB.
+std::vector<ModelParamSpec> plugin_model_schema(const PluginLibrary& library);
+// The schema of `model` ("plugin": of the plugin at `path`, loaded if needed).
+std::vector<ModelParamSpec> model_schema(const std::string& model, const std::string& path = "");
+
+// A zoo model from named values; parameters not given take their defaults. ModelError names
+// an unknown model or parameter, a value of the wrong type, or one out of range (and what is
+// allowed).
+HairModel make_zoo_model(const std::string& model, const ModelParams& params);
+// A plugin instance from named values (PluginError when the library does not load or its
+// create fails; ModelError for names, types and ranges).
+HairModel make_plugin_model(const std::string& path, const ModelParams& params);
+// "plugin" -> make_plugin_model(path, params), else make_zoo_model(model, params).
+HairModel make_model(const std::string& model, const std::string& path, const ModelParams& params);
+
+}  // namespace hairbsdf
