@@ -42,13 +42,13 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     else
                         h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
-                if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
+                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
                 break;
             }
             case ClosureDesc::Type::Diffuse: {
                 const RGB w = c.weight * c.color;
                 if (std::fabs(average(w)) < kClosureWeightCutoff) break;
-                if (hair_.size() + diffuse_.size() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
+                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
                 break;
             }
             case ClosureDesc::Type::Emission:
