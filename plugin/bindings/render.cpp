@@ -255,7 +255,8 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
             cd.type = as_enum<ClosureDesc::Type>(get(c, ck, "type"), sub(ck, "type"),
                                                  {{"principled_hair", ClosureDesc::Type::PrincipledHair},
                                                   {"diffuse", ClosureDesc::Type::Diffuse},
-                                                  {"emission", ClosureDesc::Type::Emission}});
+                                                  {"emission", ClosureDesc::Type::Emission},
+                                                  {"cycles_hair", ClosureDesc::Type::CyclesHair}});
             cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
             if (cd.type == ClosureDesc::Type::PrincipledHair) {
                 if (c.contains("model")) {
@@ -273,6 +274,16 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
                 cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve);
                 cd.hair.parametrization = param;
+            } else if (cd.type == ClosureDesc::Type::CyclesHair) {
+                // The legacy Hair BSDF node (docs/scene_desc.md): Cycles clamps the roughnesses.
+                if (c.contains("component")) {
+                    cd.transmission = as_enum<bool>(c["component"], sub(ck, "component"),
+                                                    {{"REFLECTION", false}, {"TRANSMISSION", true}});
+                }
+                if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
+                if (c.contains("offset")) cd.offset = as_real(c["offset"], sub(ck, "offset"));
+                if (c.contains("roughness_u")) cd.roughness_u = as_real(c["roughness_u"], sub(ck, "roughness_u"));
+                if (c.contains("roughness_v")) cd.roughness_v = as_real(c["roughness_v"], sub(ck, "roughness_v"));
             } else {
                 if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
                 if (cd.type == ClosureDesc::Type::Emission && c.contains("strength"))

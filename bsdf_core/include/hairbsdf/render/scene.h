@@ -34,7 +34,7 @@ struct MeshData {
 
 // One entry of a material's flat weighted closure sum.
 struct ClosureDesc {
-    enum class Type { PrincipledHair, Diffuse, Emission };
+    enum class Type { PrincipledHair, Diffuse, Emission, CyclesHair };
     enum class HairModel { Chiang, Huang };  // Principled Hair's model enum (Blender 4.0+)
     Type type = Type::Diffuse;
     HairModel hair_model = HairModel::Chiang;
@@ -43,9 +43,12 @@ struct ClosureDesc {
     // (Cycles then uses the per-curve curve_random; 0 on meshes).
     PrincipledHairInputs hair;
     bool random_from_curve = true;
-    // diffuse / emission
+    // diffuse / emission / cycles_hair
     RGB color{0.8};
     double strength = 1.0;  // emission only
+    // cycles_hair (the legacy Hair BSDF node): component, Offset in radians, RoughnessU / V.
+    bool transmission = false;
+    double offset = 0.0, roughness_u = 0.1, roughness_v = 1.0;
 };
 
 struct MaterialDesc {
