@@ -62,12 +62,15 @@ rr = nt.nodes.new("NodeReroute")
 nt.links.new(mix.outputs[0], rr.inputs[0]); nt.links.new(rr.outputs[0], add.inputs[0]); nt.links.new(e.outputs[0], add.inputs[1])
 nt.links.new(add.outputs[0], out.inputs["Surface"])
 
-# 3. Mix Fac from a Value node (0.6): absorption hair vs legacy Hair BSDF (warned -> grey)
+# 3. Mix Fac from a Value node (0.6): absorption hair vs legacy Hair BSDF (Transmission, linked Tangent)
 m, nt, out = new_mat("FacLinked")
 h = nt.nodes.new("ShaderNodeBsdfHairPrincipled"); h.parametrization = "ABSORPTION"
 if hasattr(h, "model"): h.model = "CHIANG"
 fg.node_input(h, "Absorption Coefficient").default_value = (0.1, 0.2, 0.3)
-old = nt.nodes.new("ShaderNodeBsdfHair"); old.name = "OldHair"
+old = nt.nodes.new("ShaderNodeBsdfHair"); old.name = "OldHair"; old.component = "Transmission"
+old.inputs["Color"].default_value = (0.5, 0.4, 0.3, 1.0); old.inputs["Offset"].default_value = 0.1
+fg.node_input(old, "RoughnessU").default_value = 0.3; fg.node_input(old, "RoughnessV").default_value = 0.7
+tan = nt.nodes.new("ShaderNodeTangent"); nt.links.new(tan.outputs[0], fg.node_input(old, "Tangent"))
 mix = nt.nodes.new("ShaderNodeMixShader")
 fv = nt.nodes.new("ShaderNodeValue"); fv.outputs[0].default_value = 0.6
 nt.links.new(fv.outputs[0], mix.inputs["Fac"])
@@ -182,13 +185,15 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert cl[0]["inputs"]["color"] == pytest.approx((0.3, 0.2, 0.1))
     assert cl[1]["color"] == pytest.approx((1, 0, 0))
     assert cl[2]["weight"] == pytest.approx((1, 1, 1)) and cl[2]["strength"] == pytest.approx(2.5)
-    # 3. Fac from a Value node; legacy Hair BSDF -> warned grey diffuse
+    # 3. Fac from a Value node; legacy Hair BSDF with its sockets, a linked Tangent is warned about
     cl = _closures(desc, "FacLinked")
-    assert [x["type"] for x in cl] == ["principled_hair", "diffuse"]
+    assert [x["type"] for x in cl] == ["principled_hair", "cycles_hair"]
     assert cl[0]["weight"] == pytest.approx((0.4,) * 3) and cl[1]["weight"] == pytest.approx((0.6,) * 3)
     assert cl[0]["inputs"]["absorption_coefficient"] == pytest.approx((0.1, 0.2, 0.3))
-    assert cl[1]["color"] == pytest.approx((0.8, 0.8, 0.8))
-    assert "'OldHair' (Hair BSDF) is not supported yet" in warnings
+    assert cl[1]["component"] == "TRANSMISSION" and cl[1]["color"] == pytest.approx((0.5, 0.4, 0.3))
+    assert cl[1]["offset"] == pytest.approx(0.1) and cl[1]["roughness_u"] == pytest.approx(0.3)
+    assert cl[1]["roughness_v"] == pytest.approx(0.7)
+    assert "'OldHair' > 'Tangent' is linked" in warnings
     # 4. unsupported closure named
     assert _closures(desc, "Glossy")[0]["color"] == pytest.approx((0.8,) * 3)
     assert "'ShinyThing' (Glossy BSDF) is not supported" in warnings

@@ -77,10 +77,32 @@ def hairbsdf_evaluator(hairbsdf):
     return ev
 
 
+# Cycles' legacy Hair BSDF (render_cycles_hair.py). Cycles evaluates it with fast_acosf /
+# fast_atan2f / fast_cosf in float (angle errors up to ~5e-5 rad); hairbsdf uses exact double
+# functions, so each case differs by a near-constant factor of up to ~4e-4 (measured, see
+# docs/models.md §6). Pixels below LEGACY_ABS_FLOOR (case peaks are 5e-3 to 0.7) are zero at this scale (Cycles' float
+# cos(pi/2) leaves +3e-8 in 3.4 and -1.5e-7 (negative pixels) in 4.5 where the stretched azimuth is
+# clamped to pi; ours is ~1e-17).
+LEGACY_MEDIAN_TOL = 1e-3
+LEGACY_P99_TOL = 2e-3
+LEGACY_ABS_FLOOR = 1e-4
+
+
+def cycles_hair_evaluator(hairbsdf):
+    def ev(params, wo, wi, h, tilt):
+        c = hairbsdf.cycles_hair_bsdf(component=params["component"], color=tuple(params["color"]),
+                                      offset=params["offset"], roughness_u=params["roughness_u"],
+                                      roughness_v=params["roughness_v"])
+        return np.asarray(c.eval(np.ascontiguousarray(wo), np.ascontiguousarray(wi),
+                                 np.ascontiguousarray(h)), dtype=np.float64)
+    ev.name = "hairbsdf.cycles_hair_bsdf"
+    return ev
+
+
 # --------------------------------------------------------------------------
 
-def case_errors(ours, cycles):
-    floor = np.maximum(FLOOR_FRACTION * np.max(np.abs(cycles), axis=0), 1e-30)
+def case_errors(ours, cycles, abs_floor=1e-30):
+    floor = np.maximum(FLOOR_FRACTION * np.max(np.abs(cycles), axis=0), abs_floor)
     rel = np.abs(ours - cycles) / np.maximum(np.abs(cycles), floor)
     bright = cycles > 10.0 * floor
     ratio = float(np.median(cycles[bright] / ours[bright])) if np.any(bright) and np.all(
@@ -90,24 +112,25 @@ def case_errors(ours, cycles):
                 peak=float(np.max(cycles)))
 
 
-def compare(arrays, meta, evaluator, h_key="h", tilt=None):
+def compare(arrays, meta, evaluator, h_key="h", tilt=None, median_tol=MEDIAN_TOL, p99_tol=P99_TOL,
+            abs_floor=1e-30):
     tilt = tilt or meta["tilt"]
     rows = []
     for k, case in enumerate(meta["cases"]):
         m = arrays["case"] == k
         ours = evaluator(case["params"], arrays["wo"][m], arrays["wi"][m], arrays[h_key][m], tilt)
-        e = case_errors(np.asarray(ours, dtype=np.float64), arrays["rgb"][m])
+        e = case_errors(np.asarray(ours, dtype=np.float64), arrays["rgb"][m], abs_floor)
         e["name"] = case["name"]
-        e["ok"] = bool(e["median"] <= MEDIAN_TOL and e["p99"] <= P99_TOL)
+        e["ok"] = bool(e["median"] <= median_tol and e["p99"] <= p99_tol)
         rows.append(e)
     return rows
 
 
-def format_table(rows, meta, title, tilt=None):
+def format_table(rows, meta, title, tilt=None, median_tol=MEDIAN_TOL, p99_tol=P99_TOL):
     lines = ["", "%s vs Cycles %s (tilt %s, %s set, %d cases; rel floor %.0e x channel max; "
              "pass: median <= %.0e and p99 <= %.0e)"
              % (title, meta["blender_version_string"], tilt or meta["tilt"], meta["case_set"], len(rows),
-                FLOOR_FRACTION, MEDIAN_TOL, P99_TOL),
+                FLOOR_FRACTION, median_tol, p99_tol),
              "%-46s %5s %10s %10s %10s %10s %9s %s" % ("case", "px", "median", "p99", "max",
                                                       "peak", "cy/ours", "")]
     for r in rows:

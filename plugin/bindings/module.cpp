@@ -501,6 +501,29 @@ py::list schema_list(const std::vector<ModelParamSpec>& schema) {
     }
     return out;
 }
+py::dict model_dict(const CyclesHair& m) {
+    const CyclesHairParams& p = m.params();
+    py::dict d;
+    d["model"] = "cycles_hair";
+    d["component"] = m.reflection() ? "reflection" : "transmission";
+    d["color"] = std::array<double, 3>{p.color.r, p.color.g, p.color.b};
+    d["offset"] = p.offset;
+    d["roughness_u"] = p.roughness_u;
+    d["roughness_v"] = p.roughness_v;
+    d["r1"] = m.r1();  // after Cycles' clamp to [0.001, 1]
+    d["r2"] = m.r2();
+    return zoo_scales(d, m.angular_scales());
+}
+ClosureSum cycles_hair(bool transmission, std::array<double, 3> color, double offset, double roughness_u,
+                       double roughness_v) {
+    CyclesHairParams p;
+    p.component = transmission ? CyclesHairComponent::Transmission : CyclesHairComponent::Reflection;
+    p.color = rgb_from(color);
+    p.offset = offset;
+    p.roughness_u = roughness_u;
+    p.roughness_v = roughness_v;
+    return ClosureSum({Closure{RGB(1.0), CyclesHair(p)}});
+}
 
 const HuangHair& single_huang(const ClosureSum& c) {
     if (c.closures().size() != 1 || !std::holds_alternative<HuangHair>(c.closures()[0].model))
@@ -746,6 +769,7 @@ PYBIND11_MODULE(_core, m) {
         return out;
     });
     m.def("chiang_from_params", &chiang_from_params);
+    m.def("cycles_hair", &cycles_hair);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

@@ -257,6 +257,7 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                                                  {{"principled_hair", ClosureDesc::Type::PrincipledHair},
                                                   {"diffuse", ClosureDesc::Type::Diffuse},
                                                   {"emission", ClosureDesc::Type::Emission},
+                                                  {"cycles_hair", ClosureDesc::Type::CyclesHair},
                                                   {"hair_model", ClosureDesc::Type::Model}});
             cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
             if (cd.type == ClosureDesc::Type::PrincipledHair) {
@@ -283,6 +284,16 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                     cd.model_params = bindings::model_params_from_dict(
                         as_dict(c["params"], pk), [&](const std::string& n) { return "scene" + pk + "['" + n + "']"; });
                 }
+            } else if (cd.type == ClosureDesc::Type::CyclesHair) {
+                // The legacy Hair BSDF node (docs/scene_desc.md): Cycles clamps the roughnesses.
+                if (c.contains("component")) {
+                    cd.transmission = as_enum<bool>(c["component"], sub(ck, "component"),
+                                                    {{"REFLECTION", false}, {"TRANSMISSION", true}});
+                }
+                if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
+                if (c.contains("offset")) cd.offset = as_real(c["offset"], sub(ck, "offset"));
+                if (c.contains("roughness_u")) cd.roughness_u = as_real(c["roughness_u"], sub(ck, "roughness_u"));
+                if (c.contains("roughness_v")) cd.roughness_v = as_real(c["roughness_v"], sub(ck, "roughness_v"));
             } else {
                 if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
                 if (cd.type == ClosureDesc::Type::Emission && c.contains("strength"))

@@ -29,7 +29,8 @@ SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 LIGHT_TYPES = ("SUN", "POINT", "SPOT", "AREA")
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 FILTER_TYPES = ("BLACKMAN_HARRIS", "GAUSSIAN", "BOX")
-CLOSURE_TYPES = ("principled_hair", "diffuse", "emission", "hair_model")
+CLOSURE_TYPES = ("principled_hair", "diffuse", "emission", "cycles_hair", "hair_model")
+CYCLES_HAIR_COMPONENTS = ("REFLECTION", "TRANSMISSION")
 HAIR_MODELS = ("CHIANG", "HUANG")
 PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
@@ -248,6 +249,13 @@ def _check_closure(key, c):
             else:
                 checked[name] = _Checker.real(k, value)
         out["inputs"] = checked
+    elif kind == "cycles_hair":
+        out["component"] = _Checker.choice(f"{key}['component']", c.get("component", "REFLECTION"),
+                                           CYCLES_HAIR_COMPONENTS)
+        out["color"] = _Checker.vector(f"{key}['color']", c.get("color", (0.8, 0.8, 0.8)), 3)
+        out["offset"] = _Checker.real(f"{key}['offset']", c.get("offset", 0.0))
+        out["roughness_u"] = _Checker.real(f"{key}['roughness_u']", c.get("roughness_u", 0.1))
+        out["roughness_v"] = _Checker.real(f"{key}['roughness_v']", c.get("roughness_v", 1.0))
     else:
         out["color"] = _Checker.vector(f"{key}['color']", c.get("color", (0.8, 0.8, 0.8)), 3)
         if kind == "emission":

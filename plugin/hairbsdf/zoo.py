@@ -9,6 +9,8 @@ closure and the Blender engine's material override do."""
 
 from __future__ import annotations
 
+import math
+
 from . import _core
 from . import _validate as check
 from .closure import Closure
@@ -202,3 +204,41 @@ def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: flo
     (s,) = [tuple(d["sigma_a"]) for d in core.model_params()]
     return Closure(core, f"deon_hair(sigma_a={tuple(round(x, 6) for x in s)}, eta={eta:g}, roughness={roughness:g}, "
                          f"tilt={tilt:g}, tabulated={tabulated})")
+
+
+# --- Cycles' legacy Hair BSDF node ----------------------------------------------------------------
+# The Blender node's defaults (ShaderNodeBsdfHair): component Reflection, Color 0.8 grey, Offset 0,
+# RoughnessU 0.1, RoughnessV 1.0. Offset is in radians, as Blender stores it.
+CYCLES_HAIR_DEFAULTS = {"component": "reflection", "color": (0.8, 0.8, 0.8), "offset": 0.0, "roughness_u": 0.1,
+                        "roughness_v": 1.0}
+CYCLES_HAIR_COMPONENTS = ("reflection", "transmission")
+CYCLES_HAIR_MAX_COLOR = 1e4
+
+
+def cycles_hair_bsdf(*, component: str = CYCLES_HAIR_DEFAULTS["component"], color=CYCLES_HAIR_DEFAULTS["color"],
+                     offset: float = CYCLES_HAIR_DEFAULTS["offset"],
+                     roughness_u: float = CYCLES_HAIR_DEFAULTS["roughness_u"],
+                     roughness_v: float = CYCLES_HAIR_DEFAULTS["roughness_v"]) -> Closure:
+    """Cycles' legacy "Hair BSDF" node, as Cycles evaluates and samples it (docs/models.md §6).
+
+    component: "reflection" (default) or "transmission" (case-insensitive, Blender's
+    'REFLECTION' / 'TRANSMISSION' accepted); color: RGB (or grey) >= 0 (default 0.8; eval / pdf
+    is this colour); offset: the node's Offset in radians, [-pi/2, pi/2] (default 0; Cycles stores
+    minus it, so the lobe peaks at theta_i = -theta_o - 2 offset); roughness_u: longitudinal, roughness_v: azimuthal, [0, 1] (defaults
+    0.1 and 1.0; Cycles clamps both to [0.001, 1]).
+    The split between the components follows Cycles' shading normal at the hit, which depends on
+    `h` (reflection where wi . N >= 0). Lobes: reflection in slot 0 (R), transmission in slot 1 (TT).
+    Cycles' sampler is not its eval's density (docs/models.md §6): `sample` returns Cycles' pdf
+    and weight = color, `pdf` returns eval's density.
+    """
+    if not isinstance(component, str):
+        raise TypeError(f"component: expected a string, one of {CYCLES_HAIR_COMPONENTS}")
+    comp = component.lower()
+    check.choice("component", comp, CYCLES_HAIR_COMPONENTS)
+    c = check.color_in_range("color", color, 0.0, CYCLES_HAIR_MAX_COLOR)
+    off = check.in_range("offset", offset, -0.5 * math.pi, 0.5 * math.pi)
+    ru = check.in_range("roughness_u", roughness_u, 0.0, 1.0)
+    rv = check.in_range("roughness_v", roughness_v, 0.0, 1.0)
+    core = _core.cycles_hair(comp == "transmission", c, off, ru, rv)
+    return Closure(core, f"cycles_hair_bsdf(component={comp!r}, color={c}, offset={off:g}, roughness_u={ru:g}, "
+                         f"roughness_v={rv:g})")

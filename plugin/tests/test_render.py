@@ -107,6 +107,51 @@ def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs, pixel_filter):
     assert np.all(img[np.abs(h) > 1.05, :, 3] == 0.0)
 
 
+@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+@pytest.mark.parametrize("component,theta_i,dphi", [("REFLECTION", 15.0, 70.0), ("TRANSMISSION", -20.0, 120.0)])
+def test_cycles_hair_strand_pixels_equal_bsdf_eval(shape, component, theta_i, dphi):
+    """The legacy Hair BSDF closure in the engine: pixels = strength x Color x eval at the pixel's h, the
+    reflection / transmission split following the hit's shading normal (it crosses the strand here:
+    the light's azimuth dphi from the viewer's puts the normal's horizon at h = sin(90 - dphi))."""
+    wo = _unit((0.2, 0.1, 1.0))
+    fy = _unit(np.cross([1.0, 0, 0], wo))
+    fz = np.cross([1.0, 0, 0], fy)
+    t, p = math.radians(theta_i), math.radians(dphi - 90.0)  # the viewer is at phi = -90 in this frame
+    wi = _unit(math.sin(t) * np.array([1.0, 0, 0]) + math.cos(t) * (math.cos(p) * fy + math.sin(p) * fz))
+    height, across = 160, 120
+    pixel = 2 * R / across
+    camera, yc = _ortho_camera(wo, height * pixel, (4, height))
+    params = {"component": component, "color": (0.9, 0.5, 0.3), "offset": 0.1, "roughness_u": 0.2,
+              "roughness_v": 0.6}
+    mat = {"name": "legacy", "closures": [dict(type="cycles_hair", weight=(0.7, 0.7, 0.7), **params)]}
+    scene = {"version": 1, "curves": _straight_strand(), "curve_shape": shape, "curve_subdivisions": 2,
+             "materials": [mat], "camera": camera,
+             "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (2.0,) * 3, "angle": 0.0}],
+             "world": {"color": (0, 0, 0)}, "integrator": _integrator(filter_width=0.01)}
+    out = render(scene)
+    img = out["combined"]
+    assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
+    rows = np.arange(height)
+    s = ((height - 1 - rows) + 0.5 - height / 2) * pixel
+    x = np.array([1.0, 0, 0])
+    y = _unit(np.cross(x, wo))
+    z = np.cross(x, y)
+    h = -s * np.dot(yc, y) / R
+    inside = np.abs(h) < 0.98
+    frame = lambda w: np.array([w @ x, w @ y, w @ z])  # noqa: E731
+    bsdf = hairbsdf.cycles_hair_bsdf(**dict(params, component=component.lower()))
+    n = int(inside.sum())
+    expected = 2.0 * 0.7 * bsdf.eval(np.tile(frame(wo), (n, 1)), np.tile(frame(wi), (n, 1)), h[inside])
+    got = img[inside, 1, :3].astype(np.float64)
+    lit = expected[:, 0] > 0
+    assert 0.1 < lit.mean() < 0.9, lit.mean()  # the normal split crosses the strand
+    np.testing.assert_allclose(got[lit], expected[lit], rtol=1e-5)
+    # Away from the split (one pixel either side may fall on the other side of it) dark is dark.
+    edge = np.abs(np.diff(lit.astype(int), prepend=lit[0], append=lit[-1]))
+    near = np.convolve(edge, np.ones(3), mode="same")[: n] > 0
+    assert np.all(got[~lit & ~near[:n]] == 0)
+
+
 # --------------------------------------------------------------------------------------
 # (b) furnace: non-absorbing hair in a uniform white world is invisible
 
@@ -330,6 +375,8 @@ def test_lights_visible_to_camera_only_when_set(visible):
      r"scene\['materials'\]\[0\]\['closures'\]\[0\]\['type'\]"),
     (lambda s: s["materials"][0]["closures"][0]["inputs"].update(colour=(1, 0, 0)), ValueError,
      r"\['inputs'\]\['colour'\]: unknown input"),
+    (lambda s: s["materials"][0]["closures"].__setitem__(0, {"type": "cycles_hair", "component": "BOTH"}),
+     ValueError, r"\['closures'\]\[0\]\['component'\].*'REFLECTION'"),
     (lambda s: s["integrator"].update(samples=-1), ValueError, r"scene\['integrator'\]\['samples'\]"),
     (lambda s: s["integrator"].update(filter_type="MITCHELL"), ValueError, r"\['filter_type'\]"),
     (lambda s: s["curves"].update(curve_material=np.array([0.5] * 5)), TypeError, r"\['curve_material'\]"),

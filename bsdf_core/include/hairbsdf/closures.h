@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/cycles_hair.h"
 #include "hairbsdf/models/deon.h"
 #include "hairbsdf/models/epic.h"
 #include "hairbsdf/models/huang.h"
@@ -19,12 +20,12 @@
 namespace hairbsdf {
 
 using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair, ScheuermannHair, MarschnerHair, DeonHair,
-                               PluginHair>;
+                               PluginHair, CyclesHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
 using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
                                    KajiyaKayHair::ShadingPoint, EpicHair::ShadingPoint,
                                    ScheuermannHair::ShadingPoint, MarschnerHair::ShadingPoint,
-                                   DeonHair::ShadingPoint, PluginHair::ShadingPoint>;
+                                   DeonHair::ShadingPoint, PluginHair::ShadingPoint, CyclesHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {

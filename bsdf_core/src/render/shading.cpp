@@ -42,13 +42,25 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     else
                         h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
-                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
+                if (closure_count() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
+                break;
+            }
+            case ClosureDesc::Type::CyclesHair: {
+                const RGB w = c.weight * c.color;  // Cycles: the node's Color is the closure weight
+                if (std::fabs(average(w)) < kClosureWeightCutoff) break;
+                CyclesHairParams p;
+                p.component = c.transmission ? CyclesHairComponent::Transmission : CyclesHairComponent::Reflection;
+                p.color = RGB(1.0);
+                p.offset = c.offset;
+                p.roughness_u = c.roughness_u;
+                p.roughness_v = c.roughness_v;
+                if (closure_count() < size_t(kMaxBsdfClosures)) cycles_hair_.push_back({w, CyclesHair(p)});
                 break;
             }
             case ClosureDesc::Type::Diffuse: {
                 const RGB w = c.weight * c.color;
                 if (std::fabs(average(w)) < kClosureWeightCutoff) break;
-                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
+                if (closure_count() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
                 break;
             }
             case ClosureDesc::Type::Emission:
@@ -56,7 +68,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 break;
             case ClosureDesc::Type::Model:  // render/model_closure.h
                 if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
-                if (hair_.size() + diffuse_.size() + models_.size() < size_t(kMaxBsdfClosures))
+                if (closure_count() < size_t(kMaxBsdfClosures))
                     models_.push_back(build_model_closure(c, "material '" + desc.name + "'"));
                 break;
         }
@@ -143,6 +155,14 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
         total_sample_weight_ += entries_[size_t(slot)].sample_weight;
         ++count_;
     }
+    for (const MaterialShader::CyclesHairClosure& c : material.cycles_hair()) {
+        legacy_points_[size_t(count_)].emplace(c.model.prepare(hair_ctx_));
+        legacy_points_[size_t(count_)]->normal = g.n;  // Cycles' N test uses the hit's shading normal
+        entries_[size_t(count_)] = {Entry::Kind::Legacy, c.weight, std::fabs(average(c.weight)), nullptr, nullptr,
+                                    &c.model};
+        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
+        ++count_;
+    }
     for (const MaterialShader::DiffuseClosure& d : material.diffuse()) {
         entries_[size_t(count_)] = {Entry::Kind::Diffuse, d.weight, std::fabs(average(d.weight)), nullptr, nullptr};
         total_sample_weight_ += entries_[size_t(count_)].sample_weight;
@@ -193,8 +213,9 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
         }
         return out;
     }
-    if (e.kind == Entry::Kind::Hair) {
-        const BsdfEval r = e.hair->eval(*points_[size_t(i)], wi);
+    if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
+        const BsdfEval r = e.kind == Entry::Kind::Hair ? e.hair->eval(*points_[size_t(i)], wi)
+                                                       : e.legacy->eval(*legacy_points_[size_t(i)], wi);
         for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
         out.value = lobe_sum(out.lobes);
         out.pdf = r.pdf;
@@ -262,15 +283,20 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         own.lobes = eval_huang(picked, out.wi);
         own.value = lobe_sum(own.lobes);
         out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
-    } else if (e.kind == Entry::Kind::Hair) {
-        const BsdfSample s = e.hair->sample(*points_[size_t(picked)], {u0, u1, u2});
+    } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
+        const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2})
+                                                         : e.legacy->sample(*legacy_points_[size_t(picked)], {u0, u1, u2});
         if (s.lobe < 0 || !(s.pdf > 0)) return out;
         out.wi = s.wi;
         own.value = e.weight * s.value;
         own.pdf = s.pdf;
         if (lobes_) {
-            const BsdfEval r = e.hair->eval(*points_[size_t(picked)], s.wi);
-            for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+            // The sampled value per lobe (Cycles' legacy sampler value is not its eval).
+            own.lobes[size_t(s.lobe)] = own.value;
+            if (e.kind == Entry::Kind::Hair) {
+                const BsdfEval r = e.hair->eval(*points_[size_t(picked)], s.wi);
+                for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
+            }
         }
         out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
     } else if (e.kind == Entry::Kind::Model) {

@@ -3,6 +3,8 @@
 Supported (everything else is reported with a warning naming the node and socket):
   * Principled Hair BSDF, Chiang and Huang models (Blender 3.4 has no model enum = Chiang),
     all three parametrizations, every input as its socket value;
+  * Hair BSDF (Cycles' legacy node, both components; a linked Tangent is warned about and
+    the curve tangent used);
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
   * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
   * linked inputs driven by a Value or RGB node, through reroutes, and Hair Info > Random
@@ -219,8 +221,7 @@ class MaterialTranslator:
                              "strength": self.value(node, "Strength", "float", 1.0)})
             return
         if t == "ShaderNodeBsdfHair":
-            self.warn(f"'{node.name}' (Hair BSDF) is not supported yet; rendered as 0.8 grey diffuse")
-            closures.append(_diffuse(weight, GREY))
+            closures.append(self._hair_bsdf(node, weight))
             return
         self.warn(f"'{node.name}' ({_label(node)}) is not supported; rendered as 0.8 grey diffuse")
         closures.append(_diffuse(weight, GREY))
@@ -244,6 +245,19 @@ class MaterialTranslator:
             inputs["random"] = float(rnd)
         return {"type": "principled_hair", "weight": weight, "model": model,
                 "parametrization": node.parametrization, "inputs": inputs}
+
+
+    def _hair_bsdf(self, node, weight) -> dict:
+        """The legacy Hair BSDF node: Cycles' closure with the node's sockets (Offset in radians)."""
+        tangent = find_socket(node.inputs, "Tangent")
+        if tangent is not None and tangent.is_linked:
+            self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
+                      "using the curve tangent (the unlinked default)")
+        return {"type": "cycles_hair", "weight": tuple(weight), "component": node.component.upper(),
+                "color": self.value(node, "Color", "color", GREY),
+                "offset": self.value(node, "Offset", "float", 0.0),
+                "roughness_u": self.value(node, "RoughnessU", "float", 0.1),
+                "roughness_v": self.value(node, "RoughnessV", "float", 1.0)}
 
 
 def _label(node):

@@ -35,7 +35,7 @@ struct MeshData {
 
 // One entry of a material's flat weighted closure sum.
 struct ClosureDesc {
-    enum class Type { PrincipledHair, Diffuse, Emission, Model };  // Model: scene_desc.md `hair_model`
+    enum class Type { PrincipledHair, Diffuse, Emission, CyclesHair, Model };  // Model: scene_desc.md `hair_model`
     enum class HairModel { Chiang, Huang };  // Principled Hair's model enum (Blender 4.0+)
     Type type = Type::Diffuse;
     HairModel hair_model = HairModel::Chiang;
@@ -44,7 +44,7 @@ struct ClosureDesc {
     // (Cycles then uses the per-curve curve_random; 0 on meshes).
     PrincipledHairInputs hair;
     bool random_from_curve = true;
-    // diffuse / emission
+    // diffuse / emission / cycles_hair
     RGB color{0.8};
     double strength = 1.0;  // emission only
     // hair_model: a zoo model ("kajiya_kay", "epic", ...) or "plugin" (the library at
@@ -52,6 +52,9 @@ struct ClosureDesc {
     std::string model_name;
     std::string model_path;
     ModelParams model_params;
+    // cycles_hair (the legacy Hair BSDF node): component, Offset in radians, RoughnessU / V.
+    bool transmission = false;
+    double offset = 0.0, roughness_u = 0.1, roughness_v = 1.0;
 };
 
 struct MaterialDesc {

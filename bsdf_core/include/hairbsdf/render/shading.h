@@ -9,6 +9,10 @@
 //     unbiased for the model's value and microseconds instead of milliseconds), the pdf is
 //     the mixture sampler's exact density; near field for camera rays; a hit outside the
 //     projected ellipse makes the closure a transparent one (label TRANSPARENT);
+//   cycles_hair -> CyclesHair (models/cycles_hair.h), Cycles' legacy Hair BSDF: label GLOSSY
+//     REFLECT (reflection) or GLOSSY TRANSMIT (transmission); the closure weight includes the
+//     node's Color as in Cycles (it sets the pick probability); its N test uses the hit's
+//     shading normal; not blurred by Filter Glossy (Cycles' bsdf_blur skips it);
 //   diffuse -> Lambert, cosine-sampled, label DIFFUSE REFLECT;
 //   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure);
 //   hair_model -> a zoo model or a plugin (render/model_closure.h): label GLOSSY, REFLECT for
@@ -19,6 +23,7 @@
 #include <vector>
 
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/models/cycles_hair.h"
 #include "hairbsdf/models/huang.h"
 #include "hairbsdf/render/model_closure.h"
 #include "hairbsdf/render/scene.h"
@@ -48,19 +53,26 @@ public:
     struct DiffuseClosure {
         RGB weight;  // weight x color
     };
+    struct CyclesHairClosure {
+        RGB weight;        // weight x Color (Cycles' closure weight)
+        CyclesHair model;  // with colour 1
+    };
     const std::vector<HairClosure>& hair() const { return hair_; }
     const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
+    const std::vector<CyclesHairClosure>& cycles_hair() const { return cycles_hair_; }
     RGB emission() const { return emission_; }
     const std::vector<ModelClosure>& models() const { return models_; }  // hair_model closures
-    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty() || !models_.empty(); }
+    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty() || !cycles_hair_.empty() || !models_.empty(); }
     bool has_huang() const { return has_huang_; }
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
 
 private:
+    size_t closure_count() const { return hair_.size() + diffuse_.size() + cycles_hair_.size() + models_.size(); }
     std::vector<HairClosure> hair_;
     std::vector<DiffuseClosure> diffuse_;
     std::vector<ModelClosure> models_;
+    std::vector<CyclesHairClosure> cycles_hair_;
     RGB emission_{0.0};
     bool has_huang_ = false;
     TiltConvention tilt_;
@@ -109,11 +121,12 @@ public:
 
 private:
     struct Entry {
-        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse, Model } kind;
+        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse, Legacy, Model } kind;
         RGB weight;
         double sample_weight;
         const ChiangHair* hair;
         const HuangHair* huang;
+        const CyclesHair* legacy = nullptr;
     };
     BsdfValue eval_entry(int i, Vec3 wi) const;
     std::array<RGB, kLobeCount> eval_huang(int i, Vec3 wi) const;
@@ -123,6 +136,7 @@ private:
     std::array<std::optional<HuangHair>, kMaxBsdfClosures> huang_storage_;
     std::array<HuangHair::ShadingPoint, kMaxBsdfClosures> huang_points_;
     std::array<PreparedModelClosure, kMaxBsdfClosures> model_points_;  // hair_model closures at this hit
+    std::array<std::optional<CyclesHair::ShadingPoint>, kMaxBsdfClosures> legacy_points_;
     mutable uint32_t huang_rng_ = 0;  // Cycles-style LCG state of the stochastic eval
     int count_ = 0;
     bool lobes_ = false;
