@@ -27,7 +27,8 @@ def new_mat(name):
     return m, nt, out
 
 # 1. Principled Hair, melanin: Value -> Melanin, RGB -> Tint, Hair Info Random -> Random,
-#    Math -> Roughness (unsupported: warned, socket value used)
+#    Math (its defaults: 0.5 + 0.5) -> Roughness, folded; Noise Texture -> Coat (unsupported:
+#    warned, socket value used)
 m, nt, out = new_mat("Melanin")
 h = nt.nodes.new("ShaderNodeBsdfHairPrincipled"); h.name = "PH"
 if hasattr(h, "model"): h.model = "CHIANG"
@@ -43,6 +44,9 @@ hi = nt.nodes.new("ShaderNodeHairInfo")
 nt.links.new(hi.outputs["Random"], fg.node_input(h, "Random"))
 math_node = nt.nodes.new("ShaderNodeMath"); math_node.name = "MyMath"
 nt.links.new(math_node.outputs[0], fg.node_input(h, "Roughness"))
+fg.node_input(h, "Coat").default_value = 0.13
+noise = nt.nodes.new("ShaderNodeTexNoise"); noise.name = "MyNoise"
+nt.links.new(noise.outputs["Fac"], fg.node_input(h, "Coat"))
 nt.links.new(h.outputs[0], out.inputs["Surface"])
 
 # 2. Mix(0.25) of hair (COLOR, Random socket driven by a Value node) and a red diffuse,
@@ -171,9 +175,12 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert i["melanin"] == pytest.approx(0.42) and i["melanin_redness"] == pytest.approx(0.3)
     assert i["tint"] == pytest.approx((0.9, 0.5, 0.25))
     assert i["random"] is None                      # Hair Info > Random: per curve
-    assert i["roughness"] == pytest.approx(0.21)    # Math node not evaluated: socket value
+    assert i["roughness"] == 1.0                    # Math node folded: 0.5 + 0.5
+    assert i["coat"] == pytest.approx(0.13)         # Noise Texture not evaluated: socket value
     assert i["offset"] == pytest.approx(math.radians(3.0))
-    assert "'PH' > 'Roughness' is driven by 'MyMath' (Math > Value)" in warnings
+    assert "'PH' > 'Coat' is driven by 'MyNoise' (Noise Texture > Fac)" in warnings
+    assert "MyMath" not in warnings
+    assert "program" not in {m["name"]: m for m in desc["materials"]}["Melanin"]
     assert set(i) == {"color", "melanin", "melanin_redness", "tint", "absorption_coefficient", "roughness",
                       "radial_roughness", "coat", "ior", "offset", "random_color", "random_roughness", "random"}
     # 2. Mix 0.25 + Add, through a reroute

@@ -259,5 +259,5 @@ def test_list_scenes():
     r = subprocess.run([PY, "-m", "hairbsdf.compare", "--list-scenes"], capture_output=True, text=True)
     assert r.returncode == 0
     for name in ("fiber_gonio", "furnace", "swatch", "melanin_sweep", "fur_ball", "huang_ellipse", "ribbons_vs_3d",
-                 "mixed"):
+                 "mixed", "shading_network"):
         assert name in r.stdout

@@ -61,6 +61,13 @@ SCENES = {
         title="Fur ball",
         description="Particle hair on a diffuse sphere; Random Color, Random Roughness and a Coat driven by "
                     "Hair Info > Random; a point light and a dim world."),
+    "shading_network": dict(
+        module="shading_network", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=16, seeds=8),
+        title="Inputs from node networks",
+        description="The swatch's strands with Melanin from a B-spline ColorRamp on Hair Info > Intercept and "
+                    "Roughness from a clamped Map Range on Hair Info > Random, evaluated per hit by the "
+                    "engine's shading VM; an area light and a dim world."),
     "ribbons_vs_3d": dict(
         module="ribbons_vs_3d", kind="noisy", model="chiang", min_blender=(3, 4, 0),
         variants=["RIBBONS", "THICK"],

@@ -184,6 +184,55 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
         cd.normals.resize(n_points);
         std::memcpy(cd.normals.data(), na.data(), n_points * sizeof(float) * 3);
     }
+    if (auto o = get_optional(c, "point_intercept")) {
+        auto a = array_shape<float>(*o, sub(key, "point_intercept"), 0);
+        if (size_t(a.shape(0)) != n_points) fail(sub(key, "point_intercept"), "expected one value per point");
+        cd.intercept.assign(a.data(), a.data() + n_points);
+    }
+    if (auto o = get_optional(c, "curve_intercept_total")) {
+        auto a = array_shape<float>(*o, sub(key, "curve_intercept_total"), 0);
+        if (size_t(a.shape(0)) != n_curves) fail(sub(key, "curve_intercept_total"), "expected one value per curve");
+        cd.length.assign(a.data(), a.data() + n_curves);
+    }
+    if (auto o = get_optional(c, "attributes")) {
+        if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
+            throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
+        size_t i = 0;
+        for (py::handle ah : *o) {
+            const std::string ak = sub(key, "attributes") + "[" + std::to_string(i++) + "]";
+            const py::dict ad = as_dict(ah, ak);
+            CurveData::Attribute attr;
+            attr.name = as_str(get(ad, ak, "name"), sub(ak, "name"));
+            attr.point_domain = as_enum<bool>(get(ad, ak, "domain"), sub(ak, "domain"), {{"POINT", true}, {"CURVE", false}});
+            auto data = array_shape<float>(get(ad, ak, "data"), sub(ak, "data"), 4);
+            const size_t want = attr.point_domain ? n_points : n_curves;
+            if (size_t(data.shape(0)) != want)
+                fail(sub(ak, "data"), std::string("expected one RGBA row per ") + (attr.point_domain ? "point" : "curve"));
+            attr.rgba.resize(want);
+            std::memcpy(attr.rgba.data(), data.data(), want * sizeof(float) * 4);
+            cd.attributes.push_back(std::move(attr));
+        }
+    }
+}
+
+// A closure input given as {"register": k}: the value comes from the material's program.
+std::optional<int32_t> as_register(py::handle h, const std::string& key) {
+    if (!py::isinstance<py::dict>(h)) return std::nullopt;
+    const py::dict d = py::reinterpret_borrow<py::dict>(h);
+    return int32_t(as_int(get(d, key, "register"), sub(key, "register")));
+}
+
+ShadingProgram read_program(py::handle h, const std::string& key) {
+    const py::dict d = as_dict(h, key);
+    ShadingProgram p;
+    auto code = array_shape<int32_t>(get(d, key, "code"), sub(key, "code"), 0);
+    auto constants = array_shape<float>(get(d, key, "constants"), sub(key, "constants"), 0);
+    p.code.assign(code.data(), code.data() + code.shape(0));
+    p.constants.assign(constants.data(), constants.data() + constants.shape(0));
+    const long regs = as_int(get(d, key, "registers"), sub(key, "registers"));
+    if (regs < 0 || regs > (1 << 20)) fail(sub(key, "registers"), "expected 0..1048576");
+    p.register_count = int32_t(regs);
+    return p;
 }
 
 void read_meshes(const py::dict& scene, SceneDesc& out) {
@@ -202,33 +251,46 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
     md.material.assign(tm.data(), tm.data() + tm.shape(0));
 }
 
-PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key, bool& random_from_curve) {
+PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key, bool& random_from_curve,
+                                      std::vector<ClosureDesc::Link>& links) {
+    using In = ClosureDesc::Input;
     PrincipledHairInputs h;
-    auto real = [&](const char* name, double& dst) {
-        if (in.contains(name)) dst = as_real(in[name], sub(key, name));
+    auto real = [&](const char* name, double& dst, In input) {
+        if (!in.contains(name)) return;
+        if (auto reg = as_register(in[name], sub(key, name)))
+            links.push_back({input, *reg});
+        else
+            dst = as_real(in[name], sub(key, name));
     };
-    auto rgb = [&](const char* name, RGB& dst) {
-        if (in.contains(name)) dst = as_rgb(in[name], sub(key, name));
+    auto rgb = [&](const char* name, RGB& dst, In input) {
+        if (!in.contains(name)) return;
+        if (auto reg = as_register(in[name], sub(key, name)))
+            links.push_back({input, *reg});
+        else
+            dst = as_rgb(in[name], sub(key, name));
     };
-    rgb("color", h.color);
-    real("melanin", h.melanin);
-    real("melanin_redness", h.melanin_redness);
-    rgb("tint", h.tint);
-    rgb("absorption_coefficient", h.absorption_coefficient);
-    real("roughness", h.roughness);
-    real("radial_roughness", h.radial_roughness);
-    real("coat", h.coat);
-    real("ior", h.ior);
-    real("offset", h.offset);
-    real("random_color", h.random_color);
-    real("random_roughness", h.random_roughness);
-    real("aspect_ratio", h.aspect_ratio);
-    real("reflection", h.reflection);
-    real("transmission", h.transmission);
-    real("secondary_reflection", h.secondary_reflection);
+    rgb("color", h.color, In::Color);
+    real("melanin", h.melanin, In::Melanin);
+    real("melanin_redness", h.melanin_redness, In::MelaninRedness);
+    rgb("tint", h.tint, In::Tint);
+    rgb("absorption_coefficient", h.absorption_coefficient, In::AbsorptionCoefficient);
+    real("roughness", h.roughness, In::Roughness);
+    real("radial_roughness", h.radial_roughness, In::RadialRoughness);
+    real("coat", h.coat, In::Coat);
+    real("ior", h.ior, In::Ior);
+    real("offset", h.offset, In::Offset);
+    real("random_color", h.random_color, In::RandomColor);
+    real("random_roughness", h.random_roughness, In::RandomRoughness);
+    real("aspect_ratio", h.aspect_ratio, In::AspectRatio);
+    real("reflection", h.reflection, In::Reflection);
+    real("transmission", h.transmission, In::Transmission);
+    real("secondary_reflection", h.secondary_reflection, In::SecondaryReflection);
     random_from_curve = true;
     if (in.contains("random") && !in["random"].is_none()) {
-        h.random = as_real(in["random"], sub(key, "random"));
+        if (auto reg = as_register(in["random"], sub(key, "random")))
+            links.push_back({In::Random, *reg});
+        else
+            h.random = as_real(in["random"], sub(key, "random"));
         random_from_curve = false;
     }
     return h;
@@ -245,6 +307,7 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
         const py::dict m = as_dict(mh, key);
         MaterialDesc md;
         if (m.contains("name") && !m["name"].is_none()) md.name = as_str(m["name"], sub(key, "name"));
+        if (auto prog = get_optional(m, "program")) md.program = read_program(*prog, sub(key, "program"));
         py::object closures = get(m, key, "closures");
         if (!py::isinstance<py::list>(closures) && !py::isinstance<py::tuple>(closures))
             throw py::type_error("scene" + sub(key, "closures") + ": expected a list");
@@ -274,7 +337,7 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 }
                 const Parametrization param = cd.hair.parametrization;
                 const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
-                cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve);
+                cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve, cd.links);
                 cd.hair.parametrization = param;
             } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by models/model_factory.h
                 cd.model_name = as_str(get(c, ck, "model"), sub(ck, "model"));
@@ -295,9 +358,18 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 if (c.contains("roughness_u")) cd.roughness_u = as_real(c["roughness_u"], sub(ck, "roughness_u"));
                 if (c.contains("roughness_v")) cd.roughness_v = as_real(c["roughness_v"], sub(ck, "roughness_v"));
             } else {
-                if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
-                if (cd.type == ClosureDesc::Type::Emission && c.contains("strength"))
-                    cd.strength = as_real(c["strength"], sub(ck, "strength"));
+                if (c.contains("color")) {
+                    if (auto reg = as_register(c["color"], sub(ck, "color")))
+                        cd.links.push_back({ClosureDesc::Input::Color, *reg});
+                    else
+                        cd.color = as_rgb(c["color"], sub(ck, "color"));
+                }
+                if (cd.type == ClosureDesc::Type::Emission && c.contains("strength")) {
+                    if (auto reg = as_register(c["strength"], sub(ck, "strength")))
+                        cd.links.push_back({ClosureDesc::Input::Strength, *reg});
+                    else
+                        cd.strength = as_real(c["strength"], sub(ck, "strength"));
+                }
             }
             md.closures.push_back(cd);
         }
@@ -567,6 +639,56 @@ py::dict py_render(const py::dict& scene_dict, py::object progress, py::object c
     return result;
 }
 
+// eval_program(program, random, intercept, length, is_strand, attributes=None) -> (M, registers)
+// float32: the program run once per row of the context arrays (M values each, or scalars).
+py::array_t<float> py_eval_program(py::handle program, py::handle random, py::handle intercept, py::handle length,
+                                   py::handle is_strand, py::handle attributes) {
+    const ShadingProgram p = read_program(program, "['program']");
+    auto column = [](py::handle h, const char* name) {
+        auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(h);
+        if (!a || a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a number or a 1-D array");
+        return a;
+    };
+    const auto r = column(random, "random"), i = column(intercept, "intercept"), l = column(length, "length"),
+               s = column(is_strand, "is_strand");
+    size_t m = 1;
+    for (const auto* a : {&r, &i, &l, &s})
+        if (a->ndim() == 1) m = std::max(m, size_t(a->shape(0)));
+    auto at = [&](const py::array_t<float, py::array::c_style | py::array::forcecast>& a, size_t k, const char* name) {
+        if (a.ndim() == 0) return a.data()[0];
+        if (size_t(a.shape(0)) != m) throw py::value_error(std::string(name) + ": expected " + std::to_string(m) + " values");
+        return a.data()[k];
+    };
+    int n_attr = 0;
+    py::array_t<float, py::array::c_style | py::array::forcecast> attr;
+    if (!attributes.is_none()) {
+        attr = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(attributes);
+        if (!attr || attr.ndim() != 3 || size_t(attr.shape(0)) != m || attr.shape(2) != 4)
+            throw py::value_error("attributes: expected shape (M, attribute count, 4)");
+        n_attr = int(attr.shape(1));
+    }
+    try {
+        validate_program(p, n_attr);
+    } catch (const std::invalid_argument& e) {
+        throw py::value_error(e.what());
+    }
+    py::array_t<float> out({py::ssize_t(m), py::ssize_t(p.register_count)});
+    float* dst = out.mutable_data();
+    for (size_t k = 0; k < m; ++k) {
+        ShadingHitContext ctx;
+        ctx.random = at(r, k, "random");
+        ctx.intercept = at(i, k, "intercept");
+        ctx.length = at(l, k, "length");
+        ctx.is_strand = at(s, k, "is_strand");
+        if (n_attr > 0) {
+            ctx.attributes = attr.data() + k * size_t(n_attr) * 4;
+            ctx.attribute_count = n_attr;
+        }
+        run_program(p, ctx, dst + k * size_t(p.register_count));
+    }
+    return out;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_render, m) {
@@ -577,4 +699,9 @@ PYBIND11_MODULE(_render, m) {
           "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}} "
           "plus the passes asked for in integrator['passes']: 'hair_r', 'hair_tt', 'hair_trt', 'hair_trrt', "
           "'normal', 'variance' (H, W, 3) and 'depth' (H, W).");
+    m.def("eval_program", &py_eval_program, py::arg("program"), py::arg("random") = 0.0f,
+          py::arg("intercept") = 0.0f, py::arg("length") = 0.0f, py::arg("is_strand") = 1.0f,
+          py::arg("attributes") = py::none(),
+          "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
+          "attributes (M, A, 4) RGBA). Returns the registers, (M, program['registers']) float32.");
 }

@@ -165,6 +165,27 @@ def _check_curves(scene, out):
     if c.get("curve_intercept_total") is not None:
         curves["curve_intercept_total"] = _Checker.array(f"{key}['curve_intercept_total']",
                                                          c["curve_intercept_total"], np.float32, None)
+    if c.get("point_intercept") is not None:
+        intercept = _Checker.array(f"{key}['point_intercept']", c["point_intercept"], np.float32, None)
+        if len(intercept) != len(points):
+            raise ValueError(f"{key}['point_intercept']: expected one value per point ({len(points)}), "
+                             f"got {len(intercept)}")
+        curves["point_intercept"] = intercept
+    if c.get("attributes") is not None:
+        attrs = []
+        for i, a in enumerate(_Checker.list(f"{key}['attributes']", c["attributes"])):
+            ak = f"{key}['attributes'][{i}]"
+            a = _Checker.dict(ak, a)
+            name = _Checker.required(ak, a, "name")
+            if not isinstance(name, str):
+                raise TypeError(f"{ak}['name']: expected a string")
+            domain = _Checker.choice(f"{ak}['domain']", _Checker.required(ak, a, "domain"), ("POINT", "CURVE"))
+            data = _Checker.array(f"{ak}['data']", _Checker.required(ak, a, "data"), np.float32, 4)
+            want = len(points) if domain == "POINT" else n_curves
+            if len(data) != want:
+                raise ValueError(f"{ak}['data']: expected one RGBA row per {domain.lower()} ({want}), got {len(data)}")
+            attrs.append({"name": name, "domain": domain, "data": data})
+        curves["attributes"] = attrs
     if c.get("normals") is not None:
         normals = _Checker.array(f"{key}['normals']", c["normals"], np.float32, 3)
         if len(normals) != len(points):
@@ -244,6 +265,8 @@ def _check_closure(key, c):
                 raise ValueError(f"{k}: unknown input; allowed: {list(HAIR_INPUTS)}")
             if name == "random" and value is None:
                 checked[name] = None
+            elif isinstance(value, dict):
+                checked[name] = _check_register(k, value)
             elif name in _HAIR_COLOR_INPUTS:
                 checked[name] = _Checker.vector(k, value, 3)
             else:
@@ -257,10 +280,29 @@ def _check_closure(key, c):
         out["roughness_u"] = _Checker.real(f"{key}['roughness_u']", c.get("roughness_u", 0.1))
         out["roughness_v"] = _Checker.real(f"{key}['roughness_v']", c.get("roughness_v", 1.0))
     else:
-        out["color"] = _Checker.vector(f"{key}['color']", c.get("color", (0.8, 0.8, 0.8)), 3)
+        color = c.get("color", (0.8, 0.8, 0.8))
+        out["color"] = (_check_register(f"{key}['color']", color) if isinstance(color, dict)
+                        else _Checker.vector(f"{key}['color']", color, 3))
         if kind == "emission":
-            out["strength"] = _Checker.real(f"{key}['strength']", c.get("strength", 1.0))
+            strength = c.get("strength", 1.0)
+            out["strength"] = (_check_register(f"{key}['strength']", strength) if isinstance(strength, dict)
+                               else _Checker.real(f"{key}['strength']", strength))
     return out
+
+
+def _check_register(key, value):
+    """A closure input driven by the material's program: {"register": slot}."""
+    if set(value) != {"register"}:
+        raise ValueError(f"{key}: expected a number or {{'register': slot}}, got keys {sorted(value)}")
+    return {"register": _Checker.integer(f"{key}['register']", value["register"], 0)}
+
+
+def _check_program(key, p):
+    p = _Checker.dict(key, p)
+    code = _Checker.array(f"{key}['code']", _Checker.required(key, p, "code"), np.int32, None)
+    constants = _Checker.array(f"{key}['constants']", _Checker.required(key, p, "constants"), np.float32, None)
+    registers = _Checker.integer(f"{key}['registers']", _Checker.required(key, p, "registers"), len(constants))
+    return {"code": code, "constants": constants, "registers": registers}
 
 
 def _check_materials(scene, out):
@@ -274,8 +316,11 @@ def _check_materials(scene, out):
         name = m.get("name", "")
         if not isinstance(name, str):
             raise TypeError(f"{key}['name']: expected a string")
-        mats.append({"name": name,
-                     "closures": [_check_closure(f"{key}['closures'][{j}]", c) for j, c in enumerate(closures)]})
+        mat = {"name": name,
+               "closures": [_check_closure(f"{key}['closures'][{j}]", c) for j, c in enumerate(closures)]}
+        if m.get("program") is not None:
+            mat["program"] = _check_program(f"{key}['program']", m["program"])
+        mats.append(mat)
     out["materials"] = mats
 
 

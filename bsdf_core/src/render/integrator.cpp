@@ -107,6 +107,38 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
     return sp;
 }
 
+// Runs the material's shading program at a hit with Hair Info and the curve attributes there
+// (point-domain values linear in the segment's u, as Cycles interpolates curve keys).
+const float* run_material_program(const PreparedScene& s, const Hit& hit, const SurfacePoint& sp,
+                                  const ShadingProgram& program, PathScratch& scratch) {
+    const CurveData& cd = s.desc.curves;
+    ShadingHitContext ctx;
+    if (scratch.attributes.size() < 4 * cd.attributes.size()) scratch.attributes.resize(4 * cd.attributes.size());
+    std::fill(scratch.attributes.begin(), scratch.attributes.end(), 0.0f);
+    ctx.attributes = scratch.attributes.data();
+    ctx.attribute_count = int(cd.attributes.size());
+    if (hit.kind == PrimKind::Curve) {
+        const int curve = hit.prim;
+        const size_t k0 = size_t(s.geometry.segment_key(hit.segment));
+        const float u = float(hit.u);
+        auto along = [&](float a, float b) { return (1.0f - u) * a + u * b; };
+        ctx.random = float(sp.g.random);
+        ctx.is_strand = 1.0f;
+        if (!cd.length.empty()) ctx.length = cd.length[size_t(curve)];
+        if (!cd.intercept.empty()) ctx.intercept = along(cd.intercept[k0], cd.intercept[k0 + 1]);
+        for (size_t i = 0; i < cd.attributes.size(); ++i) {
+            const CurveData::Attribute& attr = cd.attributes[i];
+            for (int c = 0; c < 4; ++c)
+                scratch.attributes[4 * i + size_t(c)] =
+                    attr.point_domain ? along(attr.rgba[k0][size_t(c)], attr.rgba[k0 + 1][size_t(c)])
+                                      : attr.rgba[size_t(curve)][size_t(c)];
+        }
+    }
+    if (scratch.registers.size() < size_t(program.register_count)) scratch.registers.resize(size_t(program.register_count));
+    run_program(program, ctx, scratch.registers.data());
+    return scratch.registers.data();
+}
+
 Ray leaving_ray(const SurfacePoint& sp, Vec3 dir, double tmax) {
     Ray r;
     r.dir = dir;
@@ -212,7 +244,8 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         if (bounce > is.min_light_bounces + 1) q = std::min(std::sqrt(max_abs(throughput)), 1.0);
         const bool killed = q < 1.0 && (q == 0.0 || rng.next() >= q);
 
-        const RGB emission = material.emission();
+        if (!material.program().empty()) sp.g.registers = run_material_program(s, hit, sp, material.program(), scratch);
+        const RGB emission = material.emission(sp.g.registers);
         if (emission.r != 0 || emission.g != 0 || emission.b != 0) add(throughput * emission, bounce - 1);
         if (killed || terminate_after || !material.has_bsdf()) return res;
         if (q != 1.0) throughput = (1.0 / q) * throughput;

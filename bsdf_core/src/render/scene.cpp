@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace hairbsdf::render {
@@ -63,6 +64,30 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         }
     }
     if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
+    // Shading programs: an invalid one (or a link outside its registers) is dropped, so the
+    // inputs keep their constant values.
+    const int attribute_count = int(s.curves.attributes.size());
+    for (MaterialDesc& m : s.materials) {
+        std::string problem;
+        try {
+            if (!m.program.empty()) validate_program(m.program, attribute_count);
+        } catch (const std::invalid_argument& e) {
+            problem = e.what();
+        }
+        for (const ClosureDesc& c : m.closures)
+            for (const ClosureDesc::Link& l : c.links) {
+                const int width = (l.input == ClosureDesc::Input::Color || l.input == ClosureDesc::Input::Tint ||
+                                   l.input == ClosureDesc::Input::AbsorptionCoefficient) ? 3 : 1;
+                if (problem.empty() && (l.reg < 0 || l.reg + width > m.program.register_count))
+                    problem = "a closure input names register " + std::to_string(l.reg) + " outside the program's " +
+                              std::to_string(m.program.register_count) + " registers";
+            }
+        if (!problem.empty()) {
+            warnings.push_back("materials: '" + m.name + "': " + problem + "; the program is ignored");
+            m.program = ShadingProgram{};
+            for (ClosureDesc& c : m.closures) c.links.clear();
+        }
+    }
 
     // Curves.
     CurveData& cd = s.curves;
@@ -80,6 +105,24 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (with_normals && cd.normals.size() != cd.points.size()) {
             cd.normals.clear();
             warnings.push_back("curves: normals ignored (expected one per point)");
+        }
+        if (!cd.intercept.empty() && cd.intercept.size() != cd.points.size()) {
+            cd.intercept.clear();
+            warnings.push_back("curves: point_intercept ignored (expected one per point)");
+        }
+        if (!cd.length.empty() && cd.length.size() != n_curves) {
+            cd.length.clear();
+            warnings.push_back("curves: curve_intercept_total ignored (expected one per curve)");
+        }
+        for (auto& attr : cd.attributes) {
+            const size_t want = attr.point_domain ? cd.points.size() : n_curves;
+            if (attr.rgba.size() != want) {
+                attr.rgba.assign(want, {0.0f, 0.0f, 0.0f, 0.0f});
+                warnings.push_back("curves: attribute '" + attr.name + "' has the wrong length; read as 0");
+            }
+            for (auto& v : attr.rgba)
+                for (float& x : v)
+                    if (!std::isfinite(x)) x = 0.0f;
         }
         for (size_t c = 0; c < n_curves; ++c) {
             const int32_t b = next_begin, e = cd.offsets[c + 1];
@@ -122,6 +165,13 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             if (size_t(b) != kept_points) {
                 std::copy(cd.points.begin() + b, cd.points.begin() + e, cd.points.begin() + std::ptrdiff_t(kept_points));
+                if (!cd.intercept.empty())
+                    std::copy(cd.intercept.begin() + b, cd.intercept.begin() + e,
+                              cd.intercept.begin() + std::ptrdiff_t(kept_points));
+                for (auto& attr : cd.attributes)
+                    if (attr.point_domain)
+                        std::copy(attr.rgba.begin() + b, attr.rgba.begin() + e,
+                                  attr.rgba.begin() + std::ptrdiff_t(kept_points));
                 if (!cd.normals.empty())
                     std::copy(cd.normals.begin() + b, cd.normals.begin() + e,
                               cd.normals.begin() + std::ptrdiff_t(kept_points));
@@ -143,6 +193,9 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
                 mat = fallback_material();
             }
             cd.material[kept_curves] = mat;
+            if (!cd.length.empty()) cd.length[kept_curves] = cd.length[c];
+            for (auto& attr : cd.attributes)
+                if (!attr.point_domain) attr.rgba[kept_curves] = attr.rgba[c];
             cd.offsets[kept_curves + 1] = int32_t(kept_points);
             ++kept_curves;
         }
@@ -159,6 +212,9 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         cd.offsets.resize(kept_curves + 1);
         cd.random.resize(kept_curves);
         cd.material.resize(kept_curves);
+        if (!cd.intercept.empty()) cd.intercept.resize(kept_points);
+        if (!cd.length.empty()) cd.length.resize(kept_curves);
+        for (auto& attr : cd.attributes) attr.rgba.resize(attr.point_domain ? kept_points : kept_curves);
         if (kept_curves == 0) cd = CurveData{};
     } else {
         cd = CurveData{};

@@ -21,8 +21,59 @@ bool hair_depends_on_random(const PrincipledHairInputs& in) {
 
 }  // namespace
 
+double register_value(const float* registers, int32_t reg) {
+    const float v = registers[reg];
+    return std::isfinite(v) ? double(v) : 0.0;
+}
+
+RGB register_rgb(const float* registers, int32_t reg) {
+    return RGB(register_value(registers, reg), register_value(registers, reg + 1), register_value(registers, reg + 2));
+}
+
+void apply_links(const std::vector<ClosureDesc::Link>& links, const float* r, PrincipledHairInputs& in,
+                 bool& random_from_curve) {
+    using In = ClosureDesc::Input;
+    for (const ClosureDesc::Link& l : links) {
+        switch (l.input) {
+            case In::Color: in.color = register_rgb(r, l.reg); break;
+            case In::Melanin: in.melanin = register_value(r, l.reg); break;
+            case In::MelaninRedness: in.melanin_redness = register_value(r, l.reg); break;
+            case In::Tint: in.tint = register_rgb(r, l.reg); break;
+            case In::AbsorptionCoefficient: in.absorption_coefficient = register_rgb(r, l.reg); break;
+            case In::Roughness: in.roughness = register_value(r, l.reg); break;
+            case In::RadialRoughness: in.radial_roughness = register_value(r, l.reg); break;
+            case In::Coat: in.coat = register_value(r, l.reg); break;
+            case In::Ior: in.ior = register_value(r, l.reg); break;
+            case In::Offset: in.offset = register_value(r, l.reg); break;
+            case In::RandomColor: in.random_color = register_value(r, l.reg); break;
+            case In::RandomRoughness: in.random_roughness = register_value(r, l.reg); break;
+            case In::Random:
+                in.random = register_value(r, l.reg);
+                random_from_curve = false;
+                break;
+            case In::AspectRatio: in.aspect_ratio = register_value(r, l.reg); break;
+            case In::Reflection: in.reflection = register_value(r, l.reg); break;
+            case In::Transmission: in.transmission = register_value(r, l.reg); break;
+            case In::SecondaryReflection: in.secondary_reflection = register_value(r, l.reg); break;
+            case In::Strength: break;
+        }
+    }
+}
+
+RGB MaterialShader::emission(const float* registers) const {
+    RGB e = emission_;
+    if (!registers) return e;
+    for (const LinkedEmission& l : linked_emission_) {
+        const RGB color = l.color_register >= 0 ? register_rgb(registers, l.color_register) : l.color;
+        const double strength = l.strength_register >= 0 ? register_value(registers, l.strength_register) : l.strength;
+        e += strength * (l.weight * color);
+    }
+    return e;
+}
+
 MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy)
-    : tilt_(tilt), accuracy_(accuracy) {
+    : program_(desc.program), tilt_(tilt), accuracy_(accuracy) {
+    const bool with_program = !desc.program.empty();
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
             case ClosureDesc::Type::PrincipledHair: {
@@ -31,7 +82,8 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 h.weight = c.weight;
                 h.inputs = c.hair;
                 h.random_from_curve = c.random_from_curve;
-                h.depends_on_random = c.random_from_curve && hair_depends_on_random(c.hair);
+                if (with_program) h.links = c.links;
+                h.depends_on_random = (c.random_from_curve && hair_depends_on_random(c.hair)) || !h.links.empty();
                 h.huang = c.hair_model == ClosureDesc::HairModel::Huang;
                 has_huang_ = has_huang_ || h.huang;
                 if (!h.depends_on_random) {
@@ -58,14 +110,34 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 break;
             }
             case ClosureDesc::Type::Diffuse: {
+                int32_t color_register = -1;
+                if (with_program)
+                    for (const ClosureDesc::Link& l : c.links)
+                        if (l.input == ClosureDesc::Input::Color) color_register = l.reg;
+                if (color_register >= 0) {
+                    if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
+                    if (closure_count() < size_t(kMaxBsdfClosures))
+                        diffuse_.push_back({c.weight, color_register});
+                    break;
+                }
                 const RGB w = c.weight * c.color;
                 if (std::fabs(average(w)) < kClosureWeightCutoff) break;
                 if (closure_count() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
                 break;
             }
-            case ClosureDesc::Type::Emission:
-                emission_ += c.strength * (c.weight * c.color);
+            case ClosureDesc::Type::Emission: {
+                LinkedEmission l{c.weight, c.color, c.strength};
+                if (with_program)
+                    for (const ClosureDesc::Link& k : c.links) {
+                        if (k.input == ClosureDesc::Input::Color) l.color_register = k.reg;
+                        if (k.input == ClosureDesc::Input::Strength) l.strength_register = k.reg;
+                    }
+                if (l.color_register >= 0 || l.strength_register >= 0)
+                    linked_emission_.push_back(l);
+                else
+                    emission_ += c.strength * (c.weight * c.color);
                 break;
+            }
             case ClosureDesc::Type::Model:  // render/model_closure.h
                 if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
                 if (closure_count() < size_t(kMaxBsdfClosures))
@@ -74,6 +146,17 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
         }
     }
 }
+
+namespace {
+// A per-hit closure's Principled Hair inputs: the curve's random and the program's values.
+PrincipledHairInputs hit_inputs(const MaterialShader::HairClosure& h, const ShadingGeometry& g) {
+    PrincipledHairInputs in = h.inputs;
+    bool random_from_curve = h.random_from_curve;
+    if (g.registers) apply_links(h.links, g.registers, in, random_from_curve);
+    if (random_from_curve) in.random = g.random;
+    return in;
+}
+}  // namespace
 
 HuangHairParams blur_huang(const HuangHairParams& p, double roughness) {
     HuangHairParams b = p;
@@ -114,9 +197,7 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
                 if (h.fixed_huang) {
                     params = h.fixed_huang->params();
                 } else {
-                    PrincipledHairInputs in = h.inputs;
-                    in.random = g.random;
-                    params = render_huang_params(in);
+                    params = render_huang_params(hit_inputs(h, g));
                 }
                 if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
                 huang_storage_[size_t(slot)].emplace(params);
@@ -142,9 +223,7 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
             if (h.fixed) {
                 params = h.fixed->params();
             } else {
-                PrincipledHairInputs in = h.inputs;
-                in.random = g.random;
-                params = chiang_params_from_principled(in, material.accuracy(), material.tilt());
+                params = chiang_params_from_principled(hit_inputs(h, g), material.accuracy(), material.tilt());
             }
             if (blur_roughness > 0) params = blur_chiang(params, blur_roughness);
             storage_[size_t(slot)].emplace(params);
@@ -164,7 +243,9 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
         ++count_;
     }
     for (const MaterialShader::DiffuseClosure& d : material.diffuse()) {
-        entries_[size_t(count_)] = {Entry::Kind::Diffuse, d.weight, std::fabs(average(d.weight)), nullptr, nullptr};
+        RGB w = d.weight;
+        if (d.color_register >= 0) w = g.registers ? w * register_rgb(g.registers, d.color_register) : RGB(0.0);
+        entries_[size_t(count_)] = {Entry::Kind::Diffuse, w, std::fabs(average(w)), nullptr, nullptr};
         total_sample_weight_ += entries_[size_t(count_)].sample_weight;
         ++count_;
     }

@@ -36,6 +36,8 @@ class HairBuffer:
         self.material: list[np.ndarray] = []    # (C_i,) int32
         self.length: list[np.ndarray] = []      # (C_i,) float32
         self.normals: list = []                 # (P_i, 3) float32 world curve normals, or None
+        self.intercept: list = []               # (P_i,) float32 Hair Info > Intercept, or None
+        self.attributes: list = []              # {name: (domain, (P_i, 4) float32 RGBA per point)}
         self._random_cache = np.zeros(0, np.float32)
 
     def curve_random(self, n: int) -> np.ndarray:
@@ -47,10 +49,12 @@ class HairBuffer:
                 dtype=np.float32)
         return self._random_cache[:n]
 
-    def add(self, points, counts, random, material, length, normals=None):
+    def add(self, points, counts, random, material, length, normals=None, intercept=None, attributes=None):
         if counts.size == 0:
             return
         self.normals.append(normals)
+        self.intercept.append(intercept)
+        self.attributes.append(attributes or {})
         self.points.append(points)
         self.counts.append(counts)
         self.random.append(random)
@@ -61,7 +65,9 @@ class HairBuffer:
     def num_curves(self) -> int:
         return int(sum(c.size for c in self.counts))
 
-    def finish(self) -> dict:
+    def finish(self, attribute_names=()) -> dict:
+        """The `curves` dict of docs/scene_desc.md; `attribute_names`: the curve attributes the
+        shading programs read, in their VM order (absent on an object: 0)."""
         if self.counts:
             # One object (the common case of a big groom): no concatenated copy of the keys.
             pts = self.points[0] if len(self.points) == 1 else np.concatenate(self.points)
@@ -76,6 +82,13 @@ class HairBuffer:
                     [n if n is not None else np.zeros((c.sum(), 3), np.float32)
                      for n, c in zip(self.normals, self.counts)]), dtype=np.float32)
             self.normals = []
+            if any(i is not None for i in self.intercept):
+                extra["point_intercept"] = np.concatenate(
+                    [i if i is not None else np.zeros(c.sum(), np.float32)
+                     for i, c in zip(self.intercept, self.counts)]).astype(np.float32)
+            if attribute_names:
+                extra["attributes"] = [self._attribute(name, counts) for name in attribute_names]
+            self.intercept, self.attributes = [], []
             return {**extra, "points": pts, "curve_offsets": offsets,
                     "curve_random": np.concatenate(self.random).astype(np.float32),
                     "curve_material": np.concatenate(self.material).astype(np.int32),
@@ -83,6 +96,83 @@ class HairBuffer:
         return {"points": np.zeros((0, 4), np.float32), "curve_offsets": np.zeros(1, np.int32),
                 "curve_random": np.zeros(0, np.float32), "curve_material": np.zeros(0, np.int32),
                 "curve_intercept_total": np.zeros(0, np.float32)}
+
+
+    def _attribute(self, name, counts) -> dict:
+        parts = [a.get(name) for a in self.attributes]
+        per_point = np.concatenate([p[1] if p is not None else np.zeros((c.sum(), 4), np.float32)
+                                    for p, c in zip(parts, self.counts)])
+        if all(p is None or p[0] == "CURVE" for p in parts):
+            starts = _curve_starts(counts)
+            return {"name": name, "domain": "CURVE", "data": np.ascontiguousarray(per_point[starts], np.float32)}
+        return {"name": name, "domain": "POINT", "data": np.ascontiguousarray(per_point, np.float32)}
+
+
+def point_intercept(pos: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Hair Info > Intercept per key as Cycles exports it for Curves: the object-space polyline
+    length from the root to the key over the curve's length (0 where the length is 0)."""
+    seg = np.zeros(pos.shape[0], np.float32)
+    if pos.shape[0] > 1:
+        d = np.diff(pos.astype(np.float32), axis=0)
+        seg[1:] = np.sqrt(np.einsum("ij,ij->i", d, d))
+    starts = _curve_starts(counts)
+    seg[starts[starts < seg.size]] = 0.0
+    seg[~np.isfinite(seg)] = 0.0
+    csum = np.cumsum(seg, dtype=np.float64)
+    along = csum - np.repeat(csum[starts] - seg[starts], counts)
+    total = np.repeat(along[np.maximum(starts + counts - 1, 0)], counts) if counts.size else along
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(total > 0, along / total, along)
+    return out.astype(np.float32)
+
+
+ATTRIBUTE_READERS = {  # data_type -> (foreach_get property, components)
+    "FLOAT": ("value", 1), "INT": ("value", 1), "BOOLEAN": ("value", 1), "INT8": ("value", 1),
+    "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4),
+}
+
+
+def curves_attribute_rgba(obj, data, name, report):
+    """(domain, (P, 4) float32 RGBA per point) of a Curves attribute as Cycles' Attribute node
+    reads it (float f -> (f, f, f, 1), vector -> (x, y, z, 1), colour RGBA scene-linear), or None
+    when the object does not have it."""
+    attr = data.attributes.get(name)
+    if attr is None:
+        return None
+    reader = ATTRIBUTE_READERS.get(attr.data_type)
+    if reader is None or attr.domain not in ("POINT", "CURVE"):
+        report.warn(f"Curves '{obj.name}': attribute '{name}' ({attr.domain} {attr.data_type}) is not supported; "
+                    "read as 0")
+        return None
+    prop, n = reader
+    size = len(attr.data)
+    raw = np.empty(size * n, np.float64 if attr.data_type in ("INT", "BOOLEAN", "INT8") else np.float32)
+    if attr.data_type in ("INT", "BOOLEAN", "INT8"):
+        raw = np.array([v.value for v in attr.data], np.float64) if size else raw
+    else:
+        attr.data.foreach_get(prop, raw)
+    raw = np.nan_to_num(raw.reshape(size, n).astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    rgba = np.ones((size, 4), np.float32)
+    if n == 1:
+        rgba[:, :3] = raw
+    else:
+        rgba[:, :n] = raw
+    if attr.domain == "CURVE":
+        counts = np.diff(_curve_offsets(data))
+        rgba = np.repeat(rgba, counts, axis=0)
+    return attr.domain, rgba
+
+
+def _curve_offsets(data):
+    off = np.empty(len(data.curves) + 1, np.int32)
+    if hasattr(data, "curve_offset_data"):
+        data.curve_offset_data.foreach_get("value", off)
+    else:  # pragma: no cover
+        firsts = np.empty(len(data.curves), np.int32)
+        data.curves.foreach_get("first_point_index", firsts)
+        off[:-1] = firsts
+        off[-1] = len(data.points)
+    return off
 
 
 # ---------------------------------------------------------------------------- validation
@@ -253,18 +343,37 @@ def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cac
     random = buffer.curve_random(n).copy()
     mat = np.full(n, materials.slot_indices(obj)[0], np.int32)
     normals = None
+    # Per-key extras ride along as columns, so that clean_strands filters them with the keys.
+    columns = []
     if materials.uses_huang(int(mat[0])):  # the ellipse's orientation; only Huang reads it
         local = cache.normals(data)
         if local is not None:
             m3 = np.asarray(matrix, np.float64)[:3, :3]
             normals = np.nan_to_num(local.astype(np.float64) @ m3.T).astype(np.float32)
-            pts4 = np.concatenate([pts4, normals], axis=1)  # filtered with the keys below
+            columns.append(("normals", normals))
+    needs_intercept, attribute_names = materials.needs[int(mat[0])]
+    if needs_intercept:
+        columns.append(("intercept", point_intercept(pos, counts)[:, None]))
+    domains = {}
+    for name in sorted(attribute_names):
+        got = curves_attribute_rgba(obj, data, name, report)
+        if got is not None:
+            domains[name] = got[0]
+            columns.append((name, got[1]))
+    if columns:
+        pts4 = np.concatenate([pts4] + [c for _, c in columns], axis=1)
     pts4, counts, random, mat, length = clean_strands(obj.name, pts4, counts, random, mat,
                                                       length.astype(np.float32), report)
-    if normals is not None:
-        normals = np.ascontiguousarray(pts4[:, 4:7])
-        pts4 = np.ascontiguousarray(pts4[:, :4])
-    buffer.add(pts4, counts, random, mat, length, normals)
+    extras, col = {}, 4
+    for name, c in columns:
+        extras[name] = np.ascontiguousarray(pts4[:, col:col + c.shape[1]])
+        col += c.shape[1]
+    pts4 = np.ascontiguousarray(pts4[:, :4])
+    normals = extras.pop("normals", None)
+    intercept = extras.pop("intercept", None)
+    buffer.add(pts4, counts, random, mat, length, normals,
+               intercept=None if intercept is None else intercept[:, 0].copy(),
+               attributes={name: (domains[name], a) for name, a in extras.items()})
     report.add_count("curves_objects", 1)
     report.timings["curves"] = report.timings.get("curves", 0.0) + time.perf_counter() - t0
     return int(counts.size)
@@ -317,7 +426,7 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
         report.warn(f"'{obj.name}': singular object matrix; particle hair skipped")
         return 0
     slots = materials.slot_indices(obj)
-    all_pts, all_counts, all_len, all_mat = [], [], [], []
+    all_pts, all_counts, all_len, all_mat, all_t = [], [], [], [], []
     for psys, part in _particle_systems(obj, render):
         totpart = len(psys.particles)
         totchild = len(psys.child_particles)
@@ -370,6 +479,7 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
         all_pts.append(pts)
         all_counts.append(counts)
         all_len.append(lengths.astype(np.float32))
+        all_t.append(t.reshape(-1).astype(np.float32))  # Hair Info > Intercept (curve_time / length)
         slot = min(max(int(part.material) - 1, 0), len(slots) - 1)
         all_mat.append(np.full(ncurves, slots[slot], np.int32))
         report.add_count("particle_systems", 1)
@@ -382,8 +492,15 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
     pts4[:, :3] = transform_points(matrix, pts4[:, :3])
     pts4[:, 3] *= np.float32(radius_scale(matrix))
     random = buffer.curve_random(counts.size).copy()  # index over all systems of the object
+    needs_intercept = any(materials.needs[int(m)][0] for m in np.unique(mat))
+    if needs_intercept:
+        pts4 = np.concatenate([pts4, np.concatenate(all_t)[:, None]], axis=1)
     pts4, counts, random, mat, lengths = clean_strands(obj.name, pts4, counts, random, mat, lengths, report)
-    buffer.add(pts4, counts, random, mat, lengths)
+    intercept = None
+    if needs_intercept:
+        intercept = pts4[:, 4].copy()
+        pts4 = np.ascontiguousarray(pts4[:, :4])
+    buffer.add(pts4, counts, random, mat, lengths, intercept=intercept)
     report.timings["particle_hair"] = report.timings.get("particle_hair", 0.0) + time.perf_counter() - t0
     return int(counts.size)
 

@@ -7,8 +7,10 @@ Supported (everything else is reported with a warning naming the node and socket
     the curve tangent used);
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
   * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
-  * linked inputs driven by a Value or RGB node, through reroutes, and Hair Info > Random
-    into the Principled Hair's Random socket (-> None: per-curve random).
+  * linked closure inputs: the node network feeding them is compiled into the material's
+    shading program (shading_network.py, docs/shading_vm.md); constant networks fold into
+    plain values, Hair Info > Random straight into the Principled Hair's Random socket stays
+    None (per-curve random).
 A material without nodes is a diffuse of its viewport colour and a missing material is
 Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
 A material whose hair model override is set (Material tab, model_override.py) has its
@@ -18,10 +20,10 @@ Principled Hair closures replaced by `hair_model` closures of the same weights.
 from __future__ import annotations
 
 from ._common import REC709_Y, find_socket, rgb
+from .shading_network import AttributeTable, ShadingNetwork
 
 GREY = (0.8, 0.8, 0.8)
 DEFAULT_MATERIAL_NAME = "__default__"
-RANDOM = object()  # sentinel: the value is Hair Info > Random (per curve)
 
 # (key in scene_desc, socket identifier, kind)
 PRINCIPLED_HAIR_INPUTS = (
@@ -58,9 +60,12 @@ class MaterialTranslator:
     """Translates one material at a time; warnings go to `report` prefixed with the
     material's name."""
 
-    def __init__(self, report):
+    def __init__(self, report, attributes: AttributeTable | None = None):
         self.report = report
         self.material_name = ""
+        self.attributes = attributes if attributes is not None else AttributeTable()
+        self.network = None
+        self.pending = []  # (container, key, Value, kind) resolved by network.finish()
 
     # ------------------------------------------------------------------ helpers
     def warn(self, msg: str) -> None:
@@ -81,34 +86,31 @@ class MaterialTranslator:
             return MaterialTranslator._link_source(node.inputs[0], depth + 1)
         return node, out
 
-    def value(self, node, ident: str, kind: str, default=None, allow_random=False):
-        """Value of input `ident` of `node` as Cycles would see it for a constant graph.
-        kind: 'float' | 'color' | 'vector'.  Returns RANDOM for Hair Info > Random when
-        allow_random."""
+    def linked(self, node, ident: str, kind: str, container: dict, key: str) -> None:
+        """Compiles input `ident` of `node` into `container[key]`: a constant, or a register of
+        the material's program when it depends on the hit (resolved in translate())."""
+        sock = find_socket(node.inputs, ident)
+        if sock is None:
+            return
+        self.pending.append((container, key, self.network.input(node, sock, kind), kind))
+
+    def value(self, node, ident: str, kind: str, default=None):
+        """Input `ident` of `node` as a constant (closure weights, checks). A network that
+        depends on the hit is reported and the socket value is used."""
         sock = find_socket(node.inputs, ident)
         if sock is None:
             return default
-        fallback = self._socket_default(sock, kind, default)
-        src = self._link_source(sock)
-        if src is None:
+        if self.network is None:  # used outside translate() (the world exporter)
+            self.network = ShadingNetwork(self.attributes, self.warn, self._link_source)
+        v = self.network.input(node, sock, kind)
+        if self.network.is_dynamic(v):
+            fallback = self._socket_default(sock, kind, default)
+            self.warn(f"'{node.name}' > '{sock.name}' varies per hit, which hairbsdf supports only for closure "
+                      f"inputs; using the socket value {_fmt(fallback)}")
             return fallback
-        snode, sout = src
-        t = snode.bl_idname
-        if t == "ShaderNodeValue":
-            return self._convert(float(sout.default_value), "float", kind)
-        if t == "ShaderNodeRGB":
-            return self._convert(rgb(sout.default_value), "color", kind)
-        if t == "ShaderNodeHairInfo" and sout.identifier == "Random":
-            if allow_random:
-                return RANDOM
-        if not getattr(sock, "enabled", True):
-            return fallback  # hidden by the node's mode: Cycles does not read it
-        if snode.mute:
-            self.warn(f"muted node '{snode.name}' drives '{node.name}' > '{sock.name}'; using {fallback!r}")
-            return fallback
-        self.warn(f"'{node.name}' > '{sock.name}' is driven by '{snode.name}' ({_label(snode)} > {sout.name}), "
-                  f"which hairbsdf does not evaluate; using the socket value {_fmt(fallback)}")
-        return fallback
+        holder = {}
+        self.network.finish([(holder, "v", v, kind)])
+        return holder["v"]
 
     @staticmethod
     def _socket_default(sock, kind, default):
@@ -142,6 +144,8 @@ class MaterialTranslator:
         if material is None:
             return {"name": DEFAULT_MATERIAL_NAME, "closures": [_diffuse((1.0, 1.0, 1.0), GREY)]}
         self.material_name = material.name
+        self.network = ShadingNetwork(self.attributes, self.warn, self._link_source)
+        self.pending = []
         out = {"name": material.name, "closures": []}
         nt = material.node_tree if getattr(material, "use_nodes", False) else None
         if nt is None:
@@ -169,9 +173,19 @@ class MaterialTranslator:
         closures = []
         self._shader(src[0], src[1], (1.0, 1.0, 1.0), closures, 0)
         out["closures"] = [c for c in closures if max(c["weight"]) > 0.0 or min(c["weight"]) < 0.0]
+        kept = {id(c) for c in out["closures"]} | {id(c.get("inputs")) for c in out["closures"]}
+        program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
+        if program is not None:
+            out["program"] = program
         from .model_override import override_closures  # bpy: imported only in Blender
         out["closures"] = override_closures(material, out["closures"], self.warn)
         return out
+
+    def program_needs(self) -> tuple:
+        """(reads Hair Info > Intercept, attribute names) of the last translated material."""
+        if self.network is None:
+            return False, set()
+        return self.network.uses_intercept, set(self.network.attribute_names)
 
     def _shader(self, node, out_socket, weight, closures, depth):
         if depth > MAX_DEPTH:
@@ -209,22 +223,28 @@ class MaterialTranslator:
             rough = self.value(node, "Roughness", "float", 0.0)
             if rough > 0.0:
                 self.warn(f"'{node.name}': Oren-Nayar roughness {rough:g} is not supported; rendered as Lambert")
-            closures.append(_diffuse(weight, self.value(node, "Color", "color", GREY)))
+            closures.append(self._linked_diffuse(node, "Color", weight))
             return
         if t == "ShaderNodeBsdfPrincipled":
             self.warn(f"'{node.name}' (Principled BSDF) is rendered as a diffuse of its Base Color")
-            closures.append(_diffuse(weight, self.value(node, "Base Color", "color", GREY)))
+            closures.append(self._linked_diffuse(node, "Base Color", weight))
             return
         if t == "ShaderNodeEmission":
-            closures.append({"type": "emission", "weight": weight,
-                             "color": self.value(node, "Color", "color", (1.0, 1.0, 1.0)),
-                             "strength": self.value(node, "Strength", "float", 1.0)})
+            c = {"type": "emission", "weight": weight, "color": (1.0, 1.0, 1.0), "strength": 1.0}
+            self.linked(node, "Color", "color", c, "color")
+            self.linked(node, "Strength", "float", c, "strength")
+            closures.append(c)
             return
         if t == "ShaderNodeBsdfHair":
             closures.append(self._hair_bsdf(node, weight))
             return
         self.warn(f"'{node.name}' ({_label(node)}) is not supported; rendered as 0.8 grey diffuse")
         closures.append(_diffuse(weight, GREY))
+
+    def _linked_diffuse(self, node, ident, weight) -> dict:
+        c = _diffuse(weight, GREY)
+        self.linked(node, ident, "color", c, "color")
+        return c
 
     def _principled_hair(self, node, weight) -> dict:
         model = getattr(node, "model", "CHIANG")
@@ -236,16 +256,16 @@ class MaterialTranslator:
         for key, ident, kind in PRINCIPLED_HAIR_INPUTS + (HUANG_HAIR_INPUTS if model == "HUANG" else ()):
             if model == "HUANG" and key in ("radial_roughness", "coat"):
                 continue
-            inputs[key] = self.value(node, ident, kind)
-        rnd = self.value(node, "Random", "float", 0.0, allow_random=True)
+            self.linked(node, ident, kind, inputs, key)
         sock = find_socket(node.inputs, "Random")
-        if rnd is RANDOM or sock is None or not sock.is_linked:
+        src = self._link_source(sock)
+        if sock is None or src is None or (src[0].bl_idname == "ShaderNodeHairInfo" and not src[0].mute
+                                           and src[1].identifier == "Random"):
             inputs["random"] = None  # per-curve Hair Info > Random (cycles-hair-notes §2.2)
         else:
-            inputs["random"] = float(rnd)
+            self.linked(node, "Random", "float", inputs, "random")
         return {"type": "principled_hair", "weight": weight, "model": model,
                 "parametrization": node.parametrization, "inputs": inputs}
-
 
     def _hair_bsdf(self, node, weight) -> dict:
         """The legacy Hair BSDF node: Cycles' closure with the node's sockets (Offset in radians)."""
@@ -280,8 +300,10 @@ class MaterialTable:
     """The scene's material list; materials are translated once, on first use."""
 
     def __init__(self, report):
-        self.translator = MaterialTranslator(report)
+        self.attributes = AttributeTable()  # curve attributes the programs read, scene-wide
+        self.translator = MaterialTranslator(report, self.attributes)
         self.materials: list[dict] = []
+        self.needs: list[tuple] = []  # per material: (reads Intercept, attribute names)
         self._index: dict = {}
 
     def index(self, material) -> int:
@@ -290,6 +312,7 @@ class MaterialTable:
         if idx is None:
             idx = len(self.materials)
             self.materials.append(self.translator.translate(material))
+            self.needs.append(self.translator.program_needs() if "program" in self.materials[-1] else (False, set()))
             self._index[key] = idx
         return idx
 

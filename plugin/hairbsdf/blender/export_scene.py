@@ -182,7 +182,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
                     "not rendered as hair (add a Realize Instances node)")
 
     curves_cache = mesh_cache = None  # object-space copies are not needed any more (memory)
-    curves = hair.finish()
+    curves = hair.finish(materials.attributes.names)
     n_curves = curves["curve_random"].size
     # Back faces of 3D curves: Blender 3.x's Embree 3 (built with BACKFACE_CULLING_CURVES) culls
     # them, the Embree 4 of Blender 3.6+ does not (measured with 3.4.1 and 4.5.15; docs/engine.md).

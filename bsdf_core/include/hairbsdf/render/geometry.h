@@ -73,6 +73,11 @@ public:
 
     CurveShape curve_shape() const { return shape_; }
     int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }
+    // Index into the scene's points of the segment's first key (every curve of a repaired
+    // scene has at least 2 keys, so curve c's control points start at offsets[c] + 2 c).
+    int segment_key(int segment) const {
+        return int(segment_first_[size_t(segment)]) - 2 * segment_curve_[size_t(segment)];
+    }
     CurvePoint curve_point(int segment, double u) const;
     // The key radius interpolated linearly in u (what Cycles' Huang near field uses).
     double curve_radius_linear(int segment, double u) const;

@@ -73,6 +73,8 @@ struct PathResult {
 // Per-thread scratch state of the integrator (no allocation per sample).
 struct PathScratch {
     Bsdf bsdf;
+    std::vector<float> registers;   // the hit material's shading program
+    std::vector<float> attributes;  // RGBA of each curve attribute at the hit
 };
 
 // The camera sample of pixel (column, row), row 0 at the top: filter offsets, camera ray, path.

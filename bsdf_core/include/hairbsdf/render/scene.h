@@ -10,6 +10,7 @@
 
 #include "hairbsdf/models/model_params.h"
 #include "hairbsdf/params/principled_hair.h"
+#include "hairbsdf/render/shading_vm.h"
 
 namespace hairbsdf::render {
 
@@ -24,6 +25,17 @@ struct CurveData {
     // Optional curve normals per point (world space; empty = none, particle hair): the major
     // axis of Huang's elliptical cross-section, interpolated linearly along a segment.
     std::vector<std::array<float, 3>> normals;
+    // Optional, for shading programs (docs/shading_vm.md): Hair Info > Intercept per point
+    // (object-space arc length / curve length, linear along a segment), Hair Info > Length per
+    // curve, and the named attributes the programs read, RGBA per point or per curve.
+    std::vector<float> intercept;  // P entries or empty
+    std::vector<float> length;     // C entries or empty
+    struct Attribute {
+        std::string name;
+        bool point_domain = false;              // else one value per curve
+        std::vector<std::array<float, 4>> rgba;  // float attributes as (f, f, f, 1)
+    };
+    std::vector<Attribute> attributes;
     size_t curve_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
 };
 
@@ -55,11 +67,24 @@ struct ClosureDesc {
     // cycles_hair (the legacy Hair BSDF node): component, Offset in radians, RoughnessU / V.
     bool transmission = false;
     double offset = 0.0, roughness_u = 0.1, roughness_v = 1.0;
+    // Inputs driven by the material's shading program: the input takes the register's value
+    // (3 consecutive registers for a colour) at each hit instead of the constant above.
+    enum class Input {
+        Color, Melanin, MelaninRedness, Tint, AbsorptionCoefficient, Roughness, RadialRoughness, Coat, Ior,
+        Offset, RandomColor, RandomRoughness, Random, AspectRatio, Reflection, Transmission, SecondaryReflection,
+        Strength  // emission; `Color` is the diffuse / emission colour too
+    };
+    struct Link {
+        Input input;
+        int32_t reg;
+    };
+    std::vector<Link> links;
 };
 
 struct MaterialDesc {
     std::string name;
     std::vector<ClosureDesc> closures;
+    ShadingProgram program;  // empty: every input is constant
 };
 
 enum class CameraType { Perspective, Orthographic };

@@ -17,6 +17,8 @@
 //   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure);
 //   hair_model -> a zoo model or a plugin (render/model_closure.h): label GLOSSY, REFLECT for
 //     lobe R, TRANSMIT for the others, as Chiang's; Filter Glossy does not blur it.
+// Inputs linked to the material's shading program (render/shading_vm.h) take the program's
+// registers at the hit (ShadingGeometry::registers); a non-finite register value reads as 0.
 #pragma once
 
 #include <optional>
@@ -47,11 +49,19 @@ public:
         bool random_from_curve = true;
         bool depends_on_random = false;
         bool huang = false;               // the Huang model (else Chiang)
+        std::vector<ClosureDesc::Link> links;  // inputs from the shading program
         std::optional<ChiangHair> fixed;  // when the parameters do not depend on the curve
         std::optional<HuangHair> fixed_huang;
     };
     struct DiffuseClosure {
-        RGB weight;  // weight x color
+        RGB weight;  // weight x color (weight alone when the colour is linked)
+        int32_t color_register = -1;  // the colour from the shading program
+    };
+    struct LinkedEmission {
+        RGB weight;
+        RGB color;
+        double strength = 1;
+        int32_t color_register = -1, strength_register = -1;
     };
     struct CyclesHairClosure {
         RGB weight;        // weight x Color (Cycles' closure weight)
@@ -60,8 +70,10 @@ public:
     const std::vector<HairClosure>& hair() const { return hair_; }
     const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
     const std::vector<CyclesHairClosure>& cycles_hair() const { return cycles_hair_; }
-    RGB emission() const { return emission_; }
     const std::vector<ModelClosure>& models() const { return models_; }  // hair_model closures
+    // Emission at a hit; `registers`: the program's registers there (nullptr without a program).
+    RGB emission(const float* registers = nullptr) const;
+    const ShadingProgram& program() const { return program_; }
     bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty() || !cycles_hair_.empty() || !models_.empty(); }
     bool has_huang() const { return has_huang_; }
     TiltConvention tilt() const { return tilt_; }
@@ -74,6 +86,8 @@ private:
     std::vector<ModelClosure> models_;
     std::vector<CyclesHairClosure> cycles_hair_;
     RGB emission_{0.0};
+    std::vector<LinkedEmission> linked_emission_;
+    ShadingProgram program_;
     bool has_huang_ = false;
     TiltConvention tilt_;
     Accuracy accuracy_;
@@ -90,6 +104,7 @@ struct ShadingGeometry {
     Vec3 curve_normal{0, 0, 0};  // Huang: the ellipse's major axis (zero: fallback frame)
     double pixel_coverage = 1;   // Huang near field: 0.5 dP / r of a camera ray
     bool near_field = false;     // Huang: camera ray on a curve
+    const float* registers = nullptr;  // the material's shading program evaluated at this hit
 };
 
 struct BsdfValue {
@@ -144,6 +159,13 @@ private:
     ShadingContext hair_ctx_;
     Vec3 n_, ng_;
 };
+
+// Reads register `reg` (3 for a colour) as an input value; non-finite values read as 0.
+double register_value(const float* registers, int32_t reg);
+RGB register_rgb(const float* registers, int32_t reg);
+// Applies a closure's program-linked inputs to its Principled Hair inputs.
+void apply_links(const std::vector<ClosureDesc::Link>& links, const float* registers, PrincipledHairInputs& in,
+                 bool& random_from_curve);
 
 // Huang under Filter Glossy: alpha <- max(roughness, alpha) (Cycles' blur of the closure).
 HuangHairParams blur_huang(const HuangHairParams& p, double roughness);

@@ -1,0 +1,83 @@
+// A small shading VM: the node network feeding a material's closure inputs, compiled once by
+// the exporter (plugin/hairbsdf/blender/shading_network.py) and evaluated per hit with Cycles'
+// SVM semantics, in float as Cycles computes it (docs/shading_vm.md).
+//
+// Registers are float slots. Slots [0, constants.size()) hold the program's constants and are
+// never written; the rest start at 0 for every evaluation. A colour or vector is 3 consecutive
+// slots. An instruction is an opcode followed by a fixed number of int32 arguments (the table
+// in shading_vm.cpp); `validate_program` checks every slot index once, so `run_program` does
+// no bounds checks. Depends on nothing but the standard library: the models never see it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hairbsdf::render {
+
+enum class ShadingOp : int32_t {
+    Math = 1,            // type, clamp, out, a, b, c
+    MapRange = 2,        // type, clamp, out, value, from_min, from_max, to_min, to_max, steps
+    Clamp = 3,           // type (0 min-max, 1 range), out, value, min, max
+    ColorRamp = 4,       // interpolate, table (RGBA x size), size, out_color(3), out_alpha, fac
+    MixColor = 5,        // blend, flags (1 clamp factor, 2 clamp result), out(3), fac, a(3), b(3)
+    MixFloat = 6,        // clamp factor, out, fac, a, b
+    MixVector = 7,       // non_uniform, clamp factor, out(3), fac (1 or 3), a(3), b(3)
+    Invert = 8,          // out(3), fac, color(3)
+    Gamma = 9,           // out(3), color(3), gamma
+    BrightContrast = 10, // out(3), color(3), bright, contrast
+    Copy = 11,           // out, in (one float)
+    Luminance = 12,      // out, color(3), weights(3)
+    Average = 13,        // out, vector(3)
+    HairInfo = 14,       // which (HairInfoOutput), out
+    Attribute = 15,      // attribute index, out(5): r, g, b, fac = average(rgb), alpha
+};
+
+enum class HairInfoOutput : int32_t { Random = 0, Intercept = 1, Length = 2, IsStrand = 3 };
+
+// Cycles' NodeMathType values (the order of Blender's Math node enum).
+enum class MathType : int32_t {
+    Add = 0, Subtract, Multiply, Divide, Sine, Cosine, Tangent, Arcsine, Arccosine, Arctangent, Power,
+    Logarithm, Minimum, Maximum, Round, LessThan, GreaterThan, Modulo, Absolute, Arctan2, Floor, Ceil,
+    Fraction, Sqrt, InvSqrt, Sign, Exponent, Radians, Degrees, Sinh, Cosh, Tanh, Trunc, Snap, Wrap, PingPong,
+    MultiplyAdd, Compare, SmoothMin, SmoothMax, FlooredModulo,
+    Count
+};
+
+enum class MapRangeType : int32_t { Linear = 0, Stepped = 1, SmoothStep = 2, SmootherStep = 3 };
+
+// Cycles' NodeMix values (the order of Blender's blend_type enum).
+enum class MixBlend : int32_t {
+    Mix = 0, Add, Multiply, Subtract, Screen, Divide, Difference, Darken, Lighten, Overlay, Dodge, Burn, Hue,
+    Saturation, Value, Color, SoftLight, LinearLight, Exclusion,
+    Count
+};
+
+struct ShadingProgram {
+    std::vector<int32_t> code;
+    std::vector<float> constants;
+    int32_t register_count = 0;  // constants included
+    bool empty() const { return code.empty(); }
+};
+
+// What a program may read at one hit.
+struct ShadingHitContext {
+    float random = 0, intercept = 0, length = 0, is_strand = 0;
+    const float* attributes = nullptr;  // RGBA per attribute at the hit (0 where absent)
+    int attribute_count = 0;
+};
+
+// Throws std::invalid_argument naming the instruction and what is wrong; `attribute_count`
+// bounds the Attribute op's index.
+void validate_program(const ShadingProgram& program, int attribute_count);
+
+// Evaluates a validated program; `registers` has program.register_count slots.
+void run_program(const ShadingProgram& program, const ShadingHitContext& context, float* registers);
+
+// The single ops, exposed for tests and for the exporter's constant folding checks.
+float shading_math(MathType type, float a, float b, float c);
+float shading_map_range(MapRangeType type, float value, float from_min, float from_max, float to_min, float to_max,
+                        float steps);
+void shading_mix(MixBlend blend, float t, const float* a, const float* b, float* out);
+
+}  // namespace hairbsdf::render

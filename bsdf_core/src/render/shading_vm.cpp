@@ -1,0 +1,506 @@
+// The shading VM; see render/shading_vm.h. Formulas follow Cycles' SVM nodes (math, map range,
+// clamp, ramp, mix, invert, gamma, bright/contrast), in float, written from their definitions.
+#include "hairbsdf/render/shading_vm.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <stdexcept>
+
+namespace hairbsdf::render {
+
+namespace {
+
+constexpr float kPiF = 3.14159265358979323846f;
+
+// Arguments after the opcode; ColorRamp and MixVector are checked specially (table / fac width).
+int argument_count(ShadingOp op) {
+    switch (op) {
+        case ShadingOp::Math: return 6;
+        case ShadingOp::MapRange: return 9;
+        case ShadingOp::Clamp: return 5;
+        case ShadingOp::ColorRamp: return 6;
+        case ShadingOp::MixColor: return 6;
+        case ShadingOp::MixFloat: return 5;
+        case ShadingOp::MixVector: return 6;
+        case ShadingOp::Invert: return 3;
+        case ShadingOp::Gamma: return 3;
+        case ShadingOp::BrightContrast: return 4;
+        case ShadingOp::Copy: return 2;
+        case ShadingOp::Luminance: return 3;
+        case ShadingOp::Average: return 2;
+        case ShadingOp::HairInfo: return 2;
+        case ShadingOp::Attribute: return 2;
+    }
+    return -1;
+}
+
+float saturate(float x) { return std::min(std::max(x, 0.0f), 1.0f); }
+float clampf(float x, float lo, float hi) { return std::min(std::max(x, lo), hi); }
+float safe_divide(float a, float b) { return b != 0.0f ? a / b : 0.0f; }
+
+float smoothstep_edges(float edge0, float edge1, float x) {
+    if (x < edge0) return 0.0f;
+    if (x >= edge1) return 1.0f;
+    const float t = (x - edge0) / (edge1 - edge0);
+    return (3.0f - 2.0f * t) * (t * t);
+}
+
+float smootherstep_edges(float edge0, float edge1, float x) {
+    const float t = clampf(safe_divide(x - edge0, edge1 - edge0), 0.0f, 1.0f);
+    return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
+}
+
+float smooth_min(float a, float b, float k) {
+    if (k == 0.0f) return std::fmin(a, b);
+    const float h = std::fmax(k - std::fabs(a - b), 0.0f) / k;
+    return std::fmin(a, b) - h * h * h * k * (1.0f / 6.0f);
+}
+
+// Cycles' colour helpers (rgb <-> hsv) for the Hue / Saturation / Value / Color blends.
+void rgb_to_hsv(const float* rgb, float* hsv) {
+    const float cmax = std::max(rgb[0], std::max(rgb[1], rgb[2]));
+    const float cmin = std::min(rgb[0], std::min(rgb[1], rgb[2]));
+    const float delta = cmax - cmin;
+    float h = 0.0f, s = 0.0f;
+    if (cmax != 0.0f) s = delta / cmax;
+    if (s != 0.0f) {
+        const float cr = (cmax - rgb[0]) / delta, cg = (cmax - rgb[1]) / delta, cb = (cmax - rgb[2]) / delta;
+        if (rgb[0] == cmax) h = cb - cg;
+        else if (rgb[1] == cmax) h = 2.0f + cr - cb;
+        else h = 4.0f + cg - cr;
+        h /= 6.0f;
+        if (h < 0.0f) h += 1.0f;
+    }
+    hsv[0] = h;
+    hsv[1] = s;
+    hsv[2] = cmax;
+}
+
+void hsv_to_rgb(const float* hsv, float* rgb) {
+    float h = hsv[0];
+    const float s = hsv[1], v = hsv[2];
+    if (s == 0.0f) {
+        rgb[0] = rgb[1] = rgb[2] = v;
+        return;
+    }
+    if (h == 1.0f) h = 0.0f;
+    h *= 6.0f;
+    const float i = std::floor(h), f = h - i;
+    const float p = v * (1.0f - s), q = v * (1.0f - s * f), t = v * (1.0f - s * (1.0f - f));
+    const float table[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+    const int k = std::min(std::max(int(i), 0), 5);
+    rgb[0] = table[k][0];
+    rgb[1] = table[k][1];
+    rgb[2] = table[k][2];
+}
+
+// a + t (b - a), Cycles' interp.
+float lerp(float a, float b, float t) { return a + t * (b - a); }
+
+void ramp_lookup(const float* table, int size, bool interpolate, float fac, float* rgba) {
+    const float f = saturate(fac) * float(size - 1);
+    const int i = std::min(std::max(int(f), 0), size - 1);  // NaN: int() is not reached for NaN after saturate
+    const float t = f - float(i);
+    const float* a = table + 4 * i;
+    for (int c = 0; c < 4; ++c) rgba[c] = a[c];
+    if (interpolate && t > 0.0f) {
+        const float* b = a + 4;
+        for (int c = 0; c < 4; ++c) rgba[c] = (1.0f - t) * a[c] + t * b[c];
+    }
+}
+
+}  // namespace
+
+float shading_math(MathType type, float a, float b, float c) {
+    switch (type) {
+        case MathType::Add: return a + b;
+        case MathType::Subtract: return a - b;
+        case MathType::Multiply: return a * b;
+        case MathType::Divide: return safe_divide(a, b);
+        case MathType::Power:
+            if (a < 0.0f && b != float(int(b))) return 0.0f;  // a negative base needs an integer exponent
+            return std::pow(a, b);
+        case MathType::Logarithm:
+            if (a <= 0.0f || b <= 0.0f) return 0.0f;
+            return safe_divide(std::log(a), std::log(b));
+        case MathType::Sqrt: return std::sqrt(std::max(a, 0.0f));
+        case MathType::InvSqrt: return a > 0.0f ? 1.0f / std::sqrt(a) : 0.0f;
+        case MathType::Absolute: return std::fabs(a);
+        case MathType::Radians: return a * (kPiF / 180.0f);
+        case MathType::Degrees: return a * (180.0f / kPiF);
+        case MathType::Minimum: return std::fmin(a, b);
+        case MathType::Maximum: return std::fmax(a, b);
+        case MathType::LessThan: return a < b ? 1.0f : 0.0f;
+        case MathType::GreaterThan: return a > b ? 1.0f : 0.0f;
+        case MathType::Round: return std::floor(a + 0.5f);
+        case MathType::Floor: return std::floor(a);
+        case MathType::Ceil: return std::ceil(a);
+        case MathType::Fraction: return a - std::floor(a);
+        case MathType::Modulo: return b != 0.0f ? std::fmod(a, b) : 0.0f;
+        case MathType::FlooredModulo: return b != 0.0f ? a - std::floor(a / b) * b : 0.0f;
+        case MathType::Trunc: return a >= 0.0f ? std::floor(a) : std::ceil(a);
+        case MathType::Snap: return std::floor(safe_divide(a, b)) * b;
+        case MathType::Wrap: {  // wrap a into [c, b)
+            const float range = b - c;
+            return range != 0.0f ? a - range * std::floor((a - c) / range) : c;
+        }
+        case MathType::PingPong: {
+            if (b == 0.0f) return 0.0f;
+            const float x = (a - b) / (b * 2.0f);
+            return std::fabs((x - std::floor(x)) * b * 2.0f - b);
+        }
+        case MathType::Sine: return std::sin(a);
+        case MathType::Cosine: return std::cos(a);
+        case MathType::Tangent: return std::tan(a);
+        case MathType::Sinh: return std::sinh(a);
+        case MathType::Cosh: return std::cosh(a);
+        case MathType::Tanh: return std::tanh(a);
+        case MathType::Arcsine: return std::asin(clampf(a, -1.0f, 1.0f));
+        case MathType::Arccosine: return std::acos(clampf(a, -1.0f, 1.0f));
+        case MathType::Arctangent: return std::atan(a);
+        case MathType::Arctan2: return (a == 0.0f && b == 0.0f) ? 0.0f : std::atan2(a, b);
+        case MathType::Sign: return a == 0.0f ? 0.0f : (a < 0.0f ? -1.0f : 1.0f);
+        case MathType::Exponent: return std::exp(a);
+        case MathType::Compare: return (a == b || std::fabs(a - b) <= std::fmax(c, FLT_EPSILON)) ? 1.0f : 0.0f;
+        case MathType::MultiplyAdd: return a * b + c;
+        case MathType::SmoothMin: return smooth_min(a, b, c);
+        case MathType::SmoothMax: return -smooth_min(-a, -b, c);
+        case MathType::Count: break;
+    }
+    return 0.0f;
+}
+
+float shading_map_range(MapRangeType type, float value, float from_min, float from_max, float to_min, float to_max,
+                        float steps) {
+    if (from_max == from_min) return 0.0f;
+    float factor = value;
+    switch (type) {
+        case MapRangeType::Linear: factor = (value - from_min) / (from_max - from_min); break;
+        case MapRangeType::Stepped:
+            factor = (value - from_min) / (from_max - from_min);
+            factor = steps > 0.0f ? std::floor(factor * (steps + 1.0f)) / steps : 0.0f;
+            break;
+        case MapRangeType::SmoothStep:
+            factor = from_min > from_max ? 1.0f - smoothstep_edges(from_max, from_min, value)
+                                         : smoothstep_edges(from_min, from_max, value);
+            break;
+        case MapRangeType::SmootherStep:
+            factor = from_min > from_max ? 1.0f - smootherstep_edges(from_max, from_min, value)
+                                         : smootherstep_edges(from_min, from_max, value);
+            break;
+    }
+    return to_min + factor * (to_max - to_min);
+}
+
+void shading_mix(MixBlend blend, float t, const float* a, const float* b, float* out) {
+    const float tm = 1.0f - t;
+    float r[3] = {a[0], a[1], a[2]};
+    switch (blend) {
+        case MixBlend::Mix:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], b[i], t);
+            break;
+        case MixBlend::Add:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], a[i] + b[i], t);
+            break;
+        case MixBlend::Multiply:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], a[i] * b[i], t);
+            break;
+        case MixBlend::Subtract:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], a[i] - b[i], t);
+            break;
+        case MixBlend::Screen:
+            for (int i = 0; i < 3; ++i) r[i] = 1.0f - (tm + t * (1.0f - b[i])) * (1.0f - a[i]);
+            break;
+        case MixBlend::Divide:
+            for (int i = 0; i < 3; ++i)
+                if (b[i] != 0.0f) r[i] = tm * a[i] + t * a[i] / b[i];
+            break;
+        case MixBlend::Difference:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], std::fabs(a[i] - b[i]), t);
+            break;
+        case MixBlend::Darken:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], std::min(a[i], b[i]), t);
+            break;
+        case MixBlend::Lighten:
+            for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], std::max(a[i], b[i]), t);
+            break;
+        case MixBlend::Overlay:
+            for (int i = 0; i < 3; ++i)
+                r[i] = a[i] < 0.5f ? a[i] * (tm + 2.0f * t * b[i]) : 1.0f - (tm + 2.0f * t * (1.0f - b[i])) * (1.0f - a[i]);
+            break;
+        case MixBlend::Dodge:
+            for (int i = 0; i < 3; ++i) {
+                if (a[i] == 0.0f) continue;
+                const float d = 1.0f - t * b[i];
+                r[i] = d <= 0.0f ? 1.0f : std::min(a[i] / d, 1.0f);
+            }
+            break;
+        case MixBlend::Burn:
+            for (int i = 0; i < 3; ++i) {
+                const float d = tm + t * b[i];
+                r[i] = d <= 0.0f ? 0.0f : clampf(1.0f - (1.0f - a[i]) / d, 0.0f, 1.0f);
+            }
+            break;
+        case MixBlend::Hue: {
+            float hsv_b[3], hsv[3], tmp[3];
+            rgb_to_hsv(b, hsv_b);
+            if (hsv_b[1] != 0.0f) {
+                rgb_to_hsv(a, hsv);
+                hsv[0] = hsv_b[0];
+                hsv_to_rgb(hsv, tmp);
+                for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], tmp[i], t);
+            }
+            break;
+        }
+        case MixBlend::Saturation: {
+            float hsv[3], hsv_b[3];
+            rgb_to_hsv(a, hsv);
+            if (hsv[1] != 0.0f) {
+                rgb_to_hsv(b, hsv_b);
+                hsv[1] = tm * hsv[1] + t * hsv_b[1];
+                hsv_to_rgb(hsv, r);
+            }
+            break;
+        }
+        case MixBlend::Value: {
+            float hsv[3], hsv_b[3];
+            rgb_to_hsv(a, hsv);
+            rgb_to_hsv(b, hsv_b);
+            hsv[2] = tm * hsv[2] + t * hsv_b[2];
+            hsv_to_rgb(hsv, r);
+            break;
+        }
+        case MixBlend::Color: {
+            float hsv_b[3], hsv[3], tmp[3];
+            rgb_to_hsv(b, hsv_b);
+            if (hsv_b[1] != 0.0f) {
+                rgb_to_hsv(a, hsv);
+                hsv[0] = hsv_b[0];
+                hsv[1] = hsv_b[1];
+                hsv_to_rgb(hsv, tmp);
+                for (int i = 0; i < 3; ++i) r[i] = lerp(a[i], tmp[i], t);
+            }
+            break;
+        }
+        case MixBlend::SoftLight:
+            for (int i = 0; i < 3; ++i) {
+                const float screen = 1.0f - (1.0f - b[i]) * (1.0f - a[i]);
+                r[i] = tm * a[i] + t * ((1.0f - a[i]) * b[i] * a[i] + a[i] * screen);
+            }
+            break;
+        case MixBlend::LinearLight:
+            for (int i = 0; i < 3; ++i) r[i] = a[i] + t * (2.0f * b[i] - 1.0f);
+            break;
+        case MixBlend::Exclusion:
+            for (int i = 0; i < 3; ++i) r[i] = std::max(lerp(a[i], a[i] + b[i] - 2.0f * a[i] * b[i], t), 0.0f);
+            break;
+        case MixBlend::Count: break;
+    }
+    out[0] = r[0];
+    out[1] = r[1];
+    out[2] = r[2];
+}
+
+void validate_program(const ShadingProgram& p, int attribute_count) {
+    const int32_t n_const = int32_t(p.constants.size());
+    if (p.register_count < n_const)
+        throw std::invalid_argument("program: registers (" + std::to_string(p.register_count) +
+                                    ") must be at least the number of constants (" + std::to_string(n_const) + ")");
+    const size_t n = p.code.size();
+    size_t pc = 0;
+    int index = 0;
+    while (pc < n) {
+        const ShadingOp op = ShadingOp(p.code[pc]);
+        const int argc = argument_count(op);
+        const std::string where = "program: instruction " + std::to_string(index) + " (code[" + std::to_string(pc) + "])";
+        if (argc < 0) throw std::invalid_argument(where + ": unknown opcode " + std::to_string(p.code[pc]));
+        if (pc + 1 + size_t(argc) > n) throw std::invalid_argument(where + ": truncated");
+        const int32_t* a = &p.code[pc + 1];
+        auto read = [&](int32_t slot, int width, const char* what) {
+            if (slot < 0 || slot + width > p.register_count)
+                throw std::invalid_argument(where + ": " + what + " reads register " + std::to_string(slot) +
+                                            " outside 0.." + std::to_string(p.register_count - 1));
+        };
+        auto write = [&](int32_t slot, int width, const char* what) {
+            if (slot < n_const || slot + width > p.register_count)
+                throw std::invalid_argument(where + ": " + what + " writes register " + std::to_string(slot) +
+                                            "; allowed " + std::to_string(n_const) + ".." +
+                                            std::to_string(p.register_count - width) + " (constants are read-only)");
+        };
+        auto in_range = [&](int32_t v, int32_t lo, int32_t hi, const char* what) {
+            if (v < lo || v > hi)
+                throw std::invalid_argument(where + ": " + what + " " + std::to_string(v) + " outside " +
+                                            std::to_string(lo) + ".." + std::to_string(hi));
+        };
+        switch (op) {
+            case ShadingOp::Math:
+                in_range(a[0], 0, int32_t(MathType::Count) - 1, "math type");
+                write(a[2], 1, "out");
+                read(a[3], 1, "a"); read(a[4], 1, "b"); read(a[5], 1, "c");
+                break;
+            case ShadingOp::MapRange:
+                in_range(a[0], 0, 3, "map range type");
+                write(a[2], 1, "out");
+                for (int k = 3; k < 9; ++k) read(a[k], 1, "input");
+                break;
+            case ShadingOp::Clamp:
+                in_range(a[0], 0, 1, "clamp type");
+                write(a[1], 1, "out");
+                read(a[2], 1, "value"); read(a[3], 1, "min"); read(a[4], 1, "max");
+                break;
+            case ShadingOp::ColorRamp:
+                in_range(a[2], 2, 1 << 16, "ramp table size");
+                if (a[1] < 0 || a[1] + 4 * a[2] > n_const)
+                    throw std::invalid_argument(where + ": ramp table outside the constants");
+                write(a[3], 3, "out color"); write(a[4], 1, "out alpha"); read(a[5], 1, "fac");
+                break;
+            case ShadingOp::MixColor:
+                in_range(a[0], 0, int32_t(MixBlend::Count) - 1, "blend type");
+                in_range(a[1], 0, 3, "flags");
+                write(a[2], 3, "out"); read(a[3], 1, "fac"); read(a[4], 3, "a"); read(a[5], 3, "b");
+                break;
+            case ShadingOp::MixFloat:
+                write(a[1], 1, "out"); read(a[2], 1, "fac"); read(a[3], 1, "a"); read(a[4], 1, "b");
+                break;
+            case ShadingOp::MixVector:
+                write(a[2], 3, "out"); read(a[3], a[0] ? 3 : 1, "fac"); read(a[4], 3, "a"); read(a[5], 3, "b");
+                break;
+            case ShadingOp::Invert:
+                write(a[0], 3, "out"); read(a[1], 1, "fac"); read(a[2], 3, "color");
+                break;
+            case ShadingOp::Gamma:
+                write(a[0], 3, "out"); read(a[1], 3, "color"); read(a[2], 1, "gamma");
+                break;
+            case ShadingOp::BrightContrast:
+                write(a[0], 3, "out"); read(a[1], 3, "color"); read(a[2], 1, "bright"); read(a[3], 1, "contrast");
+                break;
+            case ShadingOp::Copy: write(a[0], 1, "out"); read(a[1], 1, "in"); break;
+            case ShadingOp::Luminance: write(a[0], 1, "out"); read(a[1], 3, "color"); read(a[2], 3, "weights"); break;
+            case ShadingOp::Average: write(a[0], 1, "out"); read(a[1], 3, "vector"); break;
+            case ShadingOp::HairInfo: in_range(a[0], 0, 3, "hair info output"); write(a[1], 1, "out"); break;
+            case ShadingOp::Attribute:
+                in_range(a[0], 0, attribute_count - 1, "attribute index");
+                write(a[1], 5, "out");
+                break;
+        }
+        pc += 1 + size_t(argc);
+        ++index;
+    }
+}
+
+void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r) {
+    const size_t n_const = p.constants.size();
+    std::copy(p.constants.begin(), p.constants.end(), r);
+    std::fill(r + n_const, r + p.register_count, 0.0f);
+    const int32_t* code = p.code.data();
+    const size_t n = p.code.size();
+    size_t pc = 0;
+    while (pc < n) {
+        const ShadingOp op = ShadingOp(code[pc]);
+        const int32_t* a = code + pc + 1;
+        switch (op) {
+            case ShadingOp::Math: {
+                float v = shading_math(MathType(a[0]), r[a[3]], r[a[4]], r[a[5]]);
+                r[a[2]] = a[1] ? saturate(v) : v;
+                break;
+            }
+            case ShadingOp::MapRange: {
+                float v = shading_map_range(MapRangeType(a[0]), r[a[3]], r[a[4]], r[a[5]], r[a[6]], r[a[7]], r[a[8]]);
+                if (a[1]) {  // Cycles appends a Clamp node (range mode) to a clamped Map Range
+                    const float lo = r[a[6]], hi = r[a[7]];
+                    v = lo > hi ? clampf(v, hi, lo) : clampf(v, lo, hi);
+                }
+                r[a[2]] = v;
+                break;
+            }
+            case ShadingOp::Clamp: {
+                const float v = r[a[2]], lo = r[a[3]], hi = r[a[4]];
+                r[a[1]] = (a[0] == 1 && lo > hi) ? clampf(v, hi, lo) : clampf(v, lo, hi);
+                break;
+            }
+            case ShadingOp::ColorRamp: {
+                float rgba[4];
+                ramp_lookup(p.constants.data() + a[1], a[2], a[0] != 0, r[a[5]], rgba);
+                r[a[3]] = rgba[0];
+                r[a[3] + 1] = rgba[1];
+                r[a[3] + 2] = rgba[2];
+                r[a[4]] = rgba[3];
+                break;
+            }
+            case ShadingOp::MixColor: {
+                float t = r[a[3]];
+                if (a[1] & 1) t = saturate(t);
+                float out[3];
+                shading_mix(MixBlend(a[0]), t, r + a[4], r + a[5], out);
+                for (int i = 0; i < 3; ++i) r[a[2] + i] = (a[1] & 2) ? saturate(out[i]) : out[i];
+                break;
+            }
+            case ShadingOp::MixFloat: {
+                float t = r[a[2]];
+                if (a[0]) t = saturate(t);
+                r[a[1]] = r[a[3]] * (1.0f - t) + r[a[4]] * t;
+                break;
+            }
+            case ShadingOp::MixVector: {
+                float out[3];
+                for (int i = 0; i < 3; ++i) {
+                    float t = r[a[3] + (a[0] ? i : 0)];
+                    if (a[1]) t = saturate(t);
+                    out[i] = r[a[4] + i] * (1.0f - t) + r[a[5] + i] * t;
+                }
+                for (int i = 0; i < 3; ++i) r[a[2] + i] = out[i];
+                break;
+            }
+            case ShadingOp::Invert: {
+                const float f = r[a[1]];
+                float out[3];
+                for (int i = 0; i < 3; ++i) out[i] = lerp(r[a[2] + i], 1.0f - r[a[2] + i], f);
+                for (int i = 0; i < 3; ++i) r[a[0] + i] = out[i];
+                break;
+            }
+            case ShadingOp::Gamma: {
+                const float g = r[a[2]];
+                float out[3];
+                for (int i = 0; i < 3; ++i) {
+                    const float c = r[a[1] + i];
+                    out[i] = g == 0.0f ? 1.0f : (c > 0.0f ? std::pow(c, g) : c);
+                }
+                for (int i = 0; i < 3; ++i) r[a[0] + i] = out[i];
+                break;
+            }
+            case ShadingOp::BrightContrast: {
+                const float contrast = r[a[3]];
+                const float scale = 1.0f + contrast, shift = r[a[2]] - contrast * 0.5f;
+                float out[3];
+                for (int i = 0; i < 3; ++i) out[i] = std::max(scale * r[a[1] + i] + shift, 0.0f);
+                for (int i = 0; i < 3; ++i) r[a[0] + i] = out[i];
+                break;
+            }
+            case ShadingOp::Copy: r[a[0]] = r[a[1]]; break;
+            case ShadingOp::Luminance:
+                r[a[0]] = r[a[2]] * r[a[1]] + r[a[2] + 1] * r[a[1] + 1] + r[a[2] + 2] * r[a[1] + 2];
+                break;
+            case ShadingOp::Average: r[a[0]] = (r[a[1]] + r[a[1] + 1] + r[a[1] + 2]) * (1.0f / 3.0f); break;
+            case ShadingOp::HairInfo: {
+                const float values[4] = {ctx.random, ctx.intercept, ctx.length, ctx.is_strand};
+                r[a[1]] = values[a[0]];
+                break;
+            }
+            case ShadingOp::Attribute: {
+                float rgba[4] = {0, 0, 0, 0};
+                if (ctx.attributes && a[0] < ctx.attribute_count)
+                    for (int i = 0; i < 4; ++i) rgba[i] = ctx.attributes[4 * a[0] + i];
+                r[a[1]] = rgba[0];
+                r[a[1] + 1] = rgba[1];
+                r[a[1] + 2] = rgba[2];
+                r[a[1] + 3] = (rgba[0] + rgba[1] + rgba[2]) * (1.0f / 3.0f);
+                r[a[1] + 4] = rgba[3];
+                break;
+            }
+        }
+        pc += 1 + size_t(argument_count(op));
+    }
+}
+
+}  // namespace hairbsdf::render

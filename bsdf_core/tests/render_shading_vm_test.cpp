@@ -1,0 +1,274 @@
+// The shading VM (render/shading_vm.h): each op against values worked out by hand from Cycles'
+// node definitions, program validation, and the per-hit context.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "hairbsdf/render/shading_vm.h"
+
+using namespace hairbsdf::render;
+
+namespace {
+
+int32_t op(ShadingOp o) { return int32_t(o); }
+
+// A program whose constants are `constants`, with `extra` writable registers after them.
+ShadingProgram make_program(std::vector<float> constants, std::vector<int32_t> code, int extra) {
+    ShadingProgram p;
+    p.constants = std::move(constants);
+    p.code = std::move(code);
+    p.register_count = int32_t(p.constants.size()) + extra;
+    return p;
+}
+
+std::vector<float> run(const ShadingProgram& p, const ShadingHitContext& ctx = {}) {
+    validate_program(p, ctx.attribute_count);
+    std::vector<float> r(size_t(p.register_count), -99.0f);
+    run_program(p, ctx, r.data());
+    return r;
+}
+
+float math(MathType t, float a, float b = 0.0f, float c = 0.0f) { return shading_math(t, a, b, c); }
+
+}  // namespace
+
+TEST(ShadingVm, MathSafeOperations) {
+    EXPECT_EQ(math(MathType::Divide, 3.0f, 0.0f), 0.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Divide, 3.0f, 4.0f), 0.75f);
+    EXPECT_EQ(math(MathType::Power, -2.0f, 0.5f), 0.0f);  // negative base, fractional exponent
+    EXPECT_FLOAT_EQ(math(MathType::Power, -2.0f, 3.0f), -8.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Logarithm, 8.0f, 2.0f), 3.0f);
+    EXPECT_EQ(math(MathType::Logarithm, -8.0f, 2.0f), 0.0f);
+    EXPECT_EQ(math(MathType::Sqrt, -4.0f), 0.0f);
+    EXPECT_FLOAT_EQ(math(MathType::InvSqrt, 4.0f), 0.5f);
+    EXPECT_EQ(math(MathType::InvSqrt, 0.0f), 0.0f);
+    EXPECT_EQ(math(MathType::Arcsine, 2.0f), std::asin(1.0f));  // clamped to [-1, 1]
+    EXPECT_EQ(math(MathType::Arctan2, 0.0f, 0.0f), 0.0f);
+    EXPECT_EQ(math(MathType::Sign, 0.0f), 0.0f);
+    EXPECT_EQ(math(MathType::Sign, -3.0f), -1.0f);
+}
+
+TEST(ShadingVm, MathRoundingAndPeriodic) {
+    EXPECT_EQ(math(MathType::Round, -2.5f), -2.0f);  // floor(a + 0.5)
+    EXPECT_EQ(math(MathType::Trunc, -2.7f), -2.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Fraction, -0.25f), 0.75f);
+    EXPECT_FLOAT_EQ(math(MathType::Modulo, -1.0f, 3.0f), -1.0f);        // fmod: sign of a
+    EXPECT_FLOAT_EQ(math(MathType::FlooredModulo, -1.0f, 3.0f), 2.0f);  // sign of b
+    EXPECT_EQ(math(MathType::Modulo, 1.0f, 0.0f), 0.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Snap, 7.0f, 3.0f), 6.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Wrap, 5.0f, 3.0f, 1.0f), 1.0f);  // into [1, 3)
+    EXPECT_FLOAT_EQ(math(MathType::Wrap, 5.0f, 1.0f, 1.0f), 1.0f);  // empty range: min
+    EXPECT_FLOAT_EQ(math(MathType::PingPong, 5.0f, 2.0f), 1.0f);
+    EXPECT_FLOAT_EQ(math(MathType::PingPong, 3.0f, 2.0f), 1.0f);
+    EXPECT_EQ(math(MathType::PingPong, 3.0f, 0.0f), 0.0f);
+}
+
+TEST(ShadingVm, MathComparisonsAndSmooth) {
+    EXPECT_EQ(math(MathType::Compare, 1.0f, 1.05f, 0.1f), 1.0f);
+    EXPECT_EQ(math(MathType::Compare, 1.0f, 1.2f, 0.1f), 0.0f);
+    EXPECT_EQ(math(MathType::LessThan, 1.0f, 2.0f), 1.0f);
+    EXPECT_EQ(math(MathType::GreaterThan, 1.0f, 2.0f), 0.0f);
+    EXPECT_FLOAT_EQ(math(MathType::SmoothMin, 1.0f, 1.0f, 1.0f), 1.0f - 1.0f / 6.0f);
+    EXPECT_FLOAT_EQ(math(MathType::SmoothMax, 1.0f, 1.0f, 1.0f), 1.0f + 1.0f / 6.0f);
+    EXPECT_FLOAT_EQ(math(MathType::SmoothMin, 1.0f, 3.0f, 1.0f), 1.0f);  // farther apart than k
+    EXPECT_FLOAT_EQ(math(MathType::MultiplyAdd, 2.0f, 3.0f, 4.0f), 10.0f);
+    EXPECT_FLOAT_EQ(math(MathType::Degrees, 3.14159265f), 180.0f);
+}
+
+TEST(ShadingVm, MathClampFlag) {
+    // r2 = clamp(0.7 + 0.6), r3 = 0.7 + 0.6 unclamped
+    const auto p = make_program({0.7f, 0.6f}, {op(ShadingOp::Math), 0, 1, 2, 0, 1, 0,  //
+                                               op(ShadingOp::Math), 0, 0, 3, 0, 1, 0},
+                                2);
+    const auto r = run(p);
+    EXPECT_EQ(r[2], 1.0f);
+    EXPECT_FLOAT_EQ(r[3], 1.3f);
+}
+
+TEST(ShadingVm, MapRangeTypes) {
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::Linear, 0.25f, 0, 1, 10, 20, 4), 12.5f);
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::Linear, 2.0f, 0, 1, 10, 20, 4), 30.0f);  // no clamp here
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::Stepped, 0.55f, 0, 1, 0, 1, 4), 0.5f);   // floor(2.75) / 4
+    EXPECT_EQ(shading_map_range(MapRangeType::Stepped, 0.55f, 0, 1, 0, 1, 0), 0.0f);
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::SmoothStep, 0.25f, 0, 1, 0, 1, 4), 0.15625f);
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::SmoothStep, 0.25f, 1, 0, 0, 1, 4), 0.84375f);  // reversed
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::SmootherStep, 0.25f, 0, 1, 0, 1, 4), 0.103515625f);
+    EXPECT_FLOAT_EQ(shading_map_range(MapRangeType::SmootherStep, 2.0f, 0, 1, 0, 1, 4), 1.0f);
+    EXPECT_EQ(shading_map_range(MapRangeType::Linear, 0.5f, 1, 1, 10, 20, 4), 0.0f);  // empty from-range
+}
+
+TEST(ShadingVm, MapRangeClampInProgram) {
+    // constants: value 2, from 0..1, to 10..0 (reversed), steps 4; clamped and unclamped
+    const auto p = make_program({2.0f, 0.0f, 1.0f, 10.0f, 0.0f, 4.0f},
+                                {op(ShadingOp::MapRange), 0, 1, 6, 0, 1, 2, 3, 4, 5,  //
+                                 op(ShadingOp::MapRange), 0, 0, 7, 0, 1, 2, 3, 4, 5},
+                                2);
+    const auto r = run(p);
+    EXPECT_EQ(r[6], 0.0f);  // -10 clamped into [0, 10]
+    EXPECT_FLOAT_EQ(r[7], -10.0f);
+}
+
+TEST(ShadingVm, ClampModes) {
+    // value 5, min 3, max 1: min-max gives max(min(...)) = 1, range swaps to [1, 3] -> 3
+    const auto p = make_program({5.0f, 3.0f, 1.0f},
+                                {op(ShadingOp::Clamp), 0, 3, 0, 1, 2, op(ShadingOp::Clamp), 1, 4, 0, 1, 2}, 2);
+    const auto r = run(p);
+    EXPECT_EQ(r[3], 1.0f);
+    EXPECT_EQ(r[4], 3.0f);
+}
+
+TEST(ShadingVm, MixBlendModes) {
+    const float a[3] = {0.25f, 0.75f, 0.5f}, b[3] = {0.5f, 0.25f, 0.0f};
+    float out[3];
+    auto mix = [&](MixBlend blend, float t) {
+        shading_mix(blend, t, a, b, out);
+        return std::vector<float>(out, out + 3);
+    };
+    auto expect3 = [](std::vector<float> got, float x, float y, float z) {
+        EXPECT_FLOAT_EQ(got[0], x);
+        EXPECT_FLOAT_EQ(got[1], y);
+        EXPECT_FLOAT_EQ(got[2], z);
+    };
+    expect3(mix(MixBlend::Mix, 0.5f), 0.375f, 0.5f, 0.25f);
+    expect3(mix(MixBlend::Add, 0.5f), 0.5f, 0.875f, 0.5f);
+    expect3(mix(MixBlend::Multiply, 1.0f), 0.125f, 0.1875f, 0.0f);
+    expect3(mix(MixBlend::Subtract, 1.0f), -0.25f, 0.5f, 0.5f);
+    expect3(mix(MixBlend::Screen, 1.0f), 1 - 0.5f * 0.75f, 1 - 0.75f * 0.25f, 0.5f);
+    expect3(mix(MixBlend::Divide, 1.0f), 0.5f, 3.0f, 0.5f);  // division by 0 keeps a
+    expect3(mix(MixBlend::Difference, 1.0f), 0.25f, 0.5f, 0.5f);
+    expect3(mix(MixBlend::Darken, 1.0f), 0.25f, 0.25f, 0.0f);
+    expect3(mix(MixBlend::Lighten, 1.0f), 0.5f, 0.75f, 0.5f);
+    // overlay: a < 0.5 -> a (1 - t + 2 t b); else 1 - (1 - t + 2 t (1 - b)) (1 - a)
+    expect3(mix(MixBlend::Overlay, 1.0f), 0.25f, 1 - 1.5f * 0.25f, 1 - 2.0f * 0.5f);
+    expect3(mix(MixBlend::LinearLight, 1.0f), 0.25f, 0.25f, -0.5f);
+    expect3(mix(MixBlend::Exclusion, 1.0f), 0.5f, 0.625f, 0.5f);
+}
+
+TEST(ShadingVm, MixFactorAndResultClamp) {
+    // constants: fac 2, a = (0.5, 0.5, 0.5), b = (1, 1, 1); ADD blend
+    const std::vector<float> k = {2.0f, 0.5f, 0.5f, 0.5f, 1.0f, 1.0f, 1.0f};
+    const int add = int(MixBlend::Add);
+    const auto p = make_program(k,
+                                {op(ShadingOp::MixColor), add, 0, 7, 0, 1, 4,    // no clamps: 0.5 + 2 x 1
+                                 op(ShadingOp::MixColor), add, 1, 10, 0, 1, 4,   // factor clamp: 0.5 + 1
+                                 op(ShadingOp::MixColor), add, 3, 13, 0, 1, 4},  // and result clamp
+                                9);
+    const auto r = run(p);
+    EXPECT_FLOAT_EQ(r[7], 2.5f);
+    EXPECT_FLOAT_EQ(r[10], 1.5f);
+    EXPECT_EQ(r[13], 1.0f);
+}
+
+TEST(ShadingVm, MixFloatAndVector) {
+    // fac 0.25, a 2, b 6 -> 3; vector non-uniform fac (0, 0.5, 1) between (0,0,0) and (4,4,4)
+    const auto p = make_program({0.25f, 2.0f, 6.0f, 0.0f, 0.5f, 1.0f, 0.0f, 0.0f, 0.0f, 4.0f, 4.0f, 4.0f},
+                                {op(ShadingOp::MixFloat), 1, 12, 0, 1, 2,  //
+                                 op(ShadingOp::MixVector), 1, 1, 13, 3, 6, 9},
+                                4);
+    const auto r = run(p);
+    EXPECT_FLOAT_EQ(r[12], 3.0f);
+    EXPECT_FLOAT_EQ(r[13], 0.0f);
+    EXPECT_FLOAT_EQ(r[14], 2.0f);
+    EXPECT_FLOAT_EQ(r[15], 4.0f);
+}
+
+TEST(ShadingVm, ColorRampTableLookup) {
+    // a 3-entry table: black, (1, 2, 3, 1), (2, 2, 2, 0.5); fac in register 12
+    std::vector<float> k = {0, 0, 0, 0, 1, 2, 3, 1, 2, 2, 2, 0.5f, 0.25f, 1.5f};
+    const auto p = make_program(k,
+                                {op(ShadingOp::ColorRamp), 1, 0, 3, 14, 17, 12,  // linear at 0.25: half way to entry 1
+                                 op(ShadingOp::ColorRamp), 0, 0, 3, 18, 21, 12,  // constant: entry 0
+                                 op(ShadingOp::ColorRamp), 1, 0, 3, 22, 25, 13},  // fac > 1: last entry
+                                12);
+    const auto r = run(p);
+    EXPECT_FLOAT_EQ(r[14], 0.5f);
+    EXPECT_FLOAT_EQ(r[15], 1.0f);
+    EXPECT_FLOAT_EQ(r[16], 1.5f);
+    EXPECT_FLOAT_EQ(r[17], 0.5f);
+    EXPECT_EQ(r[18], 0.0f);
+    EXPECT_EQ(r[21], 0.0f);
+    EXPECT_EQ(r[22], 2.0f);
+    EXPECT_EQ(r[25], 0.5f);
+}
+
+TEST(ShadingVm, ColourAdjustments) {
+    // colour (0.25, -1, 0.5), gamma 2, fac 0.5, bright 0.1, contrast 0.2, zero
+    const auto p = make_program({0.25f, -1.0f, 0.5f, 2.0f, 0.5f, 0.1f, 0.2f, 0.0f},
+                                {op(ShadingOp::Gamma), 8, 0, 3,                 // pow where > 0
+                                 op(ShadingOp::Gamma), 11, 0, 7,                // gamma 0 -> white
+                                 op(ShadingOp::Invert), 14, 4, 0,               // half way to 1 - c
+                                 op(ShadingOp::BrightContrast), 17, 0, 5, 6},  // max(1.2 c + 0, 0)
+                                12);
+    const auto r = run(p);
+    EXPECT_FLOAT_EQ(r[8], 0.0625f);
+    EXPECT_EQ(r[9], -1.0f);
+    EXPECT_FLOAT_EQ(r[10], 0.25f);
+    EXPECT_EQ(r[11], 1.0f);
+    EXPECT_EQ(r[13], 1.0f);
+    EXPECT_FLOAT_EQ(r[14], 0.5f);
+    EXPECT_FLOAT_EQ(r[15], 0.5f);
+    EXPECT_FLOAT_EQ(r[17], 0.3f);
+    EXPECT_EQ(r[18], 0.0f);
+    EXPECT_FLOAT_EQ(r[19], 0.6f);
+}
+
+TEST(ShadingVm, ConversionsHairInfoAndAttributes) {
+    // weights (0.2, 0.7, 0.1) at 0; colour (1, 2, 3) at 3
+    const auto p = make_program({0.2f, 0.7f, 0.1f, 1.0f, 2.0f, 3.0f},
+                                {op(ShadingOp::Luminance), 6, 3, 0, op(ShadingOp::Average), 7, 3,
+                                 op(ShadingOp::HairInfo), 0, 8, op(ShadingOp::HairInfo), 1, 9,
+                                 op(ShadingOp::HairInfo), 2, 10, op(ShadingOp::HairInfo), 3, 11,
+                                 op(ShadingOp::Attribute), 1, 12, op(ShadingOp::Copy), 17, 9},
+                                12);
+    const float attributes[8] = {9, 9, 9, 9, 0.3f, 0.6f, 0.9f, 0.5f};
+    ShadingHitContext ctx;
+    ctx.random = 0.125f;
+    ctx.intercept = 0.75f;
+    ctx.length = 2.5f;
+    ctx.is_strand = 1.0f;
+    ctx.attributes = attributes;
+    ctx.attribute_count = 2;
+    const auto r = run(p, ctx);
+    EXPECT_FLOAT_EQ(r[6], 0.2f + 1.4f + 0.3f);
+    EXPECT_FLOAT_EQ(r[7], 2.0f);
+    EXPECT_EQ(r[8], 0.125f);
+    EXPECT_EQ(r[9], 0.75f);
+    EXPECT_EQ(r[10], 2.5f);
+    EXPECT_EQ(r[11], 1.0f);
+    EXPECT_FLOAT_EQ(r[12], 0.3f);
+    EXPECT_FLOAT_EQ(r[14], 0.9f);
+    EXPECT_FLOAT_EQ(r[15], 0.6f);  // Fac: the average
+    EXPECT_FLOAT_EQ(r[16], 0.5f);  // Alpha
+    EXPECT_EQ(r[17], 0.75f);
+    // Registers after the constants start at 0 on every run.
+    const auto q = make_program({1.0f}, {}, 2);
+    const auto z = run(q);
+    EXPECT_EQ(z[1], 0.0f);
+    EXPECT_EQ(z[2], 0.0f);
+}
+
+TEST(ShadingVm, ValidationNamesTheProblem) {
+    auto message = [](const ShadingProgram& p, int attributes = 0) -> std::string {
+        try {
+            validate_program(p, attributes);
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    EXPECT_NE(message(make_program({1.0f}, {op(ShadingOp::Copy), 0, 0}, 1)).find("constants are read-only"),
+              std::string::npos);
+    EXPECT_NE(message(make_program({1.0f}, {99, 0, 0}, 1)).find("unknown opcode 99"), std::string::npos);
+    EXPECT_NE(message(make_program({1.0f}, {op(ShadingOp::Math), 0, 0, 1, 0, 0}, 1)).find("truncated"),
+              std::string::npos);
+    EXPECT_NE(message(make_program({1.0f}, {op(ShadingOp::Copy), 1, 7}, 1)).find("reads register 7"),
+              std::string::npos);
+    EXPECT_NE(message(make_program({1.0f}, {op(ShadingOp::Math), 77, 0, 1, 0, 0, 0}, 1)).find("math type 77"),
+              std::string::npos);
+    EXPECT_NE(message(make_program({}, {op(ShadingOp::Attribute), 2, 0}, 5), 2).find("attribute index 2"),
+              std::string::npos);
+    EXPECT_NE(message(make_program({0, 0, 0, 0}, {op(ShadingOp::ColorRamp), 1, 0, 2, 4, 7, 0}, 5)).find("ramp table"),
+              std::string::npos);
+    EXPECT_EQ(message(make_program({1.0f}, {op(ShadingOp::Copy), 1, 0}, 1)), "");
+}

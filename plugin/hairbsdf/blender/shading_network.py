@@ -1,0 +1,555 @@
+"""The shading-network compiler: the node tree feeding a material's closure inputs -> a small
+program for the renderer's shading VM (bsdf_core/include/hairbsdf/render/shading_vm.h,
+docs/shading_vm.md).
+
+Each closure input is compiled by walking the links backwards from its socket; every node
+output becomes registers written by one or a few VM instructions. `finish()` then folds what
+does not depend on the hit: the whole program is run once by the VM itself (so folding and
+rendering share one implementation of every op), inputs whose value is known become plain
+numbers again, and a material whose inputs are all constant gets no program at all (the
+renderer's fast path). Unsupported nodes are reported with a warning naming them, and the
+socket's own default value is used, as the exporter always did.
+
+Supported: Value, RGB, Hair Info (Random, Intercept, Length, Is Strand), Attribute (Geometry),
+Math, Map Range (float), Clamp, ColorRamp, Mix (float, vector, colour) and legacy MixRGB,
+Separate / Combine RGB, XYZ and Color (RGB mode), Invert, Gamma, Brightness/Contrast, reroutes
+and muted nodes (their internal links). Socket conversions follow Cycles: colour -> float is the
+luminance, vector -> float the average, float -> colour / vector (f, f, f).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._common import REC709_Y, rgb
+
+# Opcodes and enum values of shading_vm.h (ShadingOp, MathType, MapRangeType, MixBlend).
+OP_MATH, OP_MAP_RANGE, OP_CLAMP, OP_COLOR_RAMP, OP_MIX_COLOR, OP_MIX_FLOAT, OP_MIX_VECTOR = 1, 2, 3, 4, 5, 6, 7
+OP_INVERT, OP_GAMMA, OP_BRIGHT_CONTRAST, OP_COPY, OP_LUMINANCE, OP_AVERAGE = 8, 9, 10, 11, 12, 13
+OP_HAIR_INFO, OP_ATTRIBUTE = 14, 15
+
+MATH_TYPES = {
+    "ADD": 0, "SUBTRACT": 1, "MULTIPLY": 2, "DIVIDE": 3, "SINE": 4, "COSINE": 5, "TANGENT": 6, "ARCSINE": 7,
+    "ARCCOSINE": 8, "ARCTANGENT": 9, "POWER": 10, "LOGARITHM": 11, "MINIMUM": 12, "MAXIMUM": 13, "ROUND": 14,
+    "LESS_THAN": 15, "GREATER_THAN": 16, "MODULO": 17, "ABSOLUTE": 18, "ARCTAN2": 19, "FLOOR": 20, "CEIL": 21,
+    "FRACT": 22, "SQRT": 23, "INVERSE_SQRT": 24, "SIGN": 25, "EXPONENT": 26, "RADIANS": 27, "DEGREES": 28,
+    "SINH": 29, "COSH": 30, "TANH": 31, "TRUNC": 32, "SNAP": 33, "WRAP": 34, "PINGPONG": 35, "MULTIPLY_ADD": 36,
+    "COMPARE": 37, "SMOOTH_MIN": 38, "SMOOTH_MAX": 39, "FLOORED_MODULO": 40,
+}
+MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
+MIX_BLENDS = {
+    "MIX": 0, "ADD": 1, "MULTIPLY": 2, "SUBTRACT": 3, "SCREEN": 4, "DIVIDE": 5, "DIFFERENCE": 6, "DARKEN": 7,
+    "LIGHTEN": 8, "OVERLAY": 9, "DODGE": 10, "BURN": 11, "HUE": 12, "SATURATION": 13, "VALUE": 14, "COLOR": 15,
+    "SOFT_LIGHT": 16, "LINEAR_LIGHT": 17, "EXCLUSION": 18,
+}
+HAIR_INFO_OUTPUTS = {"Random": 0, "Intercept": 1, "Length": 2, "Is Strand": 3}
+RAMP_TABLE_SIZE = 256  # Cycles bakes a ColorRamp into 256 RGBA entries (RAMP_TABLE_SIZE)
+MAX_DEPTH = 64
+
+
+@dataclass(frozen=True)
+class Reg:
+    """A register: kind 'k' (constant slot) or 't' (temporary, placed after the constants)."""
+    kind: str
+    index: int
+
+
+@dataclass(frozen=True)
+class Value:
+    """A compiled socket value: `width` (1 float, 3 colour / vector) registers from `reg`."""
+    reg: Reg
+    width: int
+
+
+@dataclass
+class _Instruction:
+    words: list          # opcode, then ints and Regs
+    reads: list          # (word position, width)
+    writes: list         # (word position, width)
+    dynamic: bool = False
+
+
+def _width(socket_type: str) -> int:
+    return 3 if socket_type in ("RGBA", "VECTOR") else 1
+
+
+def _kind_of(socket_type: str) -> str:
+    return {"RGBA": "color", "VECTOR": "vector"}.get(socket_type, "float")
+
+
+class AttributeTable:
+    """Scene-wide list of the named curve attributes programs read (index = VM attribute index)."""
+
+    def __init__(self):
+        self.names: list[str] = []
+
+    def index(self, name: str) -> int:
+        if name not in self.names:
+            self.names.append(name)
+        return self.names.index(name)
+
+
+class ShadingNetwork:
+    """One material's program under construction. `warn(msg)` reports a problem."""
+
+    def __init__(self, attributes: AttributeTable, warn, link_source):
+        self.attributes = attributes
+        self.warn = warn
+        self.link_source = link_source  # (socket) -> (node, output socket) or None
+        self.constants: list[float] = []
+        self._constant_slots: dict = {}
+        self.instructions: list[_Instruction] = []
+        self.temps = 0
+        self._outputs: dict = {}      # (node pointer, output identifier) -> Value
+        self._dynamic: set = set()    # temp indices written by hit-dependent instructions
+        self.uses_intercept = False
+        self.attribute_names: set = set()
+
+    # ------------------------------------------------------------------ registers
+    def constant(self, values) -> Value:
+        values = tuple(float(np.float32(v)) for v in values)
+        slot = self._constant_slots.get(values)
+        if slot is None:
+            slot = len(self.constants)
+            self.constants.extend(values)
+            self._constant_slots[values] = slot
+        return Value(Reg("k", slot), len(values))
+
+    def _temp(self, n: int) -> Reg:
+        reg = Reg("t", self.temps)
+        self.temps += n
+        return reg
+
+    def _emit(self, opcode, args, reads, writes, dynamic=False):
+        """args: ints and Regs after the opcode; reads / writes: (argument index, width)."""
+        ins = _Instruction([opcode] + list(args), [(i + 1, w) for i, w in reads], [(i + 1, w) for i, w in writes])
+        ins.dynamic = dynamic or any(self._is_dynamic(ins.words[p], w) for p, w in ins.reads)
+        if ins.dynamic:
+            for p, w in ins.writes:
+                self._dynamic.update(range(ins.words[p].index, ins.words[p].index + w))
+        self.instructions.append(ins)
+
+    def _is_dynamic(self, reg, width=1) -> bool:
+        return reg.kind == "t" and any(i in self._dynamic for i in range(reg.index, reg.index + width))
+
+    def is_dynamic(self, value: Value) -> bool:
+        return self._is_dynamic(value.reg, value.width)
+
+    def component(self, value: Value, i: int) -> Value:
+        return Value(Reg(value.reg.kind, value.reg.index + i), 1)
+
+    # ------------------------------------------------------------------ conversions
+    def convert(self, value: Value, src_type: str, kind: str) -> Value:
+        """Cycles' implicit socket conversion from an output of `src_type` to `kind`."""
+        if kind == "float":
+            if value.width == 1:
+                return value
+            out = self._temp(1)
+            if src_type == "RGBA":
+                weights = self.constant(REC709_Y)
+                self._emit(OP_LUMINANCE, [out, value.reg, weights.reg], [(1, 3), (2, 3)], [(0, 1)])
+            else:
+                self._emit(OP_AVERAGE, [out, value.reg], [(1, 3)], [(0, 1)])
+            return Value(out, 1)
+        if value.width == 3:
+            return value
+        return self.gather([value, value, value])
+
+    def gather(self, parts) -> Value:
+        """Three single floats -> one 3-wide value (constant when all three are)."""
+        if all(p.reg.kind == "k" for p in parts):
+            return self.constant([self.constants[p.reg.index] for p in parts])
+        out = self._temp(3)
+        dynamic = any(self.is_dynamic(p) for p in parts)  # all three or none: one block
+        for i, p in enumerate(parts):
+            self._emit(OP_COPY, [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)], dynamic=dynamic)
+        return Value(out, 3)
+
+    # ------------------------------------------------------------------ sockets
+    def input(self, node, socket, kind: str, depth=0) -> Value:
+        """The value reaching input `socket` of `node`, as `kind` ('float' | 'color' | 'vector')."""
+        default = self.socket_default(socket, kind)
+        src = self.link_source(socket)
+        if src is None or not getattr(socket, "enabled", True):
+            return default
+        snode, sout = src
+        value = self.output(snode, sout, depth + 1, node, socket)
+        if value is None:
+            return default
+        return self.convert(value, sout.type, kind)
+
+    def socket_default(self, socket, kind: str) -> Value:
+        dv = getattr(socket, "default_value", None)
+        if dv is None:
+            return self.constant((0.0,) if kind == "float" else (0.0, 0.0, 0.0))
+        try:
+            f = float(dv)
+            return self.constant((f,) if kind == "float" else (f, f, f))
+        except TypeError:
+            c = rgb(dv)
+            if kind == "float":
+                if getattr(socket, "type", "") == "VECTOR":
+                    return self.constant((sum(c) / 3.0,))
+                return self.constant((sum(a * b for a, b in zip(c, REC709_Y)),))
+            return self.constant(c)
+
+    def output(self, node, out, depth, consumer, consumer_socket):
+        """The Value of output `out` of `node`, or None (unsupported: warned)."""
+        key = (node.as_pointer(), out.identifier)
+        if key in self._outputs:
+            return self._outputs[key]
+        if depth > MAX_DEPTH:
+            self.warn(f"node network too deep at '{node.name}'; using the socket value")
+            return None
+        if node.mute:
+            value = self._muted(node, out, depth)
+        else:
+            compile_node = _NODES.get(node.bl_idname)
+            value = compile_node(self, node, out, depth) if compile_node else None
+            if compile_node is None or value is _UNSUPPORTED:
+                detail = "" if compile_node is None else f" (its {_setting(node)})"
+                self.warn(f"'{consumer.name}' > '{consumer_socket.name}' is driven by '{node.name}' "
+                          f"({_label(node)} > {out.name}){detail}, which hairbsdf does not evaluate; "
+                          "using the socket value")
+                value = None
+        self._outputs[key] = value
+        return value
+
+    def _muted(self, node, out, depth):
+        for link in getattr(node, "internal_links", []):
+            if link.to_socket.identifier == out.identifier:
+                return self.input(node, link.from_socket, _kind_of(out.type), depth)
+        return self.constant((0.0,) * _width(out.type))
+
+    # ------------------------------------------------------------------ folding
+    def finish(self, inputs) -> dict | None:
+        """Resolves `inputs`: a list of (container, key, Value, kind). Constant values are written
+        into the container as numbers / tuples, hit-dependent ones as {"register": slot}.
+        Returns the program dict of docs/scene_desc.md, or None when nothing depends on the hit."""
+        values = self._evaluate()
+        dynamic_inputs = []
+        for container, key, value, kind in inputs:
+            if self.is_dynamic(value):
+                dynamic_inputs.append((container, key, value))
+            else:
+                v = [float(x) for x in self._read(values, value)]
+                container[key] = v[0] if value.width == 1 else tuple(v)
+        if not dynamic_inputs:
+            return None
+        program = self._relocate(values, [v for _, _, v in dynamic_inputs])
+        for container, key, value in dynamic_inputs:
+            container[key] = {"register": program["_slot"](value.reg)}
+        del program["_slot"]
+        return program
+
+    def _evaluate(self) -> np.ndarray:
+        """Every register's value with a zero hit context (exact for the constant ones)."""
+        if not self.instructions:
+            return np.asarray(self.constants, np.float32)
+        from hairbsdf import _render
+        n_const = len(self.constants)
+        code = self._words(lambda r: r.index if r.kind == "k" else n_const + r.index, self.instructions)
+        prog = {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
+                "registers": n_const + self.temps}
+        n_attr = max(len(self.attributes.names), 1)
+        return _render.eval_program(prog, 0.0, 0.0, 0.0, 1.0, np.zeros((1, n_attr, 4), np.float32))[0]
+
+    def _read(self, values, value):
+        base = value.reg.index if value.reg.kind == "k" else len(self.constants) + value.reg.index
+        return values[base:base + value.width]
+
+    @staticmethod
+    def _words(slot_of, instructions):
+        out = []
+        for ins in instructions:
+            out.extend(slot_of(w) if isinstance(w, Reg) else int(w) for w in ins.words)
+        return out
+
+    def _relocate(self, values, needed) -> dict:
+        """The hit-dependent instructions that `needed` depends on, with every constant they read
+        (given or folded) in a fresh constant block."""
+        live = {i for v in needed for i in range(v.reg.index, v.reg.index + v.width) if v.reg.kind == "t"}
+        kept = []
+        for ins in reversed(self.instructions):
+            if not ins.dynamic:
+                continue
+            if not any(i in live for p, w in ins.writes for i in range(ins.words[p].index, ins.words[p].index + w)):
+                continue
+            kept.append(ins)
+            for p, w in ins.reads:
+                r = ins.words[p]
+                if self._is_dynamic(r, w):
+                    live.update(range(r.index, r.index + w))
+        kept.reverse()
+        # Constant blocks read by the kept code: given constants keep their block, folded temps
+        # get one; ramp tables (a constant index argument) are kept whole.
+        constants: list[float] = []
+        placed: dict = {}
+
+        def place(reg, width):
+            key = (reg.kind, reg.index, width)
+            if key not in placed:
+                placed[key] = len(constants)
+                constants.extend(float(x) for x in self._read(values, Value(reg, width)))
+            return placed[key]
+
+        const_map: dict = {}
+        for ins in kept:
+            for p, w in ins.reads:
+                r = ins.words[p]
+                if not self._is_dynamic(r, w):
+                    const_map[(id(ins), p)] = place(r, w)
+            if ins.words[0] == OP_COLOR_RAMP:
+                table, size = ins.words[2], ins.words[3]
+                const_map[(id(ins), 2)] = place(table, 4 * size)
+        temp_slots: dict = {}
+
+        def temp_slot(index):
+            return temp_slots.setdefault(index, len(temp_slots))
+
+        # Temporaries are renumbered densely; a multi-float write keeps its block contiguous.
+        for ins in kept:
+            for p, w in ins.writes:
+                for i in range(ins.words[p].index, ins.words[p].index + w):
+                    temp_slot(i)
+        n_const = len(constants)
+        code = []
+        for ins in kept:
+            for p, word in enumerate(ins.words):
+                if (id(ins), p) in const_map:
+                    code.append(const_map[(id(ins), p)])
+                elif isinstance(word, Reg):
+                    code.append(n_const + temp_slot(word.index))
+                else:
+                    code.append(int(word))
+        return {"code": np.asarray(code, np.int32), "constants": np.asarray(constants, np.float32),
+                "registers": n_const + len(temp_slots),
+                "_slot": lambda reg: n_const + temp_slot(reg.index)}
+
+
+_UNSUPPORTED = object()
+
+
+def _label(node):
+    return getattr(node, "bl_label", "") or node.bl_idname
+
+
+def _setting(node):
+    for prop in ("data_type", "mode", "attribute_type", "operation"):
+        if hasattr(node, prop):
+            return f"{prop} {getattr(node, prop)}"
+    return "settings"
+
+
+def _sock(node, identifier):
+    for s in node.inputs:
+        if s.identifier == identifier:
+            return s
+    return None
+
+
+def _in(net, node, identifier, kind, depth):
+    return net.input(node, _sock(node, identifier), kind, depth)
+
+
+# ---------------------------------------------------------------------------- nodes
+# Each returns the Value of output `out`, or _UNSUPPORTED.
+
+def _value_node(net, node, out, depth):
+    return net.constant((out.default_value,))
+
+
+def _rgb_node(net, node, out, depth):
+    return net.constant(rgb(out.default_value))
+
+
+def _hair_info(net, node, out, depth):
+    which = HAIR_INFO_OUTPUTS.get(out.identifier)
+    if which is None:
+        return _UNSUPPORTED
+    if which == HAIR_INFO_OUTPUTS["Intercept"]:
+        net.uses_intercept = True
+    reg = net._temp(1)
+    net._emit(OP_HAIR_INFO, [which, reg], [], [(1, 1)], dynamic=True)
+    return Value(reg, 1)
+
+
+def _attribute(net, node, out, depth):
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY" or not node.attribute_name:
+        return _UNSUPPORTED
+    key = (node.as_pointer(), "__block__")
+    block = net._outputs.get(key)
+    if block is None:
+        index = net.attributes.index(node.attribute_name)
+        net.attribute_names.add(node.attribute_name)
+        block = Value(net._temp(5), 5)
+        net._emit(OP_ATTRIBUTE, [index, block.reg], [], [(1, 5)], dynamic=True)
+        net._outputs[key] = block
+    offset, width = {"Color": (0, 3), "Vector": (0, 3), "Fac": (3, 1), "Alpha": (4, 1)}[out.identifier]
+    return Value(Reg("t", block.reg.index + offset), width)
+
+
+def _math(net, node, out, depth):
+    op = MATH_TYPES.get(node.operation)
+    if op is None:
+        return _UNSUPPORTED
+    a, b, c = (net.input(node, s, "float", depth) for s in list(node.inputs)[:3])
+    reg = net._temp(1)
+    net._emit(OP_MATH, [op, int(node.use_clamp), reg, a.reg, b.reg, c.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+    return Value(reg, 1)
+
+
+def _map_range(net, node, out, depth):
+    if getattr(node, "data_type", "FLOAT") != "FLOAT" or out.identifier != "Result":
+        return _UNSUPPORTED
+    kind = MAP_RANGE_TYPES[node.interpolation_type]
+    ins = [_in(net, node, name, "float", depth) for name in ("Value", "From Min", "From Max", "To Min", "To Max", "Steps")]
+    reg = net._temp(1)
+    net._emit(OP_MAP_RANGE, [kind, int(node.clamp), reg] + [v.reg for v in ins],
+              [(k, 1) for k in range(3, 9)], [(2, 1)])
+    return Value(reg, 1)
+
+
+def _clamp(net, node, out, depth):
+    ins = [_in(net, node, name, "float", depth) for name in ("Value", "Min", "Max")]
+    reg = net._temp(1)
+    net._emit(OP_CLAMP, [1 if node.clamp_type == "RANGE" else 0, reg] + [v.reg for v in ins],
+              [(2, 1), (3, 1), (4, 1)], [(1, 1)])
+    return Value(reg, 1)
+
+
+def _color_ramp(net, node, out, depth):
+    ramp = node.color_ramp
+    fac = _in(net, node, "Fac", "float", depth)
+    key = (node.as_pointer(), "__ramp__")
+    block = net._outputs.get(key)
+    if block is None:
+        # The table Cycles bakes: Blender's own ColorRamp evaluation at i / 255 (every
+        # interpolation and colour mode), looked up linearly unless the ramp is Constant.
+        table = []
+        for i in range(RAMP_TABLE_SIZE):
+            table.extend(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
+        tab = net.constant(table)
+        block = Value(net._temp(4), 4)
+        net._emit(OP_COLOR_RAMP, [int(ramp.interpolation != "CONSTANT"), tab.reg, RAMP_TABLE_SIZE,
+                                  block.reg, Reg("t", block.reg.index + 3), fac.reg],
+                  [(5, 1)], [(3, 3), (4, 1)])
+        net._outputs[key] = block
+    if out.identifier == "Alpha":
+        return Value(Reg("t", block.reg.index + 3), 1)
+    return Value(block.reg, 3)
+
+
+def _mix_color(net, blend, flags, fac, a, b):
+    reg = net._temp(3)
+    net._emit(OP_MIX_COLOR, [MIX_BLENDS[blend], flags, reg, fac.reg, a.reg, b.reg], [(3, 1), (4, 3), (5, 3)],
+              [(2, 3)])
+    return Value(reg, 3)
+
+
+def _mix_rgb(net, node, out, depth):
+    if node.blend_type not in MIX_BLENDS:
+        return _UNSUPPORTED
+    fac = _in(net, node, "Fac", "float", depth)
+    a = _in(net, node, "Color1", "color", depth)
+    b = _in(net, node, "Color2", "color", depth)
+    return _mix_color(net, node.blend_type, 1 | (2 if node.use_clamp else 0), fac, a, b)  # factor always clamped
+
+
+def _mix(net, node, out, depth):
+    dt = node.data_type
+    if dt == "RGBA":
+        if node.blend_type not in MIX_BLENDS:
+            return _UNSUPPORTED
+        fac = _in(net, node, "Factor_Float", "float", depth)
+        a = _in(net, node, "A_Color", "color", depth)
+        b = _in(net, node, "B_Color", "color", depth)
+        flags = (1 if node.clamp_factor else 0) | (2 if node.clamp_result else 0)
+        return _mix_color(net, node.blend_type, flags, fac, a, b)
+    if dt == "FLOAT":
+        fac = _in(net, node, "Factor_Float", "float", depth)
+        a = _in(net, node, "A_Float", "float", depth)
+        b = _in(net, node, "B_Float", "float", depth)
+        reg = net._temp(1)
+        net._emit(OP_MIX_FLOAT, [int(node.clamp_factor), reg, fac.reg, a.reg, b.reg], [(2, 1), (3, 1), (4, 1)],
+                  [(1, 1)])
+        return Value(reg, 1)
+    if dt == "VECTOR":
+        non_uniform = node.factor_mode == "NON_UNIFORM"
+        fac = _in(net, node, "Factor_Vector" if non_uniform else "Factor_Float", "vector" if non_uniform else "float",
+                  depth)
+        a = _in(net, node, "A_Vector", "vector", depth)
+        b = _in(net, node, "B_Vector", "vector", depth)
+        reg = net._temp(3)
+        net._emit(OP_MIX_VECTOR, [int(non_uniform), int(node.clamp_factor), reg, fac.reg, a.reg, b.reg],
+                  [(3, 3 if non_uniform else 1), (4, 3), (5, 3)], [(2, 3)])
+        return Value(reg, 3)
+    return _UNSUPPORTED
+
+
+def _separate(input_identifier, kind):
+    def compile_separate(net, node, out, depth):
+        if getattr(node, "mode", "RGB") != "RGB":
+            return _UNSUPPORTED
+        v = _in(net, node, input_identifier, kind, depth)
+        index = [o.identifier for o in node.outputs].index(out.identifier)
+        return net.component(v, index)
+    return compile_separate
+
+
+def _combine(input_identifiers):
+    def compile_combine(net, node, out, depth):
+        if getattr(node, "mode", "RGB") != "RGB":
+            return _UNSUPPORTED
+        return net.gather([_in(net, node, name, "float", depth) for name in input_identifiers])
+    return compile_combine
+
+
+def _invert(net, node, out, depth):
+    fac = _in(net, node, "Fac", "float", depth)
+    color = _in(net, node, "Color", "color", depth)
+    reg = net._temp(3)
+    net._emit(OP_INVERT, [reg, fac.reg, color.reg], [(1, 1), (2, 3)], [(0, 3)])
+    return Value(reg, 3)
+
+
+def _gamma(net, node, out, depth):
+    color = _in(net, node, "Color", "color", depth)
+    gamma = _in(net, node, "Gamma", "float", depth)
+    reg = net._temp(3)
+    net._emit(OP_GAMMA, [reg, color.reg, gamma.reg], [(1, 3), (2, 1)], [(0, 3)])
+    return Value(reg, 3)
+
+
+def _bright_contrast(net, node, out, depth):
+    color = _in(net, node, "Color", "color", depth)
+    bright = _in(net, node, "Bright", "float", depth)
+    contrast = _in(net, node, "Contrast", "float", depth)
+    reg = net._temp(3)
+    net._emit(OP_BRIGHT_CONTRAST, [reg, color.reg, bright.reg, contrast.reg], [(1, 3), (2, 1), (3, 1)], [(0, 3)])
+    return Value(reg, 3)
+
+
+_NODES = {
+    "ShaderNodeValue": _value_node,
+    "ShaderNodeRGB": _rgb_node,
+    "ShaderNodeHairInfo": _hair_info,
+    "ShaderNodeAttribute": _attribute,
+    "ShaderNodeMath": _math,
+    "ShaderNodeMapRange": _map_range,
+    "ShaderNodeClamp": _clamp,
+    "ShaderNodeValToRGB": _color_ramp,
+    "ShaderNodeMixRGB": _mix_rgb,
+    "ShaderNodeMix": _mix,
+    "ShaderNodeSeparateRGB": _separate("Image", "color"),
+    "ShaderNodeSeparateXYZ": _separate("Vector", "vector"),
+    "ShaderNodeSeparateColor": _separate("Color", "color"),
+    "ShaderNodeCombineRGB": _combine(("R", "G", "B")),
+    "ShaderNodeCombineXYZ": _combine(("X", "Y", "Z")),
+    "ShaderNodeCombineColor": _combine(("Red", "Green", "Blue")),
+    "ShaderNodeInvert": _invert,
+    "ShaderNodeGamma": _gamma,
+    "ShaderNodeBrightContrast": _bright_contrast,
+}

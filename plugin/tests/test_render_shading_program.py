@@ -1,0 +1,147 @@
+"""Shading programs through the renderer (docs/shading_vm.md), without Blender: hand-written
+programs on an Emission colour of straight strands seen at the pixel centres, so each pixel is
+the program's value at one hit. Checks the hit context (intercept and point attributes linear in
+the segment's u, curve attributes, Hair Info > Length and Random), the register links of the
+closures, hair inputs from registers, and the handling of invalid programs."""
+
+import numpy as np
+import pytest
+
+import hairbsdf
+from hairbsdf.render import render
+
+HAIR_INFO, COPY, ATTRIBUTE, MATH = 14, 11, 15, 1  # shading_vm.h opcodes
+N_KEYS = 9  # keys at x = -1, -0.75, ..., 1
+
+
+def _camera(width):
+    """Orthographic, looking along +y at the z = 0 plane, 2 units wide."""
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = (1, 0, 0), (0, 0, 1), (0, -1, 0), (0, -3, 0)
+    return {"type": "ORTHO", "matrix_world": m, "resolution": (width, 8), "sensor_fit": "HORIZONTAL",
+            "ortho_scale": 2.0, "clip_start": 0.01, "clip_end": 100.0}
+
+
+def _scene(program, color, width=200, curves_extra=None, strength=1.0):
+    pts = np.zeros((N_KEYS, 4), np.float32)
+    pts[:, 0] = np.linspace(-1.0, 1.0, N_KEYS)
+    pts[:, 3] = 0.1
+    curves = {"points": pts, "curve_offsets": np.array([0, N_KEYS], np.int32),
+              "curve_random": np.array([0.375], np.float32), "curve_material": np.array([0], np.int32),
+              "curve_intercept_total": np.array([2.5], np.float32)}
+    curves.update(curves_extra or {})
+    material = {"name": "emit", "closures": [{"type": "emission", "color": color, "strength": strength}]}
+    if program is not None:
+        material["program"] = program
+    return {"curves": curves, "materials": [material], "camera": _camera(width),
+            "integrator": {"samples": 1, "max_bounces": 0, "filter_type": "BLACKMAN_HARRIS", "filter_width": 1e-4,
+                           "film_transparent": True}}
+
+
+def _program(code, constants=(), registers=3):
+    return {"code": np.asarray(code, np.int32), "constants": np.asarray(constants, np.float32),
+            "registers": registers}
+
+
+def _middle_row(out, width=200):
+    row = out["combined"][4]
+    x = -1.0 + (np.arange(width) + 0.5) * 2.0 / width
+    # interior segments only: there uniform Catmull-Rom through evenly spaced keys is linear in u
+    inner = np.abs(x) < 0.74
+    return x[inner], row[inner]
+
+
+def test_intercept_is_linear_in_the_segment_parameter():
+    # registers 0..2 = Hair Info > Intercept
+    prog = _program([HAIR_INFO, 1, 0, COPY, 1, 0, COPY, 2, 0])
+    intercept = ((np.linspace(-1, 1, N_KEYS) + 1) / 2) ** 2  # not linear in x: per key
+    out = render(_scene(prog, {"register": 0}, curves_extra={"point_intercept": intercept.astype(np.float32)}))
+    assert not out["stats"]["warnings"], out["stats"]["warnings"]
+    x, px = _middle_row(out)
+    keys = np.linspace(-1, 1, N_KEYS)
+    k = np.clip(np.floor((x + 1) / 0.25).astype(int), 0, N_KEYS - 2)
+    u = (x - keys[k]) / 0.25
+    want = (1 - u) * intercept[k] + u * intercept[k + 1]
+    np.testing.assert_allclose(px[:, 0], want, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(px[:, 1], want, rtol=1e-5, atol=1e-6)
+    assert np.all(px[:, 3] == 1.0)
+
+
+def test_attributes_length_random_and_strength():
+    # r0..r4 = attribute 0 (point colour), r5..r9 = attribute 1 (curve float); colour = point
+    # attribute RGB; strength = Length x Random (Math multiply) + curve attribute Fac
+    code = [ATTRIBUTE, 0, 0, ATTRIBUTE, 1, 5, HAIR_INFO, 2, 10, HAIR_INFO, 0, 11, MATH, 2, 0, 12, 10, 11, 10,
+            MATH, 0, 0, 13, 12, 8, 8]
+    keys = np.linspace(-1, 1, N_KEYS)
+    point = np.stack([(keys + 1) / 2, 1 - (keys + 1) / 2, np.full(N_KEYS, 0.25), np.ones(N_KEYS)], 1)
+    curve = np.array([[0.5, 0.5, 0.5, 1.0]], np.float32)
+    extra = {"attributes": [{"name": "tone", "domain": "POINT", "data": point.astype(np.float32)},
+                            {"name": "weight", "domain": "CURVE", "data": curve}]}
+    scene = _scene(_program(code, registers=14), {"register": 0}, curves_extra=extra)
+    scene["materials"][0]["closures"][0]["strength"] = {"register": 13}
+    out = render(scene)
+    assert not out["stats"]["warnings"], out["stats"]["warnings"]
+    x, px = _middle_row(out)
+    strength = 2.5 * 0.375 + 0.5
+    np.testing.assert_allclose(px[:, 0], strength * (x + 1) / 2, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(px[:, 1], strength * (1 - (x + 1) / 2), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(px[:, 2], strength * 0.25, rtol=1e-6)
+
+
+def test_hair_inputs_from_registers_equal_constant_inputs():
+    """A hair closure whose Melanin and Roughness come from registers renders like the same
+    constants given directly (the same parameters per hit)."""
+    light = {"type": "SUN", "direction": (0.3, -0.8, 0.5), "strength": (2.0, 2.0, 2.0), "angle": 0.0}
+
+    def scene(melanin, roughness, program=None):
+        s = _scene(None, (0, 0, 0), width=64)
+        s["materials"] = [{"name": "hair", "closures": [{
+            "type": "principled_hair", "model": "CHIANG", "parametrization": "MELANIN",
+            "inputs": {"melanin": melanin, "roughness": roughness, "random": None}}]}]
+        if program is not None:
+            s["materials"][0]["program"] = program
+        s["lights"] = [light]
+        return s
+
+    # constants 0.6 (melanin), 0.2 and 0.1 (roughness = 0.2 + 0.1 via Math, hit-independent here)
+    prog = _program([MATH, 0, 0, 3, 1, 2, 2], constants=(0.6, 0.2, 0.1), registers=4)
+    linked = render(scene({"register": 0}, {"register": 3}, prog))["combined"]
+    const = render(scene(float(np.float32(0.6)), float(np.float32(0.2) + np.float32(0.1))))["combined"]
+    assert linked[..., 3].sum() > 20
+    np.testing.assert_allclose(linked, const, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("program,warning", [
+    (_program([99, 0, 0]), "unknown opcode 99"),
+    (_program([COPY, 0, 1], constants=(1.0,), registers=2), "constants are read-only"),
+    (_program([HAIR_INFO, 1, 0], registers=1), "outside the program's 1"),  # colour link needs 3 registers
+])
+def test_invalid_program_is_dropped_with_a_warning(program, warning):
+    out = render(_scene(program, {"register": 0}))
+    warnings = "\n".join(out["stats"]["warnings"])
+    assert warning in warnings and "the program is ignored" in warnings, warnings
+    assert np.isfinite(out["combined"]).all()
+    # the closure keeps its constant colour: the default emission colour 0.8 grey
+    x, px = _middle_row(out)
+    np.testing.assert_allclose(px[:, :3], 0.8, rtol=1e-6)
+
+
+def test_register_link_errors_name_the_key():
+    scene = _scene(_program([HAIR_INFO, 1, 0], registers=3), {"register": -1})
+    with pytest.raises(ValueError, match=r"\['color'\]\['register'\]: must be >= 0"):
+        render(scene)
+    scene = _scene(_program([HAIR_INFO, 1, 0], registers=3), {"reg": 0})
+    with pytest.raises(ValueError, match=r"\['color'\]: expected a number or \{'register': slot\}"):
+        render(scene)
+
+
+def test_eval_program_matches_the_renderer_contract():
+    from hairbsdf import _render
+    # registers 0..1 constants (3, 0.5); r2 = intercept; r3 = intercept * 3 clamped
+    prog = _program([HAIR_INFO, 1, 2, MATH, 2, 1, 3, 2, 0, 0], constants=(3.0, 0.5), registers=4)
+    regs = _render.eval_program(prog, intercept=np.array([0.1, 0.5], np.float32))
+    np.testing.assert_allclose(regs[:, 2], [0.1, 0.5], rtol=1e-7)
+    np.testing.assert_allclose(regs[:, 3], [0.3, 1.0], rtol=1e-6)
+    with pytest.raises(ValueError, match="instruction 0"):
+        _render.eval_program(_program([99]))
+    assert hairbsdf is not None
