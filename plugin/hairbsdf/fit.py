@@ -213,7 +213,7 @@ class _Progress:
 
 
 def fit(target: str, model: str, *, grid: int = 24, h_count: int = H_NODES, starts: int = 1, seed: int = 0,
-        max_evaluations: int = 200, start: dict | None = None, progress: bool = False) -> FitResult:
+        max_evaluations: int = 300, start: dict | None = None, progress: bool = False) -> FitResult:
     """Fits `model` (a FIT_MODELS name) to the `target` spec. The first start is the declared
     start (or `start`, free parameter name -> value, overriding it); further starts are uniform in
     the bounds, drawn with `seed`. Returns the best of all starts."""
@@ -254,33 +254,48 @@ def fit(target: str, model: str, *, grid: int = 24, h_count: int = H_NODES, star
     def model_lobes(x):
         return gonio.far_field_lobes(fm.closure(values_of(x)), g.wo, g.wi, h_count, fm.depends_on_h)
 
-    count = [0]
+    count = [0, 0]  # evaluations in this start, in all starts
+    best = {"cost": math.inf, "x": x_starts[0]}  # the best point seen in any evaluation
+
+    class _Budget(Exception):
+        pass
 
     def residuals(x, which):
+        if count[0] >= max_evaluations:
+            raise _Budget  # this start's evaluations (finite-difference ones included) are spent
         count[0] += 1
-        r = sqrt_w * (model_lobes(x).sum(axis=1) - target_value) / norm
+        count[1] += 1
+        r = (sqrt_w * (model_lobes(x).sum(axis=1) - target_value) / norm).ravel()
+        cost = float(r @ r)
+        if cost < best["cost"]:
+            best.update(cost=cost, x=np.array(x, float))
         report(f"{fm.name} start {which}/{len(x_starts)}: {count[0]} evaluations, "
-               f"relative error {math.sqrt(float(np.sum(r * r))):.4g}")
-        return r.ravel()
+               f"relative error {math.sqrt(best['cost']):.4g}")
+        return r
 
-    best = None
+    messages = []
     for k, x0 in enumerate(x_starts, 1):
-        sol = least_squares(residuals, x0, bounds=(lower, upper), args=(k,), x_scale="jac", diff_step=1e-5,
-                            max_nfev=max_evaluations, method="trf")
-        if best is None or sol.cost < best.cost:
-            best = sol
-    report(f"{fm.name}: done, {count[0]} evaluations in {time.monotonic() - t0:.1f} s, "
-           f"relative error {math.sqrt(2 * best.cost):.4g}", force=True)
+        count[0] = 0
+        try:
+            sol = least_squares(residuals, x0, bounds=(lower, upper), args=(k,), x_scale="jac", diff_step=1e-5,
+                                method="trf")
+            messages.append(str(sol.message))
+        except _Budget:
+            messages.append(f"stopped after {max_evaluations} evaluations (--max-evaluations)")
+    evaluations = count[1]
+    report(f"{fm.name}: done, {evaluations} evaluations in {time.monotonic() - t0:.1f} s, "
+           f"relative error {math.sqrt(best['cost']):.4g}", force=True)
+    best_x = best["x"]
 
-    free_values = values_of(best.x)
+    free_values = values_of(best_x)
     kwargs = fm.kwargs(free_values)
-    err = relative_errors(model_lobes(best.x), target_lobes, g.weights, fm.lobe_of_slot)
+    err = relative_errors(model_lobes(best_x), target_lobes, g.weights, fm.lobe_of_slot)
     start_err = relative_errors(model_lobes(x_starts[0]), target_lobes, g.weights, fm.lobe_of_slot)
     return FitResult(
         model=fm.name, target=format_spec(target_name, target_kwargs), spec=format_spec(fm.constructor, kwargs),
-        parameters=kwargs, free_values=free_values, error=err, start_error=start_err, evaluations=count[0],
-        seconds=time.monotonic() - t0, message=str(best.message),
-        grid={"theta": grid, "delta_phi": 2 * grid, "h_nodes": h_count if fm.depends_on_h else 1, "points": len(g)})
+        parameters=kwargs, free_values=free_values, error=err, start_error=start_err, evaluations=evaluations,
+        seconds=time.monotonic() - t0, message="; ".join(messages),
+        grid={"theta": grid, "delta_phi": 2 * grid, "h_nodes": h_count, "points": len(g)})
 
 
 # --- Text output -------------------------------------------------------------------------------------
@@ -337,7 +352,8 @@ def build_parser(prog: str = "hairbsdf fit") -> argparse.ArgumentParser:
     ap.add_argument("--starts", type=int, default=1,
                     help="optimiser starts: the declared start, then random ones in the bounds (default 1)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
-    ap.add_argument("--max-evaluations", type=int, default=200, help="residual evaluations per start (default 200)")
+    ap.add_argument("--max-evaluations", type=int, default=300,
+                    help="model evaluations per start, finite-difference ones included (default 300)")
     ap.add_argument("--out", default="out/fit", help="directory for fit.json and the polar plots (default out/fit)")
     ap.add_argument("--no-plots", action="store_true", help="do not write the plots")
     ap.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
