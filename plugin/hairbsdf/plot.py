@@ -66,9 +66,9 @@ def _spec_closure(text):
 
 
 def _polar_axes(plt, rows, title):
-    fig, axes = plt.subplots(rows, 2, subplot_kw={"projection": "polar"}, figsize=(9, 4.3 * rows + 0.8),
+    fig, axes = plt.subplots(rows, 2, subplot_kw={"projection": "polar"}, figsize=(9, 4.3 * rows + 1.2),
                              squeeze=False)
-    fig.subplots_adjust(left=0.06, right=0.84, top=1 - 0.9 / (4.3 * rows + 0.8), bottom=0.03, hspace=0.45,
+    fig.subplots_adjust(left=0.06, right=0.84, top=1 - 1.5 / (4.3 * rows + 1.2), bottom=0.03, hspace=0.45,
                         wspace=0.35)
     fig.suptitle(title, fontsize=9)
     return fig, axes
