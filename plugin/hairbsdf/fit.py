@@ -340,21 +340,21 @@ def build_parser(prog: str = "hairbsdf fit") -> argparse.ArgumentParser:
                "  hairbsdf fit --target \"principled_hair(melanin=0.6)\" --model epic\n"
                "  hairbsdf fit --target \"principled_hair(melanin=0.3, melanin_redness=0.9)\" --model deon --json\n"
                "  hairbsdf fit --list\n\nDocs: docs/fit.md.")
-    ap.add_argument("--target", help="the BSDF to fit, a spec such as \"principled_hair(melanin=0.6)\"")
-    ap.add_argument("--model", help="the model to fit: " + ", ".join(FIT_MODELS))
+    ap.add_argument("--target", metavar="SPEC", help="the BSDF to fit, a spec such as \"principled_hair(melanin=0.6)\"")
+    ap.add_argument("--model", metavar="NAME", help="the model to fit: " + ", ".join(FIT_MODELS))
     ap.add_argument("--list", action="store_true", help="list the fittable models and their free parameters")
-    ap.add_argument("--grid", type=int, default=24,
+    ap.add_argument("--grid", type=int, default=24, metavar="N",
                     help="theta cells in (-90, 90) degrees for theta_o and theta_i; delta_phi gets twice as many "
                          "(default 24: 27648 direction pairs)")
-    ap.add_argument("--h-nodes", type=int, default=H_NODES,
+    ap.add_argument("--h-nodes", type=int, default=H_NODES, metavar="K",
                     help="Gauss-Legendre nodes in h for h-dependent BSDFs such as Principled Hair (default 32: "
                          "2e-4 of the far field at radial roughness 0.3; raise it for a smaller radial roughness)")
-    ap.add_argument("--starts", type=int, default=1,
+    ap.add_argument("--starts", type=int, default=1, metavar="K",
                     help="optimiser starts: the declared start, then random ones in the bounds (default 1)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
-    ap.add_argument("--max-evaluations", type=int, default=300,
+    ap.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the random starts (default 0)")
+    ap.add_argument("--max-evaluations", type=int, default=300, metavar="M",
                     help="model evaluations per start, finite-difference ones included (default 300)")
-    ap.add_argument("--out", default="out/fit", help="directory for fit.json and the polar plots (default out/fit)")
+    ap.add_argument("--out", default="out/fit", metavar="DIR", help="directory for fit.json and the polar plots (default out/fit)")
     ap.add_argument("--no-plots", action="store_true", help="do not write the plots")
     ap.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
     ap.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -70,8 +70,14 @@ def _polar_axes(plt, rows, title):
                              squeeze=False)
     fig.subplots_adjust(left=0.06, right=0.84, top=1 - 1.5 / (4.3 * rows + 1.2), bottom=0.03, hspace=0.45,
                         wspace=0.35)
-    fig.suptitle(title, fontsize=9)
+    fig.suptitle(_wrap(title), fontsize=9)
     return fig, axes
+
+
+def _wrap(title: str, width: int = 105) -> str:
+    """Long specs broken over lines (a title wider than the figure is cut off)."""
+    import textwrap
+    return "\n".join(textwrap.fill(line, width, subsequent_indent="    ") for line in title.split("\n"))
 
 
 def _label_axes(ax_long, ax_azi, theta_o_deg):
@@ -153,7 +159,7 @@ def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THET
     names = (*LOBES, "total")
     fig, axes = plt.subplots(5, len(theta_o_deg), figsize=(3.2 * len(theta_o_deg) + 1.2, 11), squeeze=False)
     fig.subplots_adjust(left=0.08, right=0.86, top=0.92, bottom=0.05, hspace=0.45, wspace=0.25)
-    fig.suptitle(f"{text}\nluminance over (Δφ, θi), log scale", fontsize=9)
+    fig.suptitle(_wrap(f"{text}\nluminance over (Δφ, θi), log scale"), fontsize=9)
     extent = (-180, 180, -90, 90)
     for r, lobe in enumerate(names):
         vmax = max(float(m[..., r].max()) for m in maps)
@@ -201,7 +207,7 @@ def albedo_figure(spec: str, path, *, h_count=8, count=25):
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(text + ("\nh-averaged" if h_dep else ""), fontsize=8)
+    ax.set_title(_wrap(text + ("\nh-averaged" if h_dep else ""), 90), fontsize=8)
     return _save(fig, plt, path)
 
 
@@ -223,15 +229,15 @@ def build_parser(prog: str = "hairbsdf plot") -> argparse.ArgumentParser:
         epilog="SPEC is parsed, never evaluated: one call of principled_hair, kajiya_kay_hair, epic_hair, "
                "scheuermann_hair, marschner_hair or deon_hair (or a short name) with literal keyword arguments.\n\n"
                "Example:\n  hairbsdf plot \"principled_hair(melanin=0.6)\" --out out/plot\n\nDocs: docs/fit.md.")
-    ap.add_argument("spec", help="the BSDF, e.g. \"principled_hair(melanin=0.6)\" or \"epic_hair(roughness=0.3)\"")
-    ap.add_argument("--out", default="out/plot", help="output directory (default out/plot)")
+    ap.add_argument("spec", metavar="SPEC", help="the BSDF, e.g. \"principled_hair(melanin=0.6)\" or \"epic_hair(roughness=0.3)\"")
+    ap.add_argument("--out", default="out/plot", metavar="DIR", help="output directory (default out/plot)")
     ap.add_argument("--name", help="file name stem (default: the constructor name)")
-    ap.add_argument("--theta-o", default=",".join(f"{t:g}" for t in DEFAULT_THETA_O),
+    ap.add_argument("--theta-o", metavar="DEGREES", default=",".join(f"{t:g}" for t in DEFAULT_THETA_O),
                     help="view angles theta_o in degrees, comma separated (default 0,30,60)")
-    ap.add_argument("--h-nodes", type=int, default=H_NODES,
+    ap.add_argument("--h-nodes", type=int, default=H_NODES, metavar="K",
                     help="Gauss-Legendre nodes in h for h-dependent BSDFs such as Principled Hair (default 32: "
                          "2e-4 of the far field at radial roughness 0.3; raise it for a smaller radial roughness)")
-    ap.add_argument("--resolution", type=int, default=96, help="heat map theta_i cells (delta_phi: twice; default 96)")
+    ap.add_argument("--resolution", type=int, default=96, metavar="N", help="heat map theta_i cells (delta_phi: twice; default 96)")
     ap.add_argument("--only", choices=("polar", "heatmap", "albedo"), action="append",
                     help="write only these plots (repeatable; default all three)")
     return ap
