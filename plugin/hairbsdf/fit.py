@@ -228,8 +228,10 @@ def fit(target: str, model: str, *, grid: int = 24, h_count: int = H_NODES, star
     g = gonio.GonioGrid.make(grid)
     report = _Progress(progress)
     t0 = time.monotonic()
-    target_lobes = gonio.far_field_lobes(target_closure, g.wo, g.wi, h_count,
-                                         gonio.depends_on_h(target_name, target_kwargs))
+    target_h = gonio.depends_on_h(target_name, target_kwargs)
+    report(f"evaluating the target on {len(g)} direction pairs" + (f" x {h_count} h nodes" if target_h else ""),
+           force=True)
+    target_lobes = gonio.far_field_lobes(target_closure, g.wo, g.wi, h_count, target_h)
     target_value = target_lobes.sum(axis=1)
     sqrt_w = np.sqrt(g.weights)[:, None]
     norm = math.sqrt(float(np.sum(g.weights[:, None] * target_value ** 2))) or 1.0
