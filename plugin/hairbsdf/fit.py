@@ -44,7 +44,8 @@ class FreeParam:
         return math.log(value) if self.log else float(value)
 
     def from_internal(self, x: float) -> float:
-        return math.exp(x) if self.log else float(x)
+        # clipped: exp(ln(upper)) may round above the constructor's range
+        return min(max(math.exp(x) if self.log else float(x), self.lower), self.upper)
 
 
 @dataclass(frozen=True)

@@ -94,6 +94,9 @@ def test_fit_recovers_from_a_given_start():
     assert res.free_values["roughness"] == pytest.approx(0.3, abs=1e-3)
     assert res.free_values["shift"] == pytest.approx(-0.05, abs=1e-3)
     assert res.parameters["base_color"] == pytest.approx((0.4, 0.25, 0.1), abs=1e-3)
+    # a start on a log-scaled bound: exp(ln 10000) rounds above 10000, the constructor's limit
+    at_bound = fit("kajiya_kay", "kajiya_kay", grid=4, start={"exponent": 10_000.0}, max_evaluations=3)
+    assert at_bound.start_error["total"] > 0
     with pytest.raises(ValueError, match="outside"):
         fit(target, "epic", grid=4, start={"roughness": 2.0})
     with pytest.raises(ValueError, match="unknown free parameters"):
