@@ -2,11 +2,16 @@
 
     hairbsdf compare [options]         render with Cycles and hairbsdf, compare, write a report
     hairbsdf report merge DIR... [--out DIR]   join shard reports
+    hairbsdf fit --target SPEC --model NAME [options]
+                                       fit a model's parameters to a target BSDF (docs/fit.md)
+    hairbsdf plot SPEC [--out DIR]     per-lobe polar plots, heat maps and albedo as PNGs
+
+SPEC is one constructor call with literal keywords, e.g. "principled_hair(melanin=0.6)".
 """
 
 import sys
 
-USAGE = __doc__.strip() + "\n\nRun `hairbsdf compare --help` for the options.\n"
+USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, fit, plot) for the options.\n"
 
 
 def main(argv=None):
@@ -18,6 +23,12 @@ def main(argv=None):
     if cmd == "compare":
         from .compare.cli import main as compare_main
         return compare_main(rest, prog="hairbsdf compare")
+    if cmd == "fit":
+        from .fit import main as fit_main
+        return fit_main(rest, prog="hairbsdf fit")
+    if cmd == "plot":
+        from .plot import main as plot_main
+        return plot_main(rest, prog="hairbsdf plot")
     if cmd == "report":
         if rest[:1] == ["merge"]:
             from .compare.cli import run_merge
