@@ -1,6 +1,17 @@
 """Compare an npz written by render_cases.py against a BSDF implementation.
 
     python bsdf_compare.py file.npz [--against reference|hairbsdf] [--h h|h_probe] [--quiet]
+    python bsdf_compare.py file.npz --model SPEC       # any hair BSDF against Cycles' Principled Hair
+
+SPEC (the same forms as `hairbsdf compare --model`, plus Python-defined BSDFs):
+    NAME[:MAPPING.py]                    a zoo model (kajiya_kay, epic, scheuermann, marschner, deon)
+    plugin:LIBRARY[:MAPPING.py]          a BSDF plugin (docs/plugins.md)
+    python:FILE.py:FUNCTION[:MAPPING.py] FUNCTION(**params) returns a closure with eval(wo, wi, h),
+                                         e.g. a hairbsdf.python_bsdf
+MAPPING.py defines map_inputs(inputs) -> params: a case's Principled Hair inputs (the snake_case
+keys of cases.py plus `parametrization`, `model` "CHIANG", `random`, the strand's Random, and
+`tilt`, "4.2" or "3.4" after the Blender that rendered)
+-> the model's parameters; without it the model's defaults are used.
 
 Used by ../test_bsdf_check.py.  Pure numpy; no bpy.
 
@@ -99,6 +110,77 @@ def cycles_hair_evaluator(hairbsdf):
     return ev
 
 
+def _load_file(path, label):
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("bsdf_compare_" + label, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def parse_model(text):
+    """SPEC (see the module docstring) -> (constructor(**params) -> closure, map_inputs, label)."""
+    mapping = None
+    if text.startswith("python:"):
+        parts = text[len("python:"):].split(":")
+        if len(parts) not in (2, 3) or not parts[0] or not parts[1]:
+            raise ValueError("--model python:FILE.py:FUNCTION[:MAPPING.py] needs a file and a function name, got %r"
+                             % text)
+        path, name = os.path.abspath(parts[0]), parts[1]
+        mapping = parts[2] if len(parts) == 3 else None
+        if not os.path.isfile(path):
+            raise ValueError("--model: %s: no such file" % path)
+        module = _load_file(path, "model")
+        constructor = getattr(module, name, None)
+        if not callable(constructor):
+            raise ValueError("--model: %s defines no function %r" % (path, name))
+        label = "python:%s:%s" % (os.path.basename(path), name)
+    else:
+        import hairbsdf
+        from hairbsdf.compare.model_spec import parse_model_spec
+        rest = text
+        if rest.endswith(".py") and ":" in rest:
+            rest, mapping = rest.rsplit(":", 1)
+        spec = parse_model_spec(rest)
+        if spec["model"] == "plugin":
+            constructor = hairbsdf.load_plugin(spec["path"])
+        else:
+            def constructor(**params):
+                return hairbsdf.make_model(spec["model"], params)
+        label = spec["label"]
+    map_inputs = None
+    if mapping is not None:
+        mapping = os.path.abspath(mapping)
+        if not os.path.isfile(mapping):
+            raise ValueError("--model: mapping %s: no such file" % mapping)
+        map_inputs = getattr(_load_file(mapping, "mapping"), "map_inputs", None)
+        if not callable(map_inputs):
+            raise ValueError("--model: mapping %s defines no map_inputs(inputs)" % mapping)
+        label += " (mapping %s)" % os.path.basename(mapping)
+    return constructor, map_inputs, label
+
+
+def model_evaluator(text, random):
+    """An evaluator for any hair BSDF given by SPEC; `random` is the strand's Hair Info > Random
+    (the mapping sees it as inputs["random"])."""
+    constructor, map_inputs, label = parse_model(text)
+    cache = {}
+
+    def ev(params, wo, wi, h, tilt):
+        key = repr(sorted(params.items())) + tilt
+        if key not in cache:
+            inputs = {k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items()}
+            inputs.setdefault("model", "CHIANG")
+            inputs["random"] = random
+            inputs["tilt"] = tilt  # the Blender's convention: "4.2" (4.2+) or "3.4"
+            cache[key] = constructor(**(map_inputs(inputs) if map_inputs else {}))
+        out = cache[key].eval(np.ascontiguousarray(wo), np.ascontiguousarray(wi), np.ascontiguousarray(h))
+        out = np.asarray(out, dtype=np.float64)
+        return out.sum(axis=1) if out.ndim == 3 else out  # per-lobe (N, 4, 3) -> (N, 3)
+    ev.name = label
+    return ev
+
+
 # --------------------------------------------------------------------------
 
 def case_errors(ours, cycles, abs_floor=1e-30):
@@ -108,6 +190,7 @@ def case_errors(ours, cycles, abs_floor=1e-30):
     ratio = float(np.median(cycles[bright] / ours[bright])) if np.any(bright) and np.all(
         ours[bright] != 0) else float("nan")
     return dict(n=int(cycles.shape[0]), median=float(np.median(rel)),
+                l1=float(np.abs(ours - cycles).sum()), l1_cycles=float(np.abs(cycles).sum()),
                 p99=float(np.percentile(rel, 99)), max=float(np.max(rel)), ratio=ratio,
                 peak=float(np.max(cycles)))
 
@@ -139,21 +222,36 @@ def format_table(rows, meta, title, tilt=None, median_tol=MEDIAN_TOL, p99_tol=P9
                         "" if r["ok"] else "FAIL"))
     med = np.array([r["median"] for r in rows])
     p99 = np.array([r["p99"] for r in rows])
+    l1 = sum(r["l1"] for r in rows) / max(sum(r["l1_cycles"] for r in rows), 1e-300)
     lines.append("summary: median of case medians %.2e, worst median %.2e, worst p99 %.2e, "
-                 "%d/%d cases fail" % (np.median(med), med.max(), p99.max(),
-                                       sum(not r["ok"] for r in rows), len(rows)))
+                 "relative L1 over all pixels %.2e, %d/%d cases fail"
+                 % (np.median(med), med.max(), p99.max(), l1, sum(not r["ok"] for r in rows), len(rows)))
     return "\n".join(lines)
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser()
-    ap.add_argument("npz")
-    ap.add_argument("--against", default="reference", choices=["reference", "hairbsdf"])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("npz", help="renders of the fibre goniometer (render_cases.py; test_bsdf_check.py caches them "
+                                "in build/blender_tests/bsdf_check/)")
+    ap.add_argument("--against", default="reference", choices=["reference", "hairbsdf"],
+                    help="the float64 reference or hairbsdf.principled_hair (default reference)")
+    ap.add_argument("--model", metavar="SPEC", help="compare this hair BSDF instead (see above); exits 0 "
+                                                    "whatever the errors, which measure its distance from Cycles")
     ap.add_argument("--h", default="h", choices=["h", "h_probe"])
     ap.add_argument("--tilt", default=None)
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     arrays, meta = load(a.npz)
+    if a.model:
+        import hairbsdf
+        try:
+            ev = model_evaluator(a.model, float(hairbsdf.cycles_curve_random(0)))
+        except ValueError as exc:
+            ap.error(str(exc))
+        rows = compare(arrays, meta, ev, h_key=a.h, tilt=a.tilt)
+        text = format_table(rows, meta, ev.name, a.tilt)
+        print(text.splitlines()[-1] if a.quiet else text)
+        return 0
     if a.against == "reference":
         ev = reference_evaluator()
     else:
