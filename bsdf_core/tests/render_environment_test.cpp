@@ -154,3 +154,34 @@ TEST(RenderEnvironment, WorldLightUsesTheTexture) {
     EXPECT_NEAR(s.pdf, map.pdf(s.wi), 1e-12);
     EXPECT_TRUE(std::isinf(s.distance));
 }
+
+// Cycles enables its background light only for a spatially varying world with MIS on: a
+// uniform world is not sampled (NEE skips it, BSDF rays get weight 1).
+TEST(RenderEnvironment, OnlyATexturedWorldIsSampledAsALight) {
+    SceneDesc uniform;
+    uniform.world = RGB(0.05);
+    const LightSet plain(uniform);
+    EXPECT_EQ(plain.size(), 0u);
+    ASSERT_NE(plain.world(), nullptr);
+    EXPECT_FALSE(plain.world()->use_mis());
+    LightHit hit;
+    ASSERT_TRUE(plain.world()->eval_direction({0, 0, 1}, hit));
+    EXPECT_NEAR(hit.radiance.g, 0.05, 1e-12);
+
+    SceneDesc textured = uniform;
+    textured.world_texture = test_texture();
+    const LightSet sampled(textured);
+    EXPECT_EQ(sampled.size(), 1u);
+    ASSERT_NE(sampled.world(), nullptr);
+    EXPECT_TRUE(sampled.world()->use_mis());
+    EXPECT_EQ(sampled.world(), &sampled.light(0));
+
+    textured.world_mis = false;  // World > Settings > Sampling: None
+    const LightSet off(textured);
+    EXPECT_EQ(off.size(), 0u);
+    ASSERT_NE(off.world(), nullptr);
+    EXPECT_FALSE(off.world()->use_mis());
+
+    const LightSet dark{SceneDesc{}};
+    EXPECT_EQ(dark.world(), nullptr);
+}

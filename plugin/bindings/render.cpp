@@ -543,6 +543,7 @@ SceneDesc scene_from_dict(const py::dict& scene) {
         const py::dict wd = as_dict(*w, "['world']");
         if (auto c = get_optional(wd, "color")) out.world = as_rgb(*c, "['world']['color']");
         if (auto t = get_optional(wd, "texture")) read_environment(*t, out.world_texture);
+        if (auto m = get_optional(wd, "mis")) out.world_mis = as_bool(*m, "['world']['mis']");
     }
     read_integrator(scene, out);
     return out;

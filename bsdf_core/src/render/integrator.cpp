@@ -221,10 +221,11 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             for (int k = 0; k < n; ++k) add(forward_mis(sh[k].pdf * selection) * (throughput * sh[k].radiance), bounce - 1);
             if (camera && is.film_transparent) {
                 res.transparent += average(throughput);
-            } else if (s.lights.world_index() >= 0) {
+            } else if (const Light* world = s.lights.world()) {
                 LightHit wh;
-                s.lights.light(size_t(s.lights.world_index())).eval_direction(ray.dir, wh);
-                add(forward_mis(wh.pdf * selection) * (throughput * wh.radiance), bounce - 1);
+                world->eval_direction(ray.dir, wh);
+                const double mis = world->use_mis() ? forward_mis(wh.pdf * selection) : 1.0;
+                add(mis * (throughput * wh.radiance), bounce - 1);
             }
             return res;
         }

@@ -107,13 +107,15 @@ static Vec3 sample_uniform_sphere(double u0, double u1) {
     return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-Light::Light(RGB world_radiance, const EnvironmentDesc& texture) : world_(true), radiance_(world_radiance) {
+Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
+    : world_(true), radiance_(world_radiance) {
     contributes_ = !is_zero(world_radiance) && isfinite(world_radiance);
     if (texture.has_texture() && !is_zero(texture.weight)) {
         environment_ = std::make_shared<const EnvironmentMap>(texture);
         contributes_ = true;
     }
-    use_mis_ = true;
+    // Cycles enables the background light only for a spatially varying world shader.
+    use_mis_ = world_mis && environment_ != nullptr;
 }
 
 Light::Light(const LightDesc& d) : type_(d.type) {
@@ -417,10 +419,14 @@ LightSet::LightSet(const SceneDesc& scene) {
         }
         lights_.push_back(l);
     }
-    Light world(scene.world, scene.world_texture);
+    Light world(scene.world, scene.world_texture, scene.world_mis);
     if (world.has_contribution()) {
-        world_ = int(lights_.size());
-        lights_.push_back(world);
+        if (world.use_mis()) {
+            world_ = int(lights_.size());
+            lights_.push_back(world);
+        } else {
+            background_ = std::make_shared<const Light>(world);
+        }
     }
 }
 

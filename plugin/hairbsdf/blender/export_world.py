@@ -99,10 +99,22 @@ def export_world(scene, report) -> dict:
 
     if src is not None:
         walk(src[0], (1.0, 1.0, 1.0))
-    result = {"color": tuple(float(c) for c in color)}
+    result = {"color": tuple(float(c) for c in color), "mis": world_mis(world)}
     if texture.get("pixels") is not None:
         result["texture"] = texture
     return result
+
+
+def world_mis(world) -> bool:
+    """World > Settings > Sampling: Method (4.x, off for None) or Multiple Importance (3.x).
+    The renderer samples the world as a light only when it also has a texture, as Cycles
+    enables its background light only for a spatially varying world (render/lights.h)."""
+    cw = getattr(world, "cycles", None)
+    if cw is None:
+        return True
+    if hasattr(cw, "sampling_method"):
+        return cw.sampling_method != "NONE"
+    return bool(getattr(cw, "sample_as_light", True))
 
 
 def _environment_texture(tr, node, output, weight) -> dict:

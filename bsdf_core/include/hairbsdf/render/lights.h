@@ -21,6 +21,11 @@
 // hit by BSDF rays: POINT / SPOT with r > 0, SUN with angle > 0, AREA with spread > 0, the
 // world; and use_mis is set. Lights are not in the BVH: rays pass through them (Cycles
 // counts each as a transparent bounce) and they cast no shadows.
+// The world is a light (sampled by NEE, MIS on BSDF rays) only when it varies with direction
+// (an environment texture) and its MIS setting is on, Cycles' rule for the background light;
+// a uniform world is reached by BSDF rays alone, at full weight. The estimators differ only
+// where a closure's reported pdf is not its sampling density (Chiang's Coat and truncated
+// series, Huang's pdf of 1): there Cycles' result depends on it.
 #pragma once
 
 #include <memory>
@@ -52,7 +57,7 @@ class Light {
 public:
     Light(const LightDesc& desc);       // scene light
     // The world: uniform radiance plus the environment texture, if any.
-    Light(RGB world_radiance, const EnvironmentDesc& texture);
+    Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis = true);
     bool is_world() const { return world_; }
     bool is_distant() const { return world_ || type_ == LightType::Sun; }
     bool use_mis() const { return use_mis_; }
@@ -111,12 +116,13 @@ public:
     int intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const;
     // Sun discs crossed by an escaping ray. Same visibility rule. Returns the number written.
     int eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const;
-    // The world, if any (index into lights, or -1).
-    int world_index() const { return world_; }
+    // The world, if any: in lights() when it is sampled (use_mis), kept aside otherwise.
+    const Light* world() const { return world_ >= 0 ? &lights_[size_t(world_)] : background_.get(); }
 
 private:
-    std::vector<Light> lights_;
+    std::vector<Light> lights_;  // the lights NEE picks from
     int world_ = -1;
+    std::shared_ptr<const Light> background_;  // a world that is not a light (not sampled)
     bool has_finite_camera_ = false, has_finite_mis_ = false;
 };
 

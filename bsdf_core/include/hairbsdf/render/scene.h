@@ -174,6 +174,9 @@ struct SceneDesc {
     std::vector<LightDesc> lights;
     RGB world{0.0};
     EnvironmentDesc world_texture;
+    // World > Settings > Sampling (4.x Method != None, 3.x Multiple Importance). Even on, a
+    // world without a texture is not sampled as a light (render/lights.h).
+    bool world_mis = true;
     IntegratorSettings integrator;
 };
 
