@@ -140,6 +140,19 @@ def test_mean_bias_detects_one_percent_and_passes_noise():
     assert c["sigma"] == pytest.approx(math.sqrt(2 / 8) * per_render, rel=0.6)
 
 
+def test_mean_bias_floor_spares_float_rounding_but_not_bias():
+    """Nearly noise-free renders (a furnace): a 5e-5 relative offset passes with the 1e-4 floor
+    and fails without it; a 0.1 % bias still fails with it."""
+    t = truth()
+    rng = np.random.default_rng(3)
+    a = mc_stack(t, 4, 1e-7, rng=rng)
+    off = mc_stack(t * (1 - 5e-5), 4, 1e-7, rng=rng)
+    assert abs(M.mean_bias(a, off)["z"]) > 10
+    assert abs(M.mean_bias(a, off, floor_rel=1e-4)["z"]) < 1
+    biased = mc_stack(t * (1 - 1e-3), 4, 1e-7, rng=rng)
+    assert abs(M.mean_bias(a, biased, floor_rel=1e-4)["z"]) > 9
+
+
 def test_paired_effect_cancels_noise():
     t = truth()
     rng = np.random.default_rng(5)

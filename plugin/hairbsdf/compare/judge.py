@@ -68,7 +68,7 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                 "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f, max |t| %.2f "
                 "(critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
                                           w["t_critical_median_df"])))
-            b = M.mean_bias(cycles, ours)
+            b = M.mean_bias(cycles, ours, floor_rel=limits["welch_floor_rel"])
             mets["mean_bias"] = b
             det = "bias %+.3e of %.4g (%+.3f%%), sigma %.2e (%.3f%%), z %+.2f; worst channel %+.3f%%" % (
                 b["bias"], b["mean_a"], 100 * b["rel"], b["sigma"], 100 * b["rel_sigma"], b["z"],

@@ -266,12 +266,14 @@ def _image_means(stack, mask=None):
     return s[:, m, :].mean(axis=1)
 
 
-def mean_bias(stack_a, stack_b, mask=None):
+def mean_bias(stack_a, stack_b, mask=None, floor_rel=0.0):
     """Bias of the image mean of b against a, estimated over the renders (seeds).
 
     Per render, the image mean over RGB (and per channel); bias = mean_b - mean_a,
-    sigma = sqrt(var_a / n_a + var_b / n_b) from the spread between renders, rel = bias /
-    mean_a, z = bias / sigma.  Returned for the all-channel mean and per channel."""
+    sigma = sqrt(var_a / n_a + var_b / n_b + (floor_rel * mean_a)^2) from the spread between
+    renders (the floor, as in the Welch test, keeps nearly noise-free images from failing on
+    float32 rounding), rel = bias / mean_a, z = bias / sigma.  Returned for the all-channel
+    mean and per channel."""
     A, B = _image_means(stack_a, mask), _image_means(stack_b, mask)
     na, nb = A.shape[0], B.shape[0]
 
@@ -279,7 +281,7 @@ def mean_bias(stack_a, stack_b, mask=None):
         ma, mb = float(a.mean()), float(b.mean())
         va = float(a.var(ddof=1)) if na > 1 else 0.0
         vb = float(b.var(ddof=1)) if nb > 1 else 0.0
-        sigma = math.sqrt(va / na + vb / nb)
+        sigma = math.sqrt(va / na + vb / nb + (floor_rel * ma) ** 2)
         bias = mb - ma
         return dict(mean_a=ma, mean_b=mb, bias=bias, sigma=sigma,
                     rel=bias / ma if ma != 0 else (0.0 if bias == 0 else float("inf")),
