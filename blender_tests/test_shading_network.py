@@ -430,3 +430,207 @@ def test_emission_networks_match_cycles_per_pixel(run_blender, blender_kind, ren
     assert r["covered"] > 2000, summary
     assert not r["warnings"], r["warnings"]
     assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
+
+
+# ---------------------------------------------------------------------------- Image Texture
+
+IMAGE_COMMON = r'''
+import os
+import scene_lib as lib
+V = tuple(bpy.app.version)
+
+def sock(coll, identifier):
+    return next(s for s in coll if s.identifier == identifier)
+
+def make_images():
+    """An 8 x 4 float EXR (alpha 0.4..1, premultiplied as Blender stores float buffers) and the
+    same colours as an opaque 8-bit sRGB PNG: every texel differs from its neighbours."""
+    w, h = 8, 4
+    c = np.arange(w)[None, :] + np.zeros((h, 1))
+    r = np.arange(h)[:, None] + np.zeros((1, w))
+    rgba = np.stack([0.1 + 0.8 * ((c * 5 + r * 3) % 8) / 7, 0.15 + 0.7 * r / 3,
+                     0.2 + 0.7 * ((c * 3 + r * 7) % 11) / 10, 0.4 + 0.6 * ((c + 2 * r) % 5) / 4], -1)
+    rgba = rgba.astype(np.float32)  # rows bottom first, as Blender's pixel buffers
+    out = {}
+    for name, fmt, alpha, is_float in (("tex.exr", "OPEN_EXR", True, True), ("tex.png", "PNG", False, False)):
+        img = bpy.data.images.new(name, w, h, alpha=alpha, float_buffer=is_float)
+        px = rgba.copy()
+        if not alpha:
+            px[..., 3] = 1.0
+        img.pixels.foreach_set(px.ravel())
+        img.filepath_raw = os.path.join(TMP, name)
+        img.file_format = fmt
+        img.save()
+        out[name] = bpy.data.images.load(os.path.join(TMP, name), check_existing=False)
+    return out
+
+def curves_with_uv(scene, name, lines, radius, material, uvs, attr="surface_uv_coordinate", more=()):
+    """A Curves object with real curve data (the geometry-nodes helper of scene_lib, applied, so
+    that 3.4 can hold attributes set from Python) and a 2D-vector curve attribute `attr`."""
+    obj = lib.curves_from_polylines(scene, name, lines, radius, material)
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_apply(modifier=obj.modifiers[0].name)
+    for an, values in ((attr, uvs),) + tuple(more):
+        a = obj.data.attributes.new(an, "FLOAT2", "CURVE")
+        a.data.foreach_set("vector", np.asarray(values, np.float32).ravel())
+    return obj
+
+def image_node(nt, image, interpolation="Linear", extension="REPEAT"):
+    t = nt.nodes.new("ShaderNodeTexImage")
+    t.image = image
+    t.interpolation = interpolation
+    t.extension = extension
+    return t
+
+def swept_vector(nt, uv_socket, lo, hi):
+    """(Map Range(Intercept: 0..1 -> lo..hi), UV.y, 0): the lookup sweeps u along each strand."""
+    info = nt.nodes.new("ShaderNodeHairInfo")
+    mr = nt.nodes.new("ShaderNodeMapRange")
+    mr.inputs["To Min"].default_value = lo; mr.inputs["To Max"].default_value = hi
+    mr.clamp = False
+    nt.links.new(info.outputs["Intercept"], mr.inputs["Value"])
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    nt.links.new(uv_socket, sep.inputs["Vector"])
+    comb = nt.nodes.new("ShaderNodeCombineXYZ")
+    nt.links.new(mr.outputs["Result"], comb.inputs["X"]); nt.links.new(sep.outputs["Y"], comb.inputs["Y"])
+    return comb.outputs["Vector"]
+'''
+
+IMAGE_EMISSION = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
+scene.cycles.max_bounces = 0
+scene.cycles.filter_width = 0.01
+scene.hairbsdf.threads = 2
+images = make_images()
+
+def emission_material(name):
+    m = bpy.data.materials.new(name); m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes): nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    e = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    return m, nt, e
+
+# Curves: per material 3 horizontal strands whose surface_uv_coordinate v sits between texel
+# centres, at an edge and outside the image; u is swept along the strand (Intercept) from
+# outside left to outside right, through every texel. The Vector is (swept u, UV.y, 0).
+cases = [("LinearRepeat", "Linear", "REPEAT"), ("ClosestExtend", "Closest", "EXTEND"),
+         ("LinearClip", "Linear", "CLIP"), ("CubicRepeat", "Cubic", "REPEAT"), ("ClosestRepeat", "Closest", "REPEAT")]
+if V >= (3, 5, 0):
+    cases.append(("LinearMirror", "Linear", "MIRROR"))
+vs = [(-0.05, 0.37, 0.93), (-0.3, 0.5, 1.12), (0.01, 0.62, 0.99)]
+z = 1.0
+for k, (name, interp, ext) in enumerate(cases):
+    m, nt, e = emission_material(name)
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    t = image_node(nt, images["tex.exr"], interp, ext)
+    # u from -1.25 (Cycles' frac at a negative integer: u * 8 = -10) to 2.1
+    nt.links.new(swept_vector(nt, tc.outputs["UV"], -1.25, 2.1), t.inputs["Vector"])
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+    curves_with_uv(scene, name, lines, 0.02, m, [(0.3, v) for v in vs[k % 3]])
+    z -= 0.22
+# Vector unlinked (Cycles' default: the UV), Color and Alpha (the alpha output unassociates).
+m, nt, e = emission_material("DefaultUVAlpha")
+t = image_node(nt, images["tex.exr"])
+nt.links.new(t.outputs["Color"], e.inputs["Color"]); nt.links.new(t.outputs["Alpha"], e.inputs["Strength"])
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+curves_with_uv(scene, "DefaultUVAlpha", lines, 0.02, m, [(0.07, 0.81), (0.5, 0.5), (0.93, 0.12)])
+z -= 0.22
+# A UV Map node naming a second 2D-vector attribute, the 8-bit sRGB PNG, Closest (exact).
+m, nt, e = emission_material("NamedMapPNG")
+uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = "second"
+t = image_node(nt, images["tex.png"], "Closest", "REPEAT")
+nt.links.new(swept_vector(nt, uvm.outputs["UV"], -0.2, 1.2), t.inputs["Vector"])
+nt.links.new(t.outputs["Color"], e.inputs["Color"])
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+curves_with_uv(scene, "NamedMapPNG", lines, 0.02, m, [(0.0, 0.0)] * 3,
+               more=(("second", [(0.0, 0.1), (0.0, 0.45), (0.0, 0.8)]),))
+# Particle hair: the emitter's UV at the root (Texture Coordinate > UV, Linear), and a UV Map
+# node naming the emitter's second UV layer (Closest), on vertical strands seen edge-on.
+bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, -1.02))
+em = bpy.context.active_object
+me = em.data
+# the emitter's shape in its mesh (a non-uniform object scale would keep Cycles' curves in
+# object space, elliptical in world space: not what this test is about)
+co = np.empty(len(me.vertices) * 3, np.float32); me.vertices.foreach_get("co", co)
+me.vertices.foreach_set("co", (co.reshape(-1, 3) * np.array([1.8, 0.3, 1.0], np.float32)).ravel())
+second = me.uv_layers.new(name="Second")
+uv0 = np.empty(len(me.uv_layers[0].data) * 2, np.float32); me.uv_layers[0].data.foreach_get("uv", uv0)
+second.data.foreach_set("uv", (uv0 * np.float32(0.5) + np.float32(0.6)).astype(np.float32))
+for name, source, interp in (("ParticleUV", None, "Linear"), ("ParticleNamed", "Second", "Closest")):
+    m, nt, e = emission_material(name)
+    t = image_node(nt, images["tex.exr"], interp, "REPEAT")
+    if source is not None:
+        uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = source
+        nt.links.new(uvm.outputs["UV"], t.inputs["Vector"])
+    else:
+        tc = nt.nodes.new("ShaderNodeTexCoord")
+        nt.links.new(tc.outputs["UV"], t.inputs["Vector"])
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    me.materials.append(m)
+for k in range(2):
+    ps = lib.particle_hair(scene, em, f"PH{k}", count=25, length=0.3, seed=7 + k, material_slot=k + 1,
+                           radius=0.008)
+    ps.settings.use_advanced_hair = False
+    ps.settings.hair_length = 0.3
+hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
+
+r = {}
+for eng in ("CYCLES", "HAIRBSDF"):
+    scene.render.engine = eng
+    scene.render.filepath = os.path.join(TMP, f"image_{eng}.exr")
+    bpy.ops.render.render(write_still=True)
+    p, _ = fg.read_exr_rgba(scene.render.filepath)
+    r[eng] = np.asarray(p).reshape(H, W, 4)
+assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
+cy, ours = r["CYCLES"], r["HAIRBSDF"]
+covered = (cy[..., 3] > 0.999) & (ours[..., 3] > 0.999)
+rel = np.abs(ours[..., :3] - cy[..., :3]) / np.maximum(np.abs(cy[..., :3]), 1e-3)
+rel_px = np.where(covered, rel.max(-1), 0.0)
+# per band of rows (one material each, from the top; the particle hair at the bottom)
+bands = {}
+zc = 1.0
+for name in [c[0] for c in cases] + ["DefaultUVAlpha", "NamedMapPNG"]:
+    rows = slice(int((1.2 - (zc + 0.02)) / 2.4 * H), int((1.2 - (zc - 0.16)) / 2.4 * H) + 1)
+    cov = covered[::-1][rows]
+    vals = rel_px[::-1][rows][cov]
+    bands[name] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,
+                   "p99": float(np.percentile(vals, 99)) if vals.size else None,
+                   "max": float(vals.max()) if vals.size else None}
+    zc -= 0.22
+rows = slice(int((1.2 - (-0.7)) / 2.4 * H), H)
+cov = covered[::-1][rows]; vals = rel_px[::-1][rows][cov]
+bands["particles"] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,
+                      "p99": float(np.percentile(vals, 99)) if vals.size else None,
+                      "max": float(vals.max()) if vals.size else None}
+c, o = cy[covered][:, :3], ours[covered][:, :3]
+rr = rel[covered].ravel()
+emit({"version": bpy.app.version_string, "covered": int(covered.sum()),
+      "alpha_mismatch": int(((cy[..., 3] > 0.5) != (ours[..., 3] > 0.5)).sum()),
+      "median": float(np.median(rr)), "p99": float(np.percentile(rr, 99)), "max": float(rr.max()),
+      "cycles_mean": float(c.mean()), "ours_mean": float(o.mean()), "bands": bands,
+      "warnings": engine.LAST_RENDER.get("warnings", [])})
+'''
+
+
+def test_image_texture_emission_matches_cycles_per_pixel(run_blender, blender_kind, renderer_available):
+    """Image Texture on curve UVs per pixel: every interpolation and extension mode on a swept
+    lookup, the default UV (Vector unlinked) with the Alpha output, a named UV map on an 8-bit
+    sRGB PNG, and particle hair's emitter UVs (active and named layer), against Cycles."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_EMISSION, args={"w": 240, "h": 240}).result
+    record(f"shading_network_image_{KINDS[blender_kind]}", r)
+    summary = (f"{r['version']}: {r['covered']} covered pixels, median {r['median']:.1e} p99 {r['p99']:.1e} "
+               f"max {r['max']:.1e}, mean Cycles {r['cycles_mean']:.5f} ours {r['ours_mean']:.5f}, "
+               f"{r['alpha_mismatch']} coverage mismatches; bands {r['bands']}")
+    print("\n" + summary)
+    assert r["covered"] > 2000, summary
+    assert not r["warnings"], r["warnings"]
+    for name, b in r["bands"].items():
+        assert b["covered"] > 100, (name, summary)
+    assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
