@@ -634,3 +634,83 @@ def test_image_texture_emission_matches_cycles_per_pixel(run_blender, blender_ki
     for name, b in r["bands"].items():
         assert b["covered"] > 100, (name, summary)
     assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
+
+
+IMAGE_HAIR = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+scene = hs.reset(width=ARGS["w"], height=ARGS["h"], spp=ARGS["spp"], curve_shape="THICK")
+images = make_images()
+# Principled Hair (Chiang, direct colouring): Color from the image at the strand's UV (Vector
+# unlinked), Roughness from the same texel's luminance through a Map Range (colour -> float).
+mat = hs.hair_material("ImageHair", parametrization="COLOR", roughness=0.3)
+nt = mat.node_tree
+ph = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeBsdfHairPrincipled")
+t = image_node(nt, images["tex.exr"], "Closest", "REPEAT")
+nt.links.new(t.outputs["Color"], fg.node_input(ph, "Color"))
+mr = nt.nodes.new("ShaderNodeMapRange")
+mr.inputs["To Min"].default_value = 0.2; mr.inputs["To Max"].default_value = 0.6
+nt.links.new(t.outputs["Color"], mr.inputs["Value"])
+nt.links.new(mr.outputs["Result"], fg.node_input(ph, "Roughness"))
+# three groups of 8 vertical strands; group g's UVs fall in the texels where channel g is the
+# largest share of the colour (reddest, greenest, bluest), so that each group has its own tint
+tex = images["tex.exr"]
+px = np.empty(8 * 4 * 4, np.float32); tex.pixels.foreach_get(px)
+px = px.reshape(4, 8, 4)  # bottom row first
+share = px[..., :3] / px[..., :3].sum(-1, keepdims=True)
+rng = np.random.default_rng(3)
+for g in range(3):
+    order = np.argsort(-share[..., g].ravel())[:3]  # the three texels with the most of channel g
+    lines, uvs = [], []
+    for k in range(8):
+        x = -0.9 + 0.6 * g + 0.065 * k + 0.05
+        lines.append([(x, 0.0, 0.8 * i / 5) for i in range(6)])
+        r, c = divmod(int(order[k % 3]), 8)
+        uvs.append(((c + rng.uniform(0.1, 0.9)) / 8.0, (r + rng.uniform(0.1, 0.9)) / 4.0))
+    curves_with_uv(scene, f"Group{g}", lines, 0.028, mat, uvs)
+hs.make_camera(location=(0.0, -3.0, 0.4), target=(0.0, 0.0, 0.4), kind="ORTHO", ortho_scale=2.0)
+hs.make_light("SUN", energy=2.0, location=(2, -2, 3))
+hs.make_light("POINT", energy=60.0, location=(-2, -1.5, 1.5), shadow_soft_size=0.2)
+hs.make_light("AREA", energy=20.0, location=(0.3, 2.0, 1.2), target=(0.0, 0.0, 0.4), name="Back", size=1.0)
+scene.world = bpy.data.worlds.new("W"); scene.world.use_nodes = False; scene.world.color = (0.05, 0.05, 0.05)
+cy = scene.cycles
+cy.max_bounces = cy.glossy_bounces = cy.transmission_bounces = cy.diffuse_bounces = 4
+out = {}
+for eng in ("CYCLES", "HAIRBSDF"):
+    scene.render.engine = eng
+    scene.render.filepath = os.path.join(TMP, eng + ".exr")
+    bpy.ops.render.render(write_still=True)
+    px, _ = fg.read_exr_rgba(scene.render.filepath)
+    out[eng] = np.asarray(px).reshape(ARGS["h"], ARGS["w"], 4)
+W = ARGS["w"]
+m = (out["CYCLES"][..., 3] > 0.99) & (out["HAIRBSDF"][..., 3] > 0.99)
+res = {"version": bpy.app.version_string, "status": engine.LAST_RENDER.get("status"),
+       "warnings": engine.LAST_RENDER.get("warnings", []), "n": int(m.sum()), "groups": []}
+for g in range(3):
+    cols = np.zeros(W, bool); cols[int(W * g / 3):int(W * (g + 1) / 3)] = True
+    mg = m & cols[None, :]
+    res["groups"].append({"n": int(mg.sum()), "cycles": out["CYCLES"][mg][:, :3].mean(0),
+                          "hairbsdf": out["HAIRBSDF"][mg][:, :3].mean(0)})
+res["cycles"] = out["CYCLES"][m][:, :3].mean(0)
+res["hairbsdf"] = out["HAIRBSDF"][m][:, :3].mean(0)
+emit(res)
+'''
+
+
+def test_image_texture_hair_colour_mean_matches_cycles(run_blender, blender_kind, renderer_available):
+    """Principled Hair's Color (and Roughness, through a colour -> float conversion) from an
+    Image Texture on the strands' UVs, lit and with bounces: the mean colour of each group of
+    strands (each on its own part of the image) is within 5 % of Cycles' (test_mean_matches_cycles'
+    limit)."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_HAIR, args={"w": 120, "h": 80, "spp": 64}).result
+    record(f"shading_network_image_hair_{KINDS[blender_kind]}", r)
+    summary = f"{r['version']}: " + "; ".join(
+        f"group {g}: {x['n']} px, Cycles {np.round(x['cycles'], 4).tolist()} ours {np.round(x['hairbsdf'], 4).tolist()}"
+        for g, x in enumerate(r["groups"]))
+    print("\n" + summary)
+    assert r["status"] == "ok" and r["n"] > 300, summary
+    assert not r["warnings"], r["warnings"]
+    np.testing.assert_allclose(r["hairbsdf"], r["cycles"], rtol=0.05, err_msg=summary)
+    for g in r["groups"]:
+        np.testing.assert_allclose(g["hairbsdf"], g["cycles"], rtol=0.05, err_msg=summary)
