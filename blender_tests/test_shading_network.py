@@ -522,32 +522,42 @@ cases = [("LinearRepeat", "Linear", "REPEAT"), ("ClosestExtend", "Closest", "EXT
          ("LinearClip", "Linear", "CLIP"), ("CubicRepeat", "Cubic", "REPEAT"), ("ClosestRepeat", "Closest", "REPEAT")]
 if V >= (3, 5, 0):
     cases.append(("LinearMirror", "Linear", "MIRROR"))
+cases.append(("MappingPoint", "Linear", "REPEAT"))  # a Mapping node (Point) between the vector and the image
 vs = [(-0.05, 0.37, 0.93), (-0.3, 0.5, 1.12), (0.01, 0.62, 0.99)]
-z = 1.0
+Z0, DZ, DS = 1.1, 0.2, 0.06  # first row, rows per material, strands within one
+z = Z0
 for k, (name, interp, ext) in enumerate(cases):
     m, nt, e = emission_material(name)
     tc = nt.nodes.new("ShaderNodeTexCoord")
     t = image_node(nt, images["tex.exr"], interp, ext)
     # u from -1.25 (Cycles' frac at a negative integer: u * 8 = -10) to 2.1
-    nt.links.new(swept_vector(nt, tc.outputs["UV"], -1.25, 2.1), t.inputs["Vector"])
+    vector = swept_vector(nt, tc.outputs["UV"], -1.25, 2.1)
+    if name == "MappingPoint":
+        mp = nt.nodes.new("ShaderNodeMapping"); mp.vector_type = "POINT"
+        mp.inputs["Location"].default_value = (0.1, -0.3, 0.0)
+        mp.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+        mp.inputs["Scale"].default_value = (1.3, 0.8, 1.0)
+        nt.links.new(vector, mp.inputs["Vector"])
+        vector = mp.outputs["Vector"]
+    nt.links.new(vector, t.inputs["Vector"])
     nt.links.new(t.outputs["Color"], e.inputs["Color"])
-    lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+    lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
     curves_with_uv(scene, name, lines, 0.02, m, [(0.3, v) for v in vs[k % 3]])
-    z -= 0.22
+    z -= DZ
 # Vector unlinked (Cycles' default: the UV), Color and Alpha (the alpha output unassociates).
 m, nt, e = emission_material("DefaultUVAlpha")
 t = image_node(nt, images["tex.exr"])
 nt.links.new(t.outputs["Color"], e.inputs["Color"]); nt.links.new(t.outputs["Alpha"], e.inputs["Strength"])
-lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
 curves_with_uv(scene, "DefaultUVAlpha", lines, 0.02, m, [(0.07, 0.81), (0.5, 0.5), (0.93, 0.12)])
-z -= 0.22
+z -= DZ
 # A UV Map node naming a second 2D-vector attribute, the 8-bit sRGB PNG, Closest (exact).
 m, nt, e = emission_material("NamedMapPNG")
 uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = "second"
 t = image_node(nt, images["tex.png"], "Closest", "REPEAT")
 nt.links.new(swept_vector(nt, uvm.outputs["UV"], -0.2, 1.2), t.inputs["Vector"])
 nt.links.new(t.outputs["Color"], e.inputs["Color"])
-lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.07 * j) for i in range(7)] for j in range(3)]
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
 curves_with_uv(scene, "NamedMapPNG", lines, 0.02, m, [(0.0, 0.0)] * 3,
                more=(("second", [(0.0, 0.1), (0.0, 0.45), (0.0, 0.8)]),))
 # Particle hair: the emitter's UV at the root (Texture Coordinate > UV, Linear), and a UV Map
@@ -594,15 +604,15 @@ rel = np.abs(ours[..., :3] - cy[..., :3]) / np.maximum(np.abs(cy[..., :3]), 1e-3
 rel_px = np.where(covered, rel.max(-1), 0.0)
 # per band of rows (one material each, from the top; the particle hair at the bottom)
 bands = {}
-zc = 1.0
+zc = Z0
 for name in [c[0] for c in cases] + ["DefaultUVAlpha", "NamedMapPNG"]:
-    rows = slice(int((1.2 - (zc + 0.02)) / 2.4 * H), int((1.2 - (zc - 0.16)) / 2.4 * H) + 1)
+    rows = slice(int((1.2 - (zc + 0.02)) / 2.4 * H), int((1.2 - (zc - 2 * DS - 0.02)) / 2.4 * H) + 1)
     cov = covered[::-1][rows]
     vals = rel_px[::-1][rows][cov]
     bands[name] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,
                    "p99": float(np.percentile(vals, 99)) if vals.size else None,
                    "max": float(vals.max()) if vals.size else None}
-    zc -= 0.22
+    zc -= DZ
 rows = slice(int((1.2 - (-0.7)) / 2.4 * H), H)
 cov = covered[::-1][rows]; vals = rel_px[::-1][rows][cov]
 bands["particles"] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,

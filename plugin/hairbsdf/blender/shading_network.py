@@ -13,7 +13,8 @@ socket's own default value is used, as the exporter always did.
 Supported: Value, RGB, Hair Info (Random, Intercept, Length, Is Strand), Attribute (Geometry),
 Math, Map Range (float), Clamp, ColorRamp, Mix (float, vector, colour) and legacy MixRGB,
 Separate / Combine RGB, XYZ and Color (RGB mode), Invert, Gamma, Brightness/Contrast, Image
-Texture (flat projection) on curve UVs from Texture Coordinate > UV or a UV Map node, reroutes
+Texture (flat projection) on curve UVs from Texture Coordinate > UV or a UV Map node, Mapping
+(Point / Texture / Vector, unlinked Location / Rotation / Scale), reroutes
 and muted nodes (their internal links). Socket conversions follow Cycles: colour -> float is the
 luminance, vector -> float the average, float -> colour / vector (f, f, f).
 """
@@ -452,6 +453,35 @@ def _uv_map(net, node, out, depth):
     return _uv(net, node.uv_map)
 
 
+def _mapping(net, node, out, depth):
+    """Mapping (Point, Texture, Vector) with unlinked Location / Rotation / Scale: the affine map
+    Blender's node applies, as three multiply-adds per component (float32 constants)."""
+    if node.vector_type == "NORMAL":  # normalised after the map: not an affine map
+        return _UNSUPPORTED
+    values = {}
+    for name, default in (("Location", (0.0, 0.0, 0.0)), ("Rotation", (0.0, 0.0, 0.0)), ("Scale", (1.0, 1.0, 1.0))):
+        sock = _sock(node, name)
+        if sock is None or not getattr(sock, "enabled", True):
+            values[name] = default
+            continue
+        if net.link_source(sock) is not None:
+            return _UNSUPPORTED
+        values[name] = tuple(float(v) for v in sock.default_value)
+    from .export_world import mapping_matrix  # noqa: PLC0415 - export_world imports this module's users
+    m = mapping_matrix(node.vector_type, values["Location"], values["Rotation"], values["Scale"])
+    vec = _in(net, node, "Vector", "vector", depth)
+    parts = []
+    for i in range(3):
+        acc = net.constant((m[i, 3],))
+        for j in (2, 1, 0):
+            reg = net._temp(1)
+            net._emit(OP_MATH, [MATH_TYPES["MULTIPLY_ADD"], 0, reg, net.component(vec, j).reg,
+                                net.constant((m[i, j],)).reg, acc.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+            acc = Value(reg, 1)
+        parts.append(acc)
+    return net.gather(parts)
+
+
 def _image_texture(net, node, out, depth):
     if node.projection != "FLAT" or out.identifier not in ("Color", "Alpha"):
         return _UNSUPPORTED
@@ -633,6 +663,7 @@ _NODES = {
     "ShaderNodeTexCoord": _tex_coord,
     "ShaderNodeUVMap": _uv_map,
     "ShaderNodeTexImage": _image_texture,
+    "ShaderNodeMapping": _mapping,
     "ShaderNodeMath": _math,
     "ShaderNodeMapRange": _map_range,
     "ShaderNodeClamp": _clamp,
