@@ -523,13 +523,14 @@ cases = [("LinearRepeat", "Linear", "REPEAT"), ("ClosestExtend", "Closest", "EXT
 if V >= (3, 5, 0):
     cases.append(("LinearMirror", "Linear", "MIRROR"))
 cases.append(("MappingPoint", "Linear", "REPEAT"))  # a Mapping node (Point) between the vector and the image
+cases.append(("PNGLinear", "Linear", "REPEAT"))  # 8-bit sRGB: Cycles interpolates the encoded values
 vs = [(-0.05, 0.37, 0.93), (-0.3, 0.5, 1.12), (0.01, 0.62, 0.99)]
-Z0, DZ, DS = 1.1, 0.2, 0.06  # first row, rows per material, strands within one
+Z0, DZ, DS = 1.1, 0.18, 0.055  # first row, rows per material, strands within one
 z = Z0
 for k, (name, interp, ext) in enumerate(cases):
     m, nt, e = emission_material(name)
     tc = nt.nodes.new("ShaderNodeTexCoord")
-    t = image_node(nt, images["tex.exr"], interp, ext)
+    t = image_node(nt, images["tex.png" if name.startswith("PNG") else "tex.exr"], interp, ext)
     # u from -1.25 (Cycles' frac at a negative integer: u * 8 = -10) to 2.1
     vector = swept_vector(nt, tc.outputs["UV"], -1.25, 2.1)
     if name == "MappingPoint":

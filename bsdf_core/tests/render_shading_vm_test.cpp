@@ -387,6 +387,21 @@ TEST(ShadingVmImage, OpWritesColorAndAlphaAndUnassociates) {
     EXPECT_EQ(r[7], 24.0f);  // divided by alpha 0.5
     EXPECT_EQ(r[8], 2.0f);
     EXPECT_EQ(r[10], 0.5f);
+    // sRGB decode after the lookup: texel (2, 1) green 1 stays 1, blue 2 -> ((2 + 0.055) / 1.055)^2.4
+    const ShadingProgram srgb = make_program(
+        {2.5f / 4.0f, 0.75f, 0.0f}, {op(ShadingOp::ImageTexture), 0, 1, 0, kImageSrgbDecode, 3, 0}, 4);
+    const auto rs = run(srgb, ctx);
+    EXPECT_FLOAT_EQ(rs[4], 1.0f);
+    EXPECT_NEAR(rs[5], std::pow(2.055f / 1.055f, 2.4f), 1e-5f);
+    EXPECT_EQ(rs[6], 0.5f);  // alpha is not decoded
+    // 0.04 is on the linear segment
+    const TestImage dark(1.0f);
+    std::vector<float> px = dark.rgba;
+    for (size_t i = 0; i < px.size(); i += 4) px[i] = 0.04f;
+    const ShadingImage dark_image{4, 2, px.data()};
+    ctx.images = &dark_image;
+    EXPECT_FLOAT_EQ(run(srgb, ctx)[3], 0.04f / 12.92f);
+    ctx.images = &t.image;
     // an image index outside the context's images is rejected, as are bad enums
     EXPECT_THROW(validate_program(p, 0, 0), std::invalid_argument);
     ShadingProgram bad = p;
@@ -394,5 +409,8 @@ TEST(ShadingVmImage, OpWritesColorAndAlphaAndUnassociates) {
     EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
     bad = p;
     bad.code[3] = 4;  // extension
+    EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
+    bad = p;
+    bad.code[4] = 4;  // flags
     EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
 }

@@ -145,6 +145,12 @@ void add_texel(const ShadingImage& im, ImageExtension extension, int ix, int iy,
     for (int c = 0; c < 4; ++c) acc[c] += weight * t[c];
 }
 
+// The sRGB transfer function, decoding (0 below 0).
+float srgb_to_linear(float c) {
+    if (c < 0.04045f) return c < 0.0f ? 0.0f : c * (1.0f / 12.92f);
+    return std::pow((c + 0.055f) * (1.0f / 1.055f), 2.4f);
+}
+
 // Uniform cubic B-spline weights of the 4 texels around a sample at fraction t.
 void bspline_weights(float t, float* w) {
     const float t2 = t * t, t3 = t2 * t;
@@ -473,7 +479,7 @@ void validate_program(const ShadingProgram& p, int attribute_count, int image_co
                 in_range(a[0], 0, image_count - 1, "image index");
                 in_range(a[1], 0, 2, "interpolation");
                 in_range(a[2], 0, 3, "extension");
-                in_range(a[3], 0, kImageUnassociateAlpha, "flags");
+                in_range(a[3], 0, kImageUnassociateAlpha | kImageSrgbDecode, "flags");
                 write(a[4], 4, "out");
                 read(a[5], 3, "vector");
                 break;
@@ -600,6 +606,8 @@ void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r
                 // Cycles' svm_image_texture: unassociate where 0 < alpha != 1.
                 if ((a[3] & kImageUnassociateAlpha) && rgba[3] != 1.0f && rgba[3] != 0.0f)
                     for (int c = 0; c < 3; ++c) rgba[c] /= rgba[3];
+                if (a[3] & kImageSrgbDecode)
+                    for (int c = 0; c < 3; ++c) rgba[c] = srgb_to_linear(rgba[c]);
                 for (int c = 0; c < 4; ++c) r[a[4] + c] = rgba[c];
                 break;
             }

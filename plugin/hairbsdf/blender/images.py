@@ -27,23 +27,24 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 
 
 def _read_file(path: str):
-    """((H, W, 4) float32, alpha associated in the file) from the file with OpenImageIO, or
-    (None, False) when it cannot be read."""
+    """((H, W, 4) float32, alpha associated in the file, 8 bits per channel) from the file with
+    OpenImageIO, or (None, False, False) when it cannot be read."""
     try:
         import OpenImageIO as oiio
     except ImportError:
-        return None
+        return None, False, False
     buf = oiio.ImageBuf(path)
     if buf.has_error:
-        return None, False
+        return None, False, False
     pixels = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float32)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     if pixels.ndim != 3 or pixels.shape[2] < 1:
-        return None, False
+        return None, False, False
     spec = buf.spec()
     associated = not bool(spec.get_int_attribute("oiio:UnassociatedAlpha", 0))
-    return _rgba(pixels, alpha_channel=spec.alpha_channel), associated
+    is_byte = spec.format.basetype == oiio.UINT8
+    return _rgba(pixels, alpha_channel=spec.alpha_channel), associated, is_byte
 
 
 def _rgba(pixels, alpha_channel=-1):
@@ -73,40 +74,45 @@ def _read_blender_buffer(image):
     return _rgba(np.ascontiguousarray(buf.reshape(h, w, channels)[::-1]))
 
 
-def _read(image, warn):
-    """(scene-linear RGBA (H, W, 4) or None, source 'file' | 'buffer', alpha associated)."""
+def _read(image, warn, keep_srgb_bytes=False):
+    """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded): scene-linear, except that with
+    `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded values (then sRGB-encoded is True)."""
     import bpy
 
     pixels = None
-    source = "file"
     path = ""
-    associated = False
+    from_file = associated = is_byte = False
     if getattr(image, "source", "FILE") == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if path and os.path.exists(path):
-            pixels, associated = _read_file(path)
+            pixels, associated, is_byte = _read_file(path)
+            from_file = pixels is not None
     if pixels is None:
-        source = "buffer"
         try:
             pixels = _read_blender_buffer(image)
-            # Blender's float buffers are premultiplied, its byte buffers straight.
+            # Blender's float buffers are premultiplied and linear, its byte buffers straight
+            # and encoded.
             associated = bool(getattr(image, "is_float", False))
+            is_byte = not associated
         except Exception:  # noqa: BLE001 - a broken image must not stop the render
             pixels = None
     if pixels is None:
         warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using black")
-        return None, source, associated
+        return None, associated, False
     space = image.colorspace_settings.name
+    encoded = False
     if space in SRGB_SPACES:
         # Files and Blender's byte buffers hold encoded values; its float buffers are linear.
-        if source == "file" or not bool(getattr(image, "is_float", False)):
+        if keep_srgb_bytes and is_byte:
+            encoded = True
+        elif from_file or is_byte:
             pixels[:, :, :3] = srgb_to_linear(pixels[:, :, :3])
     elif space not in LINEAR_SPACES:
         warn(f"image '{image.name}': colour space '{space}' is not supported; read as linear")
     if not np.all(np.isfinite(pixels)):
         warn(f"image '{image.name}': NaN/Inf pixels set to 0")
         pixels = np.where(np.isfinite(pixels), pixels, 0.0).astype(np.float32)
-    return pixels, source, associated
+    return pixels, associated, encoded
 
 
 def read_image_linear(image, warn):
@@ -121,20 +127,23 @@ def is_data_space(image) -> bool:
 
 
 def read_image_rgba(image, warn):
-    """(scene-linear RGBA (H, W, 4) float32 or None, alpha associated) of a bpy Image for the
-    Image Texture node, as Cycles' image manager loads it: alpha mode None reads alpha 1;
-    Channel Packed and Non-Color images keep their channels as they are; otherwise straight
-    alpha is associated (RGB x A) at load, so that the node's Color output is associated and
-    is divided by the interpolated alpha only when its Alpha output is used."""
-    pixels, _, associated = _read(image, warn)
+    """(RGBA (H, W, 4) float32 or None, alpha associated, sRGB-encoded) of a bpy Image for the
+    Image Texture node, as Cycles' image manager loads it: 8-bit sRGB images keep their encoded
+    values (the VM interpolates them and decodes afterwards, as Cycles does), every other image
+    is scene-linear; alpha mode None reads alpha 1; Channel Packed and Non-Color images keep
+    their channels as they are; otherwise straight alpha is associated (RGB x A) at load, so
+    that the node's Color output is associated and is divided by the interpolated alpha only
+    when its Alpha output is used. (Cycles associates 8-bit images in 8 bits: an 8-bit image
+    with alpha < 1 can differ here by that rounding.)"""
+    pixels, associated, encoded = _read(image, warn, keep_srgb_bytes=True)
     if pixels is None:
-        return None, False
+        return None, False, False
     mode = getattr(image, "alpha_mode", "STRAIGHT")
     if mode == "NONE":
         pixels[:, :, 3] = 1.0
-        return pixels, False
+        return pixels, False, encoded
     if mode == "CHANNEL_PACKED" or is_data_space(image):
-        return pixels, False
+        return pixels, False, encoded
     if not associated:
         pixels[:, :, :3] *= pixels[:, :, 3:4]
-    return pixels, True
+    return pixels, True, encoded

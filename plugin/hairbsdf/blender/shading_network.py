@@ -49,7 +49,7 @@ MIX_BLENDS = {
 HAIR_INFO_OUTPUTS = {"Random": 0, "Intercept": 1, "Length": 2, "Is Strand": 3}
 IMAGE_INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}  # Smart: Cubic, as Cycles' CPU kernel
 IMAGE_EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
-IMAGE_UNASSOCIATE_ALPHA = 1
+IMAGE_UNASSOCIATE_ALPHA, IMAGE_SRGB_DECODE = 1, 2
 # Curve attribute names that stand for a UV map: UV_ATTRIBUTE is the default one (Texture
 # Coordinate > UV, a UV Map node with no map named), UV_ATTRIBUTE + name a named map. The hair
 # exporter resolves them per object (export_hair.uv_rgba).
@@ -94,6 +94,7 @@ class ImageTable:
     def __init__(self):
         self.images: list[dict] = []     # {"name", "pixels" (H, W, 4) float32}
         self.associated: list[bool] = []
+        self.srgb_encoded: list[bool] = []
         self._index: dict = {}
 
     def index(self, image, warn):
@@ -101,13 +102,14 @@ class ImageTable:
         key = image.name_full
         if key not in self._index:
             from .images import read_image_rgba
-            pixels, associated = read_image_rgba(image, warn)
+            pixels, associated, encoded = read_image_rgba(image, warn)
             if pixels is None:
                 self._index[key] = None
             else:
                 self._index[key] = len(self.images)
                 self.images.append({"name": image.name_full, "pixels": np.ascontiguousarray(pixels, np.float32)})
                 self.associated.append(associated)
+                self.srgb_encoded.append(encoded)
         return self._index[key]
 
 
@@ -504,6 +506,8 @@ def _image_texture(net, node, out, depth):
         # Cycles divides by alpha only when the Alpha output is used and alpha was associated.
         alpha_used = any(o.identifier == "Alpha" and o.is_linked for o in node.outputs)
         flags = IMAGE_UNASSOCIATE_ALPHA if alpha_used and net.attributes.images.associated[index] else 0
+        if net.attributes.images.srgb_encoded[index]:  # 8-bit sRGB: decoded after the lookup, as Cycles
+            flags |= IMAGE_SRGB_DECODE
         block = Value(net._temp(4), 4)
         net._emit(OP_IMAGE_TEXTURE, [index, IMAGE_INTERPOLATIONS[node.interpolation],
                                      IMAGE_EXTENSIONS[node.extension], flags, block.reg, vector.reg],

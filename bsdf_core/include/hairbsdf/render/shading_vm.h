@@ -39,8 +39,11 @@ enum class ShadingOp : int32_t {
 enum class ImageInterpolation : int32_t { Linear = 0, Closest = 1, Cubic = 2 };
 enum class ImageExtension : int32_t { Repeat = 0, Extend = 1, Clip = 2, Mirror = 3 };
 // ImageTexture flags: divide the interpolated colour by its alpha (Cycles does so when the
-// node's Alpha output is used and the image's alpha is associated at load).
+// node's Alpha output is used and the image's alpha is associated at load); decode the
+// interpolated colour from sRGB (8-bit sRGB images are stored encoded and decoded after the
+// lookup, as Cycles does).
 constexpr int32_t kImageUnassociateAlpha = 1;
+constexpr int32_t kImageSrgbDecode = 2;
 
 // An image a program samples: (height, width, 4) float RGBA, scene-linear, row 0 = the image's
 // top row (as Blender shows it; texture v = 0 is the bottom row).
