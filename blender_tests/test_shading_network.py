@@ -725,3 +725,87 @@ def test_image_texture_hair_colour_mean_matches_cycles(run_blender, blender_kind
     np.testing.assert_allclose(r["hairbsdf"], r["cycles"], rtol=0.05, err_msg=summary)
     for g in r["groups"]:
         np.testing.assert_allclose(g["hairbsdf"], g["cycles"], rtol=0.05, err_msg=summary)
+
+
+IMAGE_COMPILER = IMAGE_COMMON + r'''
+from hairbsdf.blender.export_materials import MaterialTable
+from hairbsdf.blender.shading_network import UV_ATTRIBUTE
+from hairbsdf import _render
+
+class Report:
+    def __init__(self): self.warnings = []
+    def warn(self, msg): self.warnings.append(msg)
+
+images = make_images()
+gone = bpy.data.images.new("gone", 4, 4); gone.source = "FILE"; gone.filepath = "/nonexistent/gone.png"
+
+def emission(name, image=None, vector=None, **settings):
+    m = bpy.data.materials.new(name); m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes): nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial"); e = nt.nodes.new("ShaderNodeEmission")
+    e.inputs["Color"].default_value = (0.25, 0.5, 0.75, 1.0)
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    t = nt.nodes.new("ShaderNodeTexImage"); t.name = "Tex"; t.image = image
+    for k, v in settings.items():
+        setattr(t, k, v)
+    if vector is not None:
+        vector(nt, t)
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    return m
+
+def constant_vector(nt, t):  # (2.5 / 8, 1.5 / 4, 0): the centre of texel (2, 1)
+    c = nt.nodes.new("ShaderNodeCombineXYZ")
+    c.inputs["X"].default_value = 2.5 / 8; c.inputs["Y"].default_value = 1.5 / 4
+    nt.links.new(c.outputs["Vector"], t.inputs["Vector"])
+
+def normal_mapping(nt, t):
+    tc = nt.nodes.new("ShaderNodeTexCoord"); mp = nt.nodes.new("ShaderNodeMapping"); mp.vector_type = "NORMAL"
+    nt.links.new(tc.outputs["UV"], mp.inputs["Vector"]); nt.links.new(mp.outputs["Vector"], t.inputs["Vector"])
+
+def named_map(nt, t):
+    uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = "Second"
+    nt.links.new(uvm.outputs["UV"], t.inputs["Vector"])
+
+mats = [emission("Default", images["tex.exr"]), emission("Box", images["tex.exr"], projection="BOX"),
+        emission("NoImage"), emission("MissingFile", gone),
+        emission("ConstantVector", images["tex.exr"], constant_vector, interpolation="Closest"),
+        emission("NormalMapping", images["tex.exr"], normal_mapping), emission("Named", images["tex.png"], named_map)]
+rep = Report()
+table = MaterialTable(rep)
+res = {}
+for m in mats:
+    d = table.materials[table.index(m)]
+    res[m.name] = {"color": d["closures"][0]["color"], "program": "program" in d,
+                   "needs": sorted(table.needs[table.index(m)][1])}
+px = np.empty(8 * 4 * 4, np.float32); images["tex.exr"].pixels.foreach_get(px)
+emit({"materials": res, "warnings": rep.warnings, "uv": UV_ATTRIBUTE, "texel_2_1": px.reshape(4, 8, 4)[1, 2].tolist(),
+      "images": [im["name"] for im in table.attributes.images.images],
+      "srgb": table.attributes.images.srgb_encoded, "attributes": table.attributes.names})
+'''
+
+
+def test_image_texture_compiler(run_blender, blender_kind, renderer_available):
+    """What the compiler does with Image Texture settings: the default Vector reads the default
+    UV attribute (exported only for such programs), a named UV Map its own, a constant vector
+    folds to the texel, no image or a missing file reads Cycles' magenta, and unsupported
+    settings (Box projection, a Normal-type Mapping) are warned with the socket value used."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_COMPILER).result
+    mats, warnings, uv = r["materials"], "\n".join(r["warnings"]), r["uv"]
+    assert mats["Default"]["program"] and mats["Default"]["needs"] == [uv]
+    assert mats["Named"]["program"] and mats["Named"]["needs"] == [uv + "Second"]
+    assert not mats["Box"]["program"] and mats["Box"]["color"] == pytest.approx((0.25, 0.5, 0.75))
+    assert "'Tex' (Image Texture > Color) (its projection BOX" in warnings
+    # the Mapping is warned and its socket value (0, 0, 0) is the lookup vector: a constant
+    assert not mats["NormalMapping"]["program"] and "(Mapping > Vector) (its vector_type NORMAL)" in warnings
+    for name in ("NoImage", "MissingFile"):
+        assert not mats[name]["program"] and mats[name]["color"] == pytest.approx((1.0, 0.0, 1.0)), name
+        assert mats[name]["needs"] == []
+    assert "'Tex' has no image; like Cycles, it reads magenta" in warnings
+    assert "image 'gone' has no pixels" in warnings
+    # folded at export with the VM's own lookup: the texel (float EXR, stored premultiplied)
+    assert not mats["ConstantVector"]["program"]
+    assert mats["ConstantVector"]["color"] == pytest.approx(r["texel_2_1"][:3], rel=1e-6)
+    assert len(r["images"]) == 2 and r["srgb"] == [False, True]  # each image read once; the PNG stays encoded
+    assert sorted(r["attributes"]) == sorted([uv, uv + "Second"])

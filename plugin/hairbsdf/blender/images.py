@@ -74,7 +74,7 @@ def _read_blender_buffer(image):
     return _rgba(np.ascontiguousarray(buf.reshape(h, w, channels)[::-1]))
 
 
-def _read(image, warn, keep_srgb_bytes=False):
+def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded): scene-linear, except that with
     `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded values (then sRGB-encoded is True)."""
     import bpy
@@ -97,7 +97,7 @@ def _read(image, warn, keep_srgb_bytes=False):
         except Exception:  # noqa: BLE001 - a broken image must not stop the render
             pixels = None
     if pixels is None:
-        warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using black")
+        warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using {fallback}")
         return None, associated, False
     space = image.colorspace_settings.name
     encoded = False
@@ -135,7 +135,8 @@ def read_image_rgba(image, warn):
     that the node's Color output is associated and is divided by the interpolated alpha only
     when its Alpha output is used. (Cycles associates 8-bit images in 8 bits: an 8-bit image
     with alpha < 1 can differ here by that rounding.)"""
-    pixels, associated, encoded = _read(image, warn, keep_srgb_bytes=True)
+    pixels, associated, encoded = _read(image, warn, keep_srgb_bytes=True,
+                                        fallback="magenta (Cycles' missing-texture colour)")
     if pixels is None:
         return None, False, False
     mode = getattr(image, "alpha_mode", "STRAIGHT")

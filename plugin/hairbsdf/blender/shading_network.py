@@ -378,6 +378,9 @@ def _setting(node):
         source = getattr(node.image, "source", "none") if node.image is not None else "none"
         return (f"projection {node.projection}, interpolation {node.interpolation}, extension {node.extension}, "
                 f"image source {source}")
+    if node.bl_idname == "ShaderNodeMapping":
+        linked = [s.name for s in node.inputs if s.name != "Vector" and s.is_linked]
+        return f"vector_type {node.vector_type}" + (f", linked {' / '.join(linked)}" if linked else "")
     for prop in ("data_type", "mode", "attribute_type", "operation"):
         if hasattr(node, prop):
             return f"{prop} {getattr(node, prop)}"
@@ -499,8 +502,8 @@ def _image_texture(net, node, out, depth):
     block = net._outputs.get(key)
     if block is None:
         index = net.attributes.images.index(image, net.warn)
-        if index is None:  # no pixels (warned): black, alpha 0, as a texture Cycles cannot load
-            return net.constant((0.0, 0.0, 0.0) if out.identifier == "Color" else (0.0,))
+        if index is None:  # no pixels (warned): Cycles' missing-texture magenta, alpha 1
+            return net.constant((1.0, 0.0, 1.0) if out.identifier == "Color" else (1.0,))
         src = net.link_source(_sock(node, "Vector"))
         vector = _in(net, node, "Vector", "vector", depth) if src is not None else _uv(net)
         # Cycles divides by alpha only when the Alpha output is used and alpha was associated.
