@@ -562,7 +562,8 @@ lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in rang
 curves_with_uv(scene, "NamedMapPNG", lines, 0.02, m, [(0.0, 0.0)] * 3,
                more=(("second", [(0.0, 0.1), (0.0, 0.45), (0.0, 0.8)]),))
 # Particle hair: the emitter's UV at the root (Texture Coordinate > UV, Linear), and a UV Map
-# node naming the emitter's second UV layer (Closest), on vertical strands seen edge-on.
+# node naming the emitter's second UV layer (Closest, on interpolated children), on vertical
+# strands seen edge-on.
 bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, -1.02))
 em = bpy.context.active_object
 me = em.data
@@ -589,6 +590,9 @@ for k in range(2):
                            radius=0.008)
     ps.settings.use_advanced_hair = False
     ps.settings.hair_length = 0.3
+    if k == 1:  # interpolated children: their UVs come from uv_on_emitter too
+        ps.settings.child_type = "INTERPOLATED"
+        ps.settings.rendered_child_count = 2
 hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
 
 r = {}
