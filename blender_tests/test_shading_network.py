@@ -444,7 +444,7 @@ def sock(coll, identifier):
 
 def make_images():
     """An 8 x 4 float EXR (alpha 0.4..1, premultiplied as Blender stores float buffers) and the
-    same colours as an opaque 8-bit sRGB PNG: every texel differs from its neighbours."""
+    same colours as an 8-bit sRGB PNG (straight alpha): every texel differs from its neighbours."""
     w, h = 8, 4
     c = np.arange(w)[None, :] + np.zeros((h, 1))
     r = np.arange(h)[:, None] + np.zeros((1, w))
@@ -452,12 +452,9 @@ def make_images():
                      0.2 + 0.7 * ((c * 3 + r * 7) % 11) / 10, 0.4 + 0.6 * ((c + 2 * r) % 5) / 4], -1)
     rgba = rgba.astype(np.float32)  # rows bottom first, as Blender's pixel buffers
     out = {}
-    for name, fmt, alpha, is_float in (("tex.exr", "OPEN_EXR", True, True), ("tex.png", "PNG", False, False)):
-        img = bpy.data.images.new(name, w, h, alpha=alpha, float_buffer=is_float)
-        px = rgba.copy()
-        if not alpha:
-            px[..., 3] = 1.0
-        img.pixels.foreach_set(px.ravel())
+    for name, fmt, is_float in (("tex.exr", "OPEN_EXR", True), ("tex.png", "PNG", False)):
+        img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=is_float)
+        img.pixels.foreach_set(rgba.ravel())
         img.filepath_raw = os.path.join(TMP, name)
         img.file_format = fmt
         img.save()
@@ -524,6 +521,7 @@ if V >= (3, 5, 0):
     cases.append(("LinearMirror", "Linear", "MIRROR"))
 cases.append(("MappingPoint", "Linear", "REPEAT"))  # a Mapping node (Point) between the vector and the image
 cases.append(("PNGLinear", "Linear", "REPEAT"))  # 8-bit sRGB: Cycles interpolates the encoded values
+# (PNGLinear also uses the Alpha output: the 8-bit association, then unassociation and decoding)
 vs = [(-0.05, 0.37, 0.93), (-0.3, 0.5, 1.12), (0.01, 0.62, 0.99)]
 Z0, DZ, DS = 1.1, 0.18, 0.055  # first row, rows per material, strands within one
 z = Z0
@@ -542,6 +540,8 @@ for k, (name, interp, ext) in enumerate(cases):
         vector = mp.outputs["Vector"]
     nt.links.new(vector, t.inputs["Vector"])
     nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    if name == "PNGLinear":
+        nt.links.new(t.outputs["Alpha"], e.inputs["Strength"])
     lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
     curves_with_uv(scene, name, lines, 0.02, m, [(0.3, v) for v in vs[k % 3]])
     z -= DZ

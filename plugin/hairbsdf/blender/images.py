@@ -6,8 +6,10 @@ Files are read with OpenImageIO (the pip wheel in bpy 4.5's venv, Debian's pytho
 Blender 3.4), as Cycles reads them; packed, generated or missing files fall back to Blender's own
 pixel buffer. Colour spaces: Linear / Linear Rec.709 / Non-Color / Raw pass through, sRGB is
 decoded with the sRGB transfer function; any other space is read as linear with a warning.
-Difference from Cycles: Cycles interpolates 8-bit sRGB textures before decoding them; here each
-texel is decoded first (the two agree at texel centres).
+Alpha: files are read with their alpha as stored (straight stays straight, as Cycles configures
+OpenImageIO) and associated here as Cycles' loader does (read_image_rgba). 8-bit sRGB images: the
+Image Texture path keeps the encoded values and the VM decodes after interpolating, as Cycles;
+the world's path (read_image_linear) decodes each texel first (the two agree at texel centres).
 """
 
 from __future__ import annotations
@@ -33,7 +35,11 @@ def _read_file(path: str):
         import OpenImageIO as oiio
     except ImportError:
         return None, False, False
-    buf = oiio.ImageBuf(path)
+    # As Cycles: keep unassociated alpha as it is in the file (OpenImageIO would otherwise
+    # associate it on read, for 8-bit sRGB files in linear space); read_image_rgba associates.
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    buf = oiio.ImageBuf(path, 0, 0, config)
     if buf.has_error:
         return None, False, False
     pixels = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float32)
@@ -75,8 +81,9 @@ def _read_blender_buffer(image):
 
 
 def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
-    """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded): scene-linear, except that with
-    `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded values (then sRGB-encoded is True)."""
+    """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded, 8 bits per channel):
+    scene-linear, except that with `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded
+    values (then sRGB-encoded is True)."""
     import bpy
 
     pixels = None
@@ -98,7 +105,7 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
             pixels = None
     if pixels is None:
         warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using {fallback}")
-        return None, associated, False
+        return None, associated, False, False
     space = image.colorspace_settings.name
     encoded = False
     if space in SRGB_SPACES:
@@ -112,31 +119,34 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     if not np.all(np.isfinite(pixels)):
         warn(f"image '{image.name}': NaN/Inf pixels set to 0")
         pixels = np.where(np.isfinite(pixels), pixels, 0.0).astype(np.float32)
-    return pixels, associated, encoded
+    return pixels, associated, encoded, is_byte
 
 
 def read_image_linear(image, warn):
-    """Scene-linear RGB of a bpy Image, or None (after a warning naming the image) when it has
-    no pixels. `warn(message)` reports problems."""
-    pixels, _, _ = _read(image, warn)
-    return None if pixels is None else np.ascontiguousarray(pixels[:, :, :3])
+    """Scene-linear RGB of a bpy Image (alpha associated as read_image_rgba does, 8-bit sRGB
+    decoded per texel), or None (after a warning naming the image) when it has no pixels.
+    `warn(message)` reports problems."""
+    pixels, _, encoded = read_image_rgba(image, warn, fallback="black")
+    if pixels is None:
+        return None
+    rgb = pixels[:, :, :3]
+    return np.ascontiguousarray(srgb_to_linear(rgb) if encoded else rgb)
 
 
 def is_data_space(image) -> bool:
     return image.colorspace_settings.name in ("Non-Color", "Raw")
 
 
-def read_image_rgba(image, warn):
+def read_image_rgba(image, warn, fallback="magenta (Cycles' missing-texture colour)"):
     """(RGBA (H, W, 4) float32 or None, alpha associated, sRGB-encoded) of a bpy Image for the
     Image Texture node, as Cycles' image manager loads it: 8-bit sRGB images keep their encoded
     values (the VM interpolates them and decodes afterwards, as Cycles does), every other image
     is scene-linear; alpha mode None reads alpha 1; Channel Packed and Non-Color images keep
     their channels as they are; otherwise straight alpha is associated (RGB x A) at load, so
     that the node's Color output is associated and is divided by the interpolated alpha only
-    when its Alpha output is used. (Cycles associates 8-bit images in 8 bits: an 8-bit image
-    with alpha < 1 can differ here by that rounding.)"""
-    pixels, associated, encoded = _read(image, warn, keep_srgb_bytes=True,
-                                        fallback="magenta (Cycles' missing-texture colour)")
+    when its Alpha output is used. 8-bit images are associated in 8 bits, truncating, as
+    Cycles does."""
+    pixels, associated, encoded, is_byte = _read(image, warn, keep_srgb_bytes=True, fallback=fallback)
     if pixels is None:
         return None, False, False
     mode = getattr(image, "alpha_mode", "STRAIGHT")
@@ -146,5 +156,11 @@ def read_image_rgba(image, warn):
     if mode == "CHANNEL_PACKED" or is_data_space(image):
         return pixels, False, encoded
     if not associated:
-        pixels[:, :, :3] *= pixels[:, :, 3:4]
+        if is_byte:
+            # Cycles associates 8-bit images in 8 bits, truncating: c = floor(c a / 255)
+            # (matched texel for texel against Cycles 4.5.15 renders of an sRGB PNG)
+            b = np.round(pixels * 255.0).astype(np.int64)
+            pixels[:, :, :3] = ((b[:, :, :3] * b[:, :, 3:4]) // 255).astype(np.float32) / np.float32(255.0)
+        else:
+            pixels[:, :, :3] *= pixels[:, :, 3:4]
     return pixels, True, encoded
