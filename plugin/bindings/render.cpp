@@ -737,5 +737,6 @@ PYBIND11_MODULE(_render, m) {
           py::arg("intercept") = 0.0f, py::arg("length") = 0.0f, py::arg("is_strand") = 1.0f,
           py::arg("attributes") = py::none(), py::arg("images") = py::none(),
           "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
-          "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, (M, program['registers']) float32.");
+          "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, "
+          "(M, program['registers']) float32.");
 }
