@@ -10,7 +10,11 @@ shading VM, against Blender and Cycles.
   point / curve attributes in 4.x), seen by an orthographic camera at 1 sample per pixel (the
   pixel centre) with no bounces: every pixel is the network's value at one hit. Cycles and
   HAIRBSDF render the same scene in one process and must agree per pixel (median relative
-  error <= 1e-4, p99 <= 2e-3, the fibre goniometer's limits)."""
+  error <= 1e-4, p99 <= 2e-3, the fibre goniometer's limits).
+* test_image_texture_*: Image Texture on curve UVs (Curves' 2D-vector curve attributes, particle
+  hair's emitter UVs): the compiler's handling of its settings, the same per-pixel comparison for
+  every interpolation / extension / image kind, and Principled Hair coloured by an image
+  (render means within 5 % of Cycles', test_engine_render's limit)."""
 
 import numpy as np
 import pytest
