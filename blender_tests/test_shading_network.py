@@ -10,7 +10,11 @@ shading VM, against Blender and Cycles.
   point / curve attributes in 4.x), seen by an orthographic camera at 1 sample per pixel (the
   pixel centre) with no bounces: every pixel is the network's value at one hit. Cycles and
   HAIRBSDF render the same scene in one process and must agree per pixel (median relative
-  error <= 1e-4, p99 <= 2e-3, the fibre goniometer's limits)."""
+  error <= 1e-4, p99 <= 2e-3, the fibre goniometer's limits).
+* test_image_texture_*: Image Texture on curve UVs (Curves' 2D-vector curve attributes, particle
+  hair's emitter UVs): the compiler's handling of its settings, the same per-pixel comparison for
+  every interpolation / extension / image kind, and Principled Hair coloured by an image
+  (render means within 5 % of Cycles', test_engine_render's limit)."""
 
 import numpy as np
 import pytest
@@ -430,3 +434,386 @@ def test_emission_networks_match_cycles_per_pixel(run_blender, blender_kind, ren
     assert r["covered"] > 2000, summary
     assert not r["warnings"], r["warnings"]
     assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
+
+
+# ---------------------------------------------------------------------------- Image Texture
+
+IMAGE_COMMON = r'''
+import os
+import scene_lib as lib
+V = tuple(bpy.app.version)
+
+def sock(coll, identifier):
+    return next(s for s in coll if s.identifier == identifier)
+
+def make_images():
+    """An 8 x 4 float EXR (alpha 0.4..1, premultiplied as Blender stores float buffers) and the
+    same colours as an 8-bit sRGB PNG (straight alpha): every texel differs from its neighbours."""
+    w, h = 8, 4
+    c = np.arange(w)[None, :] + np.zeros((h, 1))
+    r = np.arange(h)[:, None] + np.zeros((1, w))
+    rgba = np.stack([0.1 + 0.8 * ((c * 5 + r * 3) % 8) / 7, 0.15 + 0.7 * r / 3,
+                     0.2 + 0.7 * ((c * 3 + r * 7) % 11) / 10, 0.4 + 0.6 * ((c + 2 * r) % 5) / 4], -1)
+    rgba = rgba.astype(np.float32)  # rows bottom first, as Blender's pixel buffers
+    out = {}
+    for name, fmt, is_float in (("tex.exr", "OPEN_EXR", True), ("tex.png", "PNG", False)):
+        img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=is_float)
+        img.pixels.foreach_set(rgba.ravel())
+        img.filepath_raw = os.path.join(TMP, name)
+        img.file_format = fmt
+        img.save()
+        out[name] = bpy.data.images.load(os.path.join(TMP, name), check_existing=False)
+    return out
+
+def curves_with_uv(scene, name, lines, radius, material, uvs, attr="surface_uv_coordinate", more=()):
+    """A Curves object with real curve data (the geometry-nodes helper of scene_lib, applied, so
+    that 3.4 can hold attributes set from Python) and a 2D-vector curve attribute `attr`."""
+    obj = lib.curves_from_polylines(scene, name, lines, radius, material)
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_apply(modifier=obj.modifiers[0].name)
+    for an, values in ((attr, uvs),) + tuple(more):
+        a = obj.data.attributes.new(an, "FLOAT2", "CURVE")
+        a.data.foreach_set("vector", np.asarray(values, np.float32).ravel())
+    return obj
+
+def image_node(nt, image, interpolation="Linear", extension="REPEAT"):
+    t = nt.nodes.new("ShaderNodeTexImage")
+    t.image = image
+    t.interpolation = interpolation
+    t.extension = extension
+    return t
+
+def swept_vector(nt, uv_socket, lo, hi):
+    """(Map Range(Intercept: 0..1 -> lo..hi), UV.y, 0): the lookup sweeps u along each strand."""
+    info = nt.nodes.new("ShaderNodeHairInfo")
+    mr = nt.nodes.new("ShaderNodeMapRange")
+    mr.inputs["To Min"].default_value = lo; mr.inputs["To Max"].default_value = hi
+    mr.clamp = False
+    nt.links.new(info.outputs["Intercept"], mr.inputs["Value"])
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    nt.links.new(uv_socket, sep.inputs["Vector"])
+    comb = nt.nodes.new("ShaderNodeCombineXYZ")
+    nt.links.new(mr.outputs["Result"], comb.inputs["X"]); nt.links.new(sep.outputs["Y"], comb.inputs["Y"])
+    return comb.outputs["Vector"]
+'''
+
+IMAGE_EMISSION = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
+scene.cycles.max_bounces = 0
+scene.cycles.filter_width = 0.01
+scene.hairbsdf.threads = 2
+images = make_images()
+
+def emission_material(name):
+    m = bpy.data.materials.new(name); m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes): nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    e = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    return m, nt, e
+
+# Curves: per material 3 horizontal strands whose surface_uv_coordinate v sits between texel
+# centres, at an edge and outside the image; u is swept along the strand (Intercept) from
+# outside left to outside right, through every texel. The Vector is (swept u, UV.y, 0).
+cases = [("LinearRepeat", "Linear", "REPEAT"), ("ClosestExtend", "Closest", "EXTEND"),
+         ("LinearClip", "Linear", "CLIP"), ("CubicRepeat", "Cubic", "REPEAT"), ("ClosestRepeat", "Closest", "REPEAT")]
+if V >= (3, 5, 0):
+    cases.append(("LinearMirror", "Linear", "MIRROR"))
+cases.append(("MappingPoint", "Linear", "REPEAT"))  # a Mapping node (Point) between the vector and the image
+cases.append(("PNGLinear", "Linear", "REPEAT"))  # 8-bit sRGB: Cycles interpolates the encoded values
+# (PNGLinear also uses the Alpha output: the 8-bit association, then unassociation and decoding)
+vs = [(-0.05, 0.37, 0.93), (-0.3, 0.5, 1.12), (0.01, 0.62, 0.99)]
+Z0, DZ, DS = 1.1, 0.18, 0.055  # first row, rows per material, strands within one
+z = Z0
+for k, (name, interp, ext) in enumerate(cases):
+    m, nt, e = emission_material(name)
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    t = image_node(nt, images["tex.png" if name.startswith("PNG") else "tex.exr"], interp, ext)
+    # u from -1.25 (Cycles' frac at a negative integer: u * 8 = -10) to 2.1
+    vector = swept_vector(nt, tc.outputs["UV"], -1.25, 2.1)
+    if name == "MappingPoint":
+        mp = nt.nodes.new("ShaderNodeMapping"); mp.vector_type = "POINT"
+        mp.inputs["Location"].default_value = (0.1, -0.3, 0.0)
+        mp.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+        mp.inputs["Scale"].default_value = (1.3, 0.8, 1.0)
+        nt.links.new(vector, mp.inputs["Vector"])
+        vector = mp.outputs["Vector"]
+    nt.links.new(vector, t.inputs["Vector"])
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    if name == "PNGLinear":
+        nt.links.new(t.outputs["Alpha"], e.inputs["Strength"])
+    lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
+    curves_with_uv(scene, name, lines, 0.02, m, [(0.3, v) for v in vs[k % 3]])
+    z -= DZ
+# Vector unlinked (Cycles' default: the UV), Color and Alpha (the alpha output unassociates).
+m, nt, e = emission_material("DefaultUVAlpha")
+t = image_node(nt, images["tex.exr"])
+nt.links.new(t.outputs["Color"], e.inputs["Color"]); nt.links.new(t.outputs["Alpha"], e.inputs["Strength"])
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
+curves_with_uv(scene, "DefaultUVAlpha", lines, 0.02, m, [(0.07, 0.81), (0.5, 0.5), (0.93, 0.12)])
+z -= DZ
+# A UV Map node naming a second 2D-vector attribute, the 8-bit sRGB PNG, Closest (exact).
+m, nt, e = emission_material("NamedMapPNG")
+uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = "second"
+t = image_node(nt, images["tex.png"], "Closest", "REPEAT")
+nt.links.new(swept_vector(nt, uvm.outputs["UV"], -0.2, 1.2), t.inputs["Vector"])
+nt.links.new(t.outputs["Color"], e.inputs["Color"])
+lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - DS * j) for i in range(7)] for j in range(3)]
+curves_with_uv(scene, "NamedMapPNG", lines, 0.02, m, [(0.0, 0.0)] * 3,
+               more=(("second", [(0.0, 0.1), (0.0, 0.45), (0.0, 0.8)]),))
+# Particle hair: the emitter's UV at the root (Texture Coordinate > UV, Linear), and a UV Map
+# node naming the emitter's second UV layer (Closest, on interpolated children), on vertical
+# strands seen edge-on.
+bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, -1.02))
+em = bpy.context.active_object
+me = em.data
+# the emitter's shape in its mesh (a non-uniform object scale would keep Cycles' curves in
+# object space, elliptical in world space: not what this test is about)
+co = np.empty(len(me.vertices) * 3, np.float32); me.vertices.foreach_get("co", co)
+me.vertices.foreach_set("co", (co.reshape(-1, 3) * np.array([1.8, 0.3, 1.0], np.float32)).ravel())
+second = me.uv_layers.new(name="Second")
+uv0 = np.empty(len(me.uv_layers[0].data) * 2, np.float32); me.uv_layers[0].data.foreach_get("uv", uv0)
+second.data.foreach_set("uv", (uv0 * np.float32(0.5) + np.float32(0.6)).astype(np.float32))
+for name, source, interp in (("ParticleUV", None, "Linear"), ("ParticleNamed", "Second", "Closest")):
+    m, nt, e = emission_material(name)
+    t = image_node(nt, images["tex.exr"], interp, "REPEAT")
+    if source is not None:
+        uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = source
+        nt.links.new(uvm.outputs["UV"], t.inputs["Vector"])
+    else:
+        tc = nt.nodes.new("ShaderNodeTexCoord")
+        nt.links.new(tc.outputs["UV"], t.inputs["Vector"])
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    me.materials.append(m)
+for k in range(2):
+    ps = lib.particle_hair(scene, em, f"PH{k}", count=25, length=0.3, seed=7 + k, material_slot=k + 1,
+                           radius=0.008)
+    ps.settings.use_advanced_hair = False
+    ps.settings.hair_length = 0.3
+    if k == 1:  # interpolated children: their UVs come from uv_on_emitter too
+        ps.settings.child_type = "INTERPOLATED"
+        ps.settings.rendered_child_count = 2
+hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
+
+r = {}
+for eng in ("CYCLES", "HAIRBSDF"):
+    scene.render.engine = eng
+    scene.render.filepath = os.path.join(TMP, f"image_{eng}.exr")
+    bpy.ops.render.render(write_still=True)
+    p, _ = fg.read_exr_rgba(scene.render.filepath)
+    r[eng] = np.asarray(p).reshape(H, W, 4)
+assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
+cy, ours = r["CYCLES"], r["HAIRBSDF"]
+covered = (cy[..., 3] > 0.999) & (ours[..., 3] > 0.999)
+rel = np.abs(ours[..., :3] - cy[..., :3]) / np.maximum(np.abs(cy[..., :3]), 1e-3)
+rel_px = np.where(covered, rel.max(-1), 0.0)
+# per band of rows (one material each, from the top; the particle hair at the bottom)
+bands = {}
+zc = Z0
+for name in [c[0] for c in cases] + ["DefaultUVAlpha", "NamedMapPNG"]:
+    rows = slice(int((1.2 - (zc + 0.02)) / 2.4 * H), int((1.2 - (zc - 2 * DS - 0.02)) / 2.4 * H) + 1)
+    cov = covered[::-1][rows]
+    vals = rel_px[::-1][rows][cov]
+    bands[name] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,
+                   "p99": float(np.percentile(vals, 99)) if vals.size else None,
+                   "max": float(vals.max()) if vals.size else None}
+    zc -= DZ
+rows = slice(int((1.2 - (-0.7)) / 2.4 * H), H)
+cov = covered[::-1][rows]; vals = rel_px[::-1][rows][cov]
+bands["particles"] = {"covered": int(cov.sum()), "median": float(np.median(vals)) if vals.size else None,
+                      "p99": float(np.percentile(vals, 99)) if vals.size else None,
+                      "max": float(vals.max()) if vals.size else None}
+c, o = cy[covered][:, :3], ours[covered][:, :3]
+rr = rel[covered].ravel()
+emit({"version": bpy.app.version_string, "covered": int(covered.sum()),
+      "alpha_mismatch": int(((cy[..., 3] > 0.5) != (ours[..., 3] > 0.5)).sum()),
+      "median": float(np.median(rr)), "p99": float(np.percentile(rr, 99)), "max": float(rr.max()),
+      "cycles_mean": float(c.mean()), "ours_mean": float(o.mean()), "bands": bands,
+      "warnings": engine.LAST_RENDER.get("warnings", [])})
+'''
+
+
+def test_image_texture_emission_matches_cycles_per_pixel(run_blender, blender_kind, renderer_available):
+    """Image Texture on curve UVs per pixel: every interpolation and extension mode on a swept
+    lookup, the default UV (Vector unlinked) with the Alpha output, a named UV map on an 8-bit
+    sRGB PNG, and particle hair's emitter UVs (active and named layer), against Cycles."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_EMISSION, args={"w": 240, "h": 240}).result
+    record(f"shading_network_image_{KINDS[blender_kind]}", r)
+    summary = (f"{r['version']}: {r['covered']} covered pixels, median {r['median']:.1e} p99 {r['p99']:.1e} "
+               f"max {r['max']:.1e}, mean Cycles {r['cycles_mean']:.5f} ours {r['ours_mean']:.5f}, "
+               f"{r['alpha_mismatch']} coverage mismatches; bands {r['bands']}")
+    print("\n" + summary)
+    assert r["covered"] > 2000, summary
+    assert not r["warnings"], r["warnings"]
+    for name, b in r["bands"].items():
+        assert b["covered"] > 100, (name, summary)
+    assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
+
+
+IMAGE_HAIR = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+scene = hs.reset(width=ARGS["w"], height=ARGS["h"], spp=ARGS["spp"], curve_shape="THICK")
+images = make_images()
+# Principled Hair (Chiang, direct colouring): Color from the image at the strand's UV (Vector
+# unlinked), Roughness from the same texel's luminance through a Map Range (colour -> float).
+mat = hs.hair_material("ImageHair", parametrization="COLOR", roughness=0.3)
+nt = mat.node_tree
+ph = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeBsdfHairPrincipled")
+t = image_node(nt, images["tex.exr"], "Closest", "REPEAT")
+nt.links.new(t.outputs["Color"], fg.node_input(ph, "Color"))
+mr = nt.nodes.new("ShaderNodeMapRange")
+mr.inputs["To Min"].default_value = 0.2; mr.inputs["To Max"].default_value = 0.6
+nt.links.new(t.outputs["Color"], mr.inputs["Value"])
+nt.links.new(mr.outputs["Result"], fg.node_input(ph, "Roughness"))
+# three groups of 8 vertical strands; group g's UVs fall in the texels where channel g is the
+# largest share of the colour (reddest, greenest, bluest), so that each group has its own tint
+tex = images["tex.exr"]
+px = np.empty(8 * 4 * 4, np.float32); tex.pixels.foreach_get(px)
+px = px.reshape(4, 8, 4)  # bottom row first
+share = px[..., :3] / px[..., :3].sum(-1, keepdims=True)
+rng = np.random.default_rng(3)
+for g in range(3):
+    order = np.argsort(-share[..., g].ravel())[:3]  # the three texels with the most of channel g
+    lines, uvs = [], []
+    for k in range(8):
+        x = -0.9 + 0.6 * g + 0.065 * k + 0.05
+        lines.append([(x, 0.0, 0.8 * i / 5) for i in range(6)])
+        r, c = divmod(int(order[k % 3]), 8)
+        uvs.append(((c + rng.uniform(0.1, 0.9)) / 8.0, (r + rng.uniform(0.1, 0.9)) / 4.0))
+    curves_with_uv(scene, f"Group{g}", lines, 0.028, mat, uvs)
+hs.make_camera(location=(0.0, -3.0, 0.4), target=(0.0, 0.0, 0.4), kind="ORTHO", ortho_scale=2.0)
+hs.make_light("SUN", energy=2.0, location=(2, -2, 3))
+hs.make_light("POINT", energy=60.0, location=(-2, -1.5, 1.5), shadow_soft_size=0.2)
+hs.make_light("AREA", energy=20.0, location=(0.3, 2.0, 1.2), target=(0.0, 0.0, 0.4), name="Back", size=1.0)
+scene.world = bpy.data.worlds.new("W"); scene.world.use_nodes = False; scene.world.color = (0.05, 0.05, 0.05)
+cy = scene.cycles
+cy.max_bounces = cy.glossy_bounces = cy.transmission_bounces = cy.diffuse_bounces = 4
+out = {}
+for eng in ("CYCLES", "HAIRBSDF"):
+    scene.render.engine = eng
+    scene.render.filepath = os.path.join(TMP, eng + ".exr")
+    bpy.ops.render.render(write_still=True)
+    px, _ = fg.read_exr_rgba(scene.render.filepath)
+    out[eng] = np.asarray(px).reshape(ARGS["h"], ARGS["w"], 4)
+W = ARGS["w"]
+m = (out["CYCLES"][..., 3] > 0.99) & (out["HAIRBSDF"][..., 3] > 0.99)
+res = {"version": bpy.app.version_string, "status": engine.LAST_RENDER.get("status"),
+       "warnings": engine.LAST_RENDER.get("warnings", []), "n": int(m.sum()), "groups": []}
+for g in range(3):
+    cols = np.zeros(W, bool); cols[int(W * g / 3):int(W * (g + 1) / 3)] = True
+    mg = m & cols[None, :]
+    res["groups"].append({"n": int(mg.sum()), "cycles": out["CYCLES"][mg][:, :3].mean(0),
+                          "hairbsdf": out["HAIRBSDF"][mg][:, :3].mean(0)})
+res["cycles"] = out["CYCLES"][m][:, :3].mean(0)
+res["hairbsdf"] = out["HAIRBSDF"][m][:, :3].mean(0)
+emit(res)
+'''
+
+
+def test_image_texture_hair_colour_mean_matches_cycles(run_blender, blender_kind, renderer_available):
+    """Principled Hair's Color (and Roughness, through a colour -> float conversion) from an
+    Image Texture on the strands' UVs, lit and with bounces: the mean colour of each group of
+    strands (each on its own part of the image) is within 5 % of Cycles' (test_mean_matches_cycles'
+    limit)."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_HAIR, args={"w": 120, "h": 80, "spp": 64}).result
+    record(f"shading_network_image_hair_{KINDS[blender_kind]}", r)
+    summary = f"{r['version']}: " + "; ".join(
+        f"group {g}: {x['n']} px, Cycles {np.round(x['cycles'], 4).tolist()} ours {np.round(x['hairbsdf'], 4).tolist()}"
+        for g, x in enumerate(r["groups"]))
+    print("\n" + summary)
+    assert r["status"] == "ok" and r["n"] > 300, summary
+    assert not r["warnings"], r["warnings"]
+    np.testing.assert_allclose(r["hairbsdf"], r["cycles"], rtol=0.05, err_msg=summary)
+    for g in r["groups"]:
+        np.testing.assert_allclose(g["hairbsdf"], g["cycles"], rtol=0.05, err_msg=summary)
+
+
+IMAGE_COMPILER = IMAGE_COMMON + r'''
+from hairbsdf.blender.export_materials import MaterialTable
+from hairbsdf.blender.shading_network import UV_ATTRIBUTE
+from hairbsdf import _render
+
+class Report:
+    def __init__(self): self.warnings = []
+    def warn(self, msg): self.warnings.append(msg)
+
+images = make_images()
+gone = bpy.data.images.new("gone", 4, 4); gone.source = "FILE"; gone.filepath = "/nonexistent/gone.png"
+
+def emission(name, image=None, vector=None, **settings):
+    m = bpy.data.materials.new(name); m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes): nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial"); e = nt.nodes.new("ShaderNodeEmission")
+    e.inputs["Color"].default_value = (0.25, 0.5, 0.75, 1.0)
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    t = nt.nodes.new("ShaderNodeTexImage"); t.name = "Tex"; t.image = image
+    for k, v in settings.items():
+        setattr(t, k, v)
+    if vector is not None:
+        vector(nt, t)
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    return m
+
+def constant_vector(nt, t):  # (2.5 / 8, 1.5 / 4, 0): the centre of texel (2, 1)
+    c = nt.nodes.new("ShaderNodeCombineXYZ")
+    c.inputs["X"].default_value = 2.5 / 8; c.inputs["Y"].default_value = 1.5 / 4
+    nt.links.new(c.outputs["Vector"], t.inputs["Vector"])
+
+def normal_mapping(nt, t):
+    tc = nt.nodes.new("ShaderNodeTexCoord"); mp = nt.nodes.new("ShaderNodeMapping"); mp.vector_type = "NORMAL"
+    nt.links.new(tc.outputs["UV"], mp.inputs["Vector"]); nt.links.new(mp.outputs["Vector"], t.inputs["Vector"])
+
+def named_map(nt, t):
+    uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = "Second"
+    nt.links.new(uvm.outputs["UV"], t.inputs["Vector"])
+
+mats = [emission("Default", images["tex.exr"]), emission("Box", images["tex.exr"], projection="BOX"),
+        emission("NoImage"), emission("MissingFile", gone),
+        emission("ConstantVector", images["tex.exr"], constant_vector, interpolation="Closest"),
+        emission("NormalMapping", images["tex.exr"], normal_mapping), emission("Named", images["tex.png"], named_map)]
+rep = Report()
+table = MaterialTable(rep)
+res = {}
+for m in mats:
+    d = table.materials[table.index(m)]
+    res[m.name] = {"color": d["closures"][0]["color"], "program": "program" in d,
+                   "needs": sorted(table.needs[table.index(m)][1])}
+px = np.empty(8 * 4 * 4, np.float32); images["tex.exr"].pixels.foreach_get(px)
+emit({"materials": res, "warnings": rep.warnings, "uv": UV_ATTRIBUTE, "texel_2_1": px.reshape(4, 8, 4)[1, 2].tolist(),
+      "images": [im["name"] for im in table.attributes.images.images],
+      "srgb": table.attributes.images.srgb_encoded, "attributes": table.attributes.names})
+'''
+
+
+def test_image_texture_compiler(run_blender, blender_kind, renderer_available):
+    """What the compiler does with Image Texture settings: the default Vector reads the default
+    UV attribute (exported only for such programs), a named UV Map its own, a constant vector
+    folds to the texel, no image or a missing file reads Cycles' magenta, and unsupported
+    settings (Box projection, a Normal-type Mapping) are warned with the socket value used."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_COMPILER).result
+    mats, warnings, uv = r["materials"], "\n".join(r["warnings"]), r["uv"]
+    assert mats["Default"]["program"] and mats["Default"]["needs"] == [uv]
+    assert mats["Named"]["program"] and mats["Named"]["needs"] == [uv + "Second"]
+    assert not mats["Box"]["program"] and mats["Box"]["color"] == pytest.approx((0.25, 0.5, 0.75))
+    assert "'Tex' (Image Texture > Color) (its projection BOX" in warnings
+    # the Mapping is warned and its socket value (0, 0, 0) is the lookup vector: a constant
+    assert not mats["NormalMapping"]["program"] and "(Mapping > Vector) (its vector_type NORMAL)" in warnings
+    for name in ("NoImage", "MissingFile"):
+        assert not mats[name]["program"] and mats[name]["color"] == pytest.approx((1.0, 0.0, 1.0)), name
+        assert mats[name]["needs"] == []
+    assert "'Tex' has no image; like Cycles, it reads magenta" in warnings
+    assert "image 'gone' has no pixels" in warnings
+    # folded at export with the VM's own lookup: the texel (float EXR, stored premultiplied)
+    assert not mats["ConstantVector"]["program"]
+    assert mats["ConstantVector"]["color"] == pytest.approx(r["texel_2_1"][:3], rel=1e-6)
+    assert len(r["images"]) == 2 and r["srgb"] == [False, True]  # each image read once; the PNG stays encoded
+    assert sorted(r["attributes"]) == sorted([uv, uv + "Second"])

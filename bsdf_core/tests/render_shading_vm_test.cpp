@@ -2,6 +2,7 @@
 // node definitions, program validation, and the per-hit context.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -23,7 +24,7 @@ ShadingProgram make_program(std::vector<float> constants, std::vector<int32_t> c
 }
 
 std::vector<float> run(const ShadingProgram& p, const ShadingHitContext& ctx = {}) {
-    validate_program(p, ctx.attribute_count);
+    validate_program(p, ctx.attribute_count, ctx.image_count);
     std::vector<float> r(size_t(p.register_count), -99.0f);
     run_program(p, ctx, r.data());
     return r;
@@ -271,4 +272,145 @@ TEST(ShadingVm, ValidationNamesTheProblem) {
     EXPECT_NE(message(make_program({0, 0, 0, 0}, {op(ShadingOp::ColorRamp), 1, 0, 2, 4, 7, 0}, 5)).find("ramp table"),
               std::string::npos);
     EXPECT_EQ(message(make_program({1.0f}, {op(ShadingOp::Copy), 1, 0}, 1)), "");
+}
+
+// ---------------------------------------------------------------------------- Image Texture
+
+namespace {
+
+// A 4 x 2 test image: texel (column c, row r from the bottom) = (10 r + c, 1, c, alpha), stored
+// top row first as the scene's images are.
+struct TestImage {
+    std::vector<float> rgba;
+    ShadingImage image;
+    explicit TestImage(float alpha = 1.0f) {
+        for (int row = 0; row < 2; ++row) {
+            const int r = 1 - row;  // row 0 of the buffer is the top one (r = 1)
+            for (int c = 0; c < 4; ++c) {
+                const float texel[4] = {10.0f * float(r) + float(c), 1.0f, float(c), alpha};
+                rgba.insert(rgba.end(), texel, texel + 4);
+            }
+        }
+        image = {4, 2, rgba.data()};
+    }
+};
+
+std::array<float, 4> lookup(const ShadingImage& im, ImageInterpolation i, ImageExtension e, float x, float y) {
+    std::array<float, 4> out{};
+    shading_image_lookup(im, i, e, x, y, out.data());
+    return out;
+}
+
+constexpr auto kLinear = ImageInterpolation::Linear;
+constexpr auto kClosest = ImageInterpolation::Closest;
+constexpr auto kCubic = ImageInterpolation::Cubic;
+constexpr auto kRepeat = ImageExtension::Repeat;
+constexpr auto kExtend = ImageExtension::Extend;
+constexpr auto kClip = ImageExtension::Clip;
+constexpr auto kMirror = ImageExtension::Mirror;
+
+}  // namespace
+
+TEST(ShadingVmImage, TexelCentresReadTheTexelExactly) {
+    const TestImage t;
+    for (int r = 0; r < 2; ++r)
+        for (int c = 0; c < 4; ++c) {
+            const float x = (float(c) + 0.5f) / 4.0f, y = (float(r) + 0.5f) / 2.0f;
+            for (auto interp : {kLinear, kClosest}) {
+                const auto v = lookup(t.image, interp, kRepeat, x, y);
+                EXPECT_EQ(v[0], 10.0f * float(r) + float(c)) << int(interp) << " " << c << " " << r;
+                EXPECT_EQ(v[2], float(c));
+            }
+        }
+}
+
+TEST(ShadingVmImage, LinearBlendsAroundTexelCentres) {
+    const TestImage t;
+    // Half way between the centres of columns 0 and 1 (x = 1 / 4), on row 0's centre.
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kRepeat, 0.25f, 0.25f)[0], 0.5f);
+    // A quarter of the way from column 1 to 2 and from row 0 to 1: x = (1.5 + 0.25) / 4, y = (0.5 + 0.25) / 2.
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kRepeat, 1.75f / 4.0f, 0.75f / 2.0f)[0], 1.25f + 2.5f);
+    // Closest: the texel the point lies in, no blending (x = 0.49 -> column 1, y = 0.26 -> row 0).
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, 0.49f, 0.26f)[0], 1.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, 0.51f, 0.76f)[0], 12.0f);
+}
+
+TEST(ShadingVmImage, ExtensionModesAtTheLeftEdge) {
+    const TestImage t;
+    // x = 0: half texel -1, half texel 0 (row 0). Repeat: texel -1 is column 3; Extend and
+    // Mirror: column 0; Clip: zero (green = 1 everywhere shows the weight).
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kRepeat, 0.0f, 0.25f)[0], 1.5f);
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kExtend, 0.0f, 0.25f)[0], 0.0f);
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kExtend, 0.0f, 0.25f)[1], 1.0f);
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kMirror, 0.0f, 0.25f)[1], 1.0f);
+    EXPECT_FLOAT_EQ(lookup(t.image, kLinear, kClip, 0.0f, 0.25f)[1], 0.5f);
+    // Closest one and two texels left of the image: Repeat 3, 2; Extend 0, 0; Mirror 0, 1; Clip 0.
+    const float x1 = -0.5f / 4.0f, x2 = -1.5f / 4.0f;
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, x1, 0.25f)[2], 3.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, x2, 0.25f)[2], 2.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kExtend, x2, 0.25f)[2], 0.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kMirror, x1, 0.25f)[2], 0.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kMirror, x2, 0.25f)[2], 1.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kClip, x1, 0.25f)[1], 0.0f);
+    // Right / top edges: Extend holds the last texel, Mirror folds back onto it, Repeat wraps.
+    EXPECT_EQ(lookup(t.image, kClosest, kExtend, 2.3f, 5.0f)[0], 13.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kMirror, 4.5f / 4.0f, 0.25f)[2], 3.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, 4.5f / 4.0f, 0.25f)[2], 0.0f);
+    EXPECT_EQ(lookup(t.image, kClosest, kClip, 1.0f, 0.25f)[1], 0.0f);  // x = 1 is texel 4: outside
+    // Cycles' frac() at a negative integer: x * width = -1 gives texel -2 (fraction 1).
+    EXPECT_EQ(lookup(t.image, kClosest, kRepeat, -0.25f, 0.25f)[2], 2.0f);
+}
+
+TEST(ShadingVmImage, CubicIsTheUniformBSpline) {
+    const TestImage t;
+    // At the centre of texel (1, 0) the B-spline weights are (1, 4, 1) / 6 per axis; Extend
+    // repeats row 0 below the image: red = (0 + 4 + 2) / 6 + 10 (0 + 0 + 1) / 6.
+    EXPECT_NEAR(lookup(t.image, kCubic, kExtend, 1.5f / 4.0f, 0.25f)[0], 1.0f + 10.0f / 6.0f, 1e-5f);
+    // The weights sum to 1 everywhere: green (1 everywhere) stays 1.
+    for (float x : {0.1f, 0.37f, 0.9f}) EXPECT_NEAR(lookup(t.image, kCubic, kRepeat, x, 0.6f)[1], 1.0f, 1e-6f);
+}
+
+TEST(ShadingVmImage, OpWritesColorAndAlphaAndUnassociates) {
+    const TestImage t(0.5f);
+    ShadingHitContext ctx;
+    ctx.images = &t.image;
+    ctx.image_count = 1;
+    // constants: vector (x, y, 0) at the centre of texel (2, 1); registers 3..6 RGBA, 7..10 RGBA
+    const ShadingProgram p = make_program(
+        {2.5f / 4.0f, 0.75f, 0.0f},
+        {op(ShadingOp::ImageTexture), 0, 1, 0, 0, 3, 0,
+         op(ShadingOp::ImageTexture), 0, 1, 0, kImageUnassociateAlpha, 7, 0}, 8);
+    const auto r = run(p, ctx);
+    EXPECT_EQ(r[3], 12.0f);
+    EXPECT_EQ(r[4], 1.0f);
+    EXPECT_EQ(r[6], 0.5f);
+    EXPECT_EQ(r[7], 24.0f);  // divided by alpha 0.5
+    EXPECT_EQ(r[8], 2.0f);
+    EXPECT_EQ(r[10], 0.5f);
+    // sRGB decode after the lookup: texel (2, 1) green 1 stays 1, blue 2 -> ((2 + 0.055) / 1.055)^2.4
+    const ShadingProgram srgb = make_program(
+        {2.5f / 4.0f, 0.75f, 0.0f}, {op(ShadingOp::ImageTexture), 0, 1, 0, kImageSrgbDecode, 3, 0}, 4);
+    const auto rs = run(srgb, ctx);
+    EXPECT_FLOAT_EQ(rs[4], 1.0f);
+    EXPECT_NEAR(rs[5], std::pow(2.055f / 1.055f, 2.4f), 1e-5f);
+    EXPECT_EQ(rs[6], 0.5f);  // alpha is not decoded
+    // 0.04 is on the linear segment
+    const TestImage dark(1.0f);
+    std::vector<float> px = dark.rgba;
+    for (size_t i = 0; i < px.size(); i += 4) px[i] = 0.04f;
+    const ShadingImage dark_image{4, 2, px.data()};
+    ctx.images = &dark_image;
+    EXPECT_FLOAT_EQ(run(srgb, ctx)[3], 0.04f / 12.92f);
+    ctx.images = &t.image;
+    // an image index outside the context's images is rejected, as are bad enums
+    EXPECT_THROW(validate_program(p, 0, 0), std::invalid_argument);
+    ShadingProgram bad = p;
+    bad.code[2] = 3;  // interpolation
+    EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
+    bad = p;
+    bad.code[3] = 4;  // extension
+    EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
+    bad = p;
+    bad.code[4] = 4;  // flags
+    EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
 }

@@ -215,6 +215,29 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
     }
 }
 
+// `images`: the list of images the shading programs sample, (H, W, 4) float32 RGBA each.
+ImageDesc read_image(py::handle h, const std::string& key) {
+    ImageDesc im;
+    const py::dict d = as_dict(h, key);
+    im.name = as_str(get(d, key, "name"), sub(key, "name"));
+    auto a = as_array<float>(get(d, key, "pixels"), sub(key, "pixels"));
+    if (!a || a.ndim() != 3 || a.shape(2) != 4 || a.shape(0) < 1 || a.shape(1) < 1)
+        fail(sub(key, "pixels"), "expected shape (height, width, 4) with height, width >= 1");
+    im.height = int(a.shape(0));
+    im.width = int(a.shape(1));
+    im.pixels.assign(a.data(), a.data() + size_t(a.size()));
+    return im;
+}
+
+void read_images(const py::dict& scene, SceneDesc& out) {
+    auto o = get_optional(scene, "images");
+    if (!o) return;
+    if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
+        throw py::type_error("scene['images']: expected a list");
+    size_t i = 0;
+    for (py::handle h : *o) out.images.push_back(read_image(h, "['images'][" + std::to_string(i++) + "]"));
+}
+
 // A closure input given as {"register": k}: the value comes from the material's program.
 std::optional<int32_t> as_register(py::handle h, const std::string& key) {
     if (!py::isinstance<py::dict>(h)) return std::nullopt;
@@ -537,6 +560,7 @@ SceneDesc scene_from_dict(const py::dict& scene) {
         out.cull_curve_back_faces = as_bool(*o, "['curve_backface_culling']");
     read_meshes(scene, out);
     read_materials(scene, out);
+    read_images(scene, out);
     read_camera(scene, out);
     read_lights(scene, out);
     if (auto w = get_optional(scene, "world")) {
@@ -640,10 +664,10 @@ py::dict py_render(const py::dict& scene_dict, py::object progress, py::object c
     return result;
 }
 
-// eval_program(program, random, intercept, length, is_strand, attributes=None) -> (M, registers)
+// eval_program(program, random, intercept, length, is_strand, attributes=None, images=None) -> (M, registers)
 // float32: the program run once per row of the context arrays (M values each, or scalars).
 py::array_t<float> py_eval_program(py::handle program, py::handle random, py::handle intercept, py::handle length,
-                                   py::handle is_strand, py::handle attributes) {
+                                   py::handle is_strand, py::handle attributes, py::handle images) {
     const ShadingProgram p = read_program(program, "['program']");
     auto column = [](py::handle h, const char* name) {
         auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(h);
@@ -668,8 +692,15 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
             throw py::value_error("attributes: expected shape (M, attribute count, 4)");
         n_attr = int(attr.shape(1));
     }
+    std::vector<ImageDesc> image_descs;
+    std::vector<ShadingImage> image_views;
+    if (!images.is_none()) {
+        size_t j = 0;
+        for (py::handle h : images) image_descs.push_back(read_image(h, "images[" + std::to_string(j++) + "]"));
+        for (const ImageDesc& im : image_descs) image_views.push_back({im.width, im.height, im.pixels.data()});
+    }
     try {
-        validate_program(p, n_attr);
+        validate_program(p, n_attr, int(image_views.size()));
     } catch (const std::invalid_argument& e) {
         throw py::value_error(e.what());
     }
@@ -685,6 +716,8 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
             ctx.attributes = attr.data() + k * size_t(n_attr) * 4;
             ctx.attribute_count = n_attr;
         }
+        ctx.images = image_views.data();
+        ctx.image_count = int(image_views.size());
         run_program(p, ctx, dst + k * size_t(p.register_count));
     }
     return out;
@@ -702,7 +735,8 @@ PYBIND11_MODULE(_render, m) {
           "'normal', 'variance' (H, W, 3) and 'depth' (H, W).");
     m.def("eval_program", &py_eval_program, py::arg("program"), py::arg("random") = 0.0f,
           py::arg("intercept") = 0.0f, py::arg("length") = 0.0f, py::arg("is_strand") = 1.0f,
-          py::arg("attributes") = py::none(),
+          py::arg("attributes") = py::none(), py::arg("images") = py::none(),
           "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
-          "attributes (M, A, 4) RGBA). Returns the registers, (M, program['registers']) float32.");
+          "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, "
+          "(M, program['registers']) float32.");
 }

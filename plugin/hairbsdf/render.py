@@ -415,6 +415,28 @@ def _check_world(scene, out):
         out["world"]["texture"] = tex
 
 
+def _check_images(scene, out):
+    """The images the shading programs' ImageTexture op samples: [{"name", "pixels" (H, W, 4)}]."""
+    if scene.get("images") is None:
+        return
+    images = []
+    for i, im in enumerate(_Checker.list("scene['images']", scene["images"])):
+        key = f"scene['images'][{i}]"
+        im = _Checker.dict(key, im)
+        name = im.get("name", "")
+        if not isinstance(name, str):
+            raise TypeError(f"{key}['name']: expected a string")
+        try:
+            pixels = np.asarray(_Checker.required(key, im, "pixels"), dtype=np.float32)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{key}['pixels']: expected an array of numbers") from exc
+        if pixels.ndim != 3 or pixels.shape[2] != 4 or pixels.shape[0] < 1 or pixels.shape[1] < 1:
+            raise ValueError(f"{key}['pixels']: expected shape (height, width, 4) with height, width >= 1, "
+                             f"got {pixels.shape}")
+        images.append({"name": name, "pixels": np.ascontiguousarray(pixels)})
+    out["images"] = images
+
+
 def _check_integrator(scene, out):
     key = "scene['integrator']"
     s = _Checker.dict(key, _Checker.required("scene", scene, "integrator"))
@@ -458,6 +480,7 @@ def validate_scene(scene: dict) -> dict:
     _check_camera(scene, out)
     _check_lights(scene, out)
     _check_world(scene, out)
+    _check_images(scene, out)
     _check_integrator(scene, out)
     return out
 

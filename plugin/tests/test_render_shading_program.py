@@ -145,3 +145,35 @@ def test_eval_program_matches_the_renderer_contract():
     with pytest.raises(ValueError, match="instruction 0"):
         _render.eval_program(_program([99]))
     assert hairbsdf is not None
+
+
+IMAGE_TEXTURE = 16
+
+
+def test_image_texture_reads_the_scene_images_at_the_attribute_uv():
+    # r0..r4 = point attribute (u, 0.5, 0, 1) with u = (x + 1) / 2 along the strand; r5..r8 =
+    # ImageTexture (image 0, Closest, Repeat, no flags) at (r0, r1); colour = r5..r7
+    code = [ATTRIBUTE, 0, 0, IMAGE_TEXTURE, 0, 1, 0, 0, 5, 0]
+    keys = np.linspace(-1, 1, N_KEYS)
+    uv = np.zeros((N_KEYS, 4), np.float32)
+    uv[:, 0], uv[:, 1], uv[:, 3] = (keys + 1) / 2, 0.5, 1.0
+    texels = np.array([[[0.1, 1.0, 0.0, 1.0], [0.2, 1.0, 0.0, 1.0], [0.3, 1.0, 0.0, 1.0], [0.4, 1.0, 0.0, 1.0]]],
+                      np.float32)  # 4 x 1, RGBA
+    scene = _scene(_program(code, registers=9), {"register": 5},
+                   curves_extra={"attributes": [{"name": "<uv>", "domain": "POINT", "data": uv}]})
+    scene["images"] = [{"name": "strip", "pixels": texels}]
+    out = render(scene)
+    assert not out["stats"]["warnings"], out["stats"]["warnings"]
+    x, px = _middle_row(out)
+    s = (x + 1) / 2 * 4
+    away = np.abs(s - np.round(s)) > 0.02  # away from texel edges
+    np.testing.assert_allclose(px[away, 0], texels[0, np.floor(s[away]).astype(int), 0], rtol=1e-6)
+    # eval_program takes the same images; a missing image list is a validation error
+    from hairbsdf import _render
+    regs = _render.eval_program(_program(code, registers=9), attributes=uv[None, 2:3, :], images=scene["images"])
+    assert regs[0, 5] == pytest.approx(texels[0, int(uv[2, 0] * 4), 0])
+    with pytest.raises(ValueError, match="image index 0 outside"):
+        _render.eval_program(_program(code, registers=9), attributes=uv[None, 2:3, :])
+    scene["images"] = [{"name": "bad", "pixels": texels[..., :3]}]
+    with pytest.raises(ValueError, match=r"\['images'\]\[0\]\['pixels'\]: expected shape \(height, width, 4\)"):
+        render(scene)

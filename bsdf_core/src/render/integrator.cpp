@@ -117,6 +117,8 @@ const float* run_material_program(const PreparedScene& s, const Hit& hit, const 
     std::fill(scratch.attributes.begin(), scratch.attributes.end(), 0.0f);
     ctx.attributes = scratch.attributes.data();
     ctx.attribute_count = int(cd.attributes.size());
+    ctx.images = s.images.data();
+    ctx.image_count = int(s.images.size());
     if (hit.kind == PrimKind::Curve) {
         const int curve = hit.prim;
         const size_t k0 = size_t(s.geometry.segment_key(hit.segment));
@@ -160,7 +162,9 @@ PreparedScene::PreparedScene(SceneDesc& scene)
       camera(scene.camera),
       lights(scene),
       materials(build_materials(scene)),
-      filter(scene.integrator.filter, scene.integrator.filter_width) {}
+      filter(scene.integrator.filter, scene.integrator.filter_width) {
+    for (const ImageDesc& im : scene.images) images.push_back({im.width, im.height, im.pixels.data()});
+}
 
 PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters) {
     const IntegratorSettings& is = s.desc.integrator;

@@ -67,10 +67,25 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     // Shading programs: an invalid one (or a link outside its registers) is dropped, so the
     // inputs keep their constant values.
     const int attribute_count = int(s.curves.attributes.size());
+    // Images: a bad size empties the image (it reads 0); NaN/Inf texels read 0.
+    size_t bad_image_values = 0;
+    for (ImageDesc& im : s.images) {
+        if (!im.valid()) {
+            warnings.push_back("images: '" + im.name + "' has a bad size; it reads 0");
+            im.width = im.height = 0;
+            im.pixels.clear();
+        }
+        for (float& v : im.pixels)
+            if (!std::isfinite(v)) {
+                v = 0.0f;
+                ++bad_image_values;
+            }
+    }
+    if (bad_image_values) warnings.push_back("images: " + plural(bad_image_values, "NaN/Inf value") + " set to 0");
     for (MaterialDesc& m : s.materials) {
         std::string problem;
         try {
-            if (!m.program.empty()) validate_program(m.program, attribute_count);
+            if (!m.program.empty()) validate_program(m.program, attribute_count, int(s.images.size()));
         } catch (const std::invalid_argument& e) {
             problem = e.what();
         }

@@ -31,6 +31,7 @@ int argument_count(ShadingOp op) {
         case ShadingOp::Average: return 2;
         case ShadingOp::HairInfo: return 2;
         case ShadingOp::Attribute: return 2;
+        case ShadingOp::ImageTexture: return 6;
     }
     return -1;
 }
@@ -110,7 +111,98 @@ void ramp_lookup(const float* table, int size, bool interpolate, float fac, floa
     }
 }
 
+
+// Integer part and fraction of x as Cycles' frac(): the integer is the truncation, one less
+// for negative x (so a negative integer x gives x - 1 and fraction 1).
+float texel_frac(float x, int& i) {
+    i = int(x) - (x < 0.0f ? 1 : 0);
+    return x - float(i);
+}
+
+// Texel index i of an axis with n texels under an extension mode; -1 = outside (Clip).
+int texel_index(int i, int n, ImageExtension extension) {
+    switch (extension) {
+        case ImageExtension::Repeat: {
+            const int m = i % n;
+            return m < 0 ? m + n : m;
+        }
+        case ImageExtension::Extend: return std::min(std::max(i, 0), n - 1);
+        case ImageExtension::Clip: return (i < 0 || i >= n) ? -1 : i;
+        case ImageExtension::Mirror: {  // reflected copies, the edge texel repeated at the fold
+            int m = i % (2 * n);
+            if (m < 0) m += 2 * n;
+            return m < n ? m : 2 * n - 1 - m;
+        }
+    }
+    return -1;
+}
+
+// Adds weight x texel (column ix, row iy from the bottom) to acc; Clip's outside reads 0.
+void add_texel(const ShadingImage& im, ImageExtension extension, int ix, int iy, float weight, float* acc) {
+    const int cx = texel_index(ix, im.width, extension), cy = texel_index(iy, im.height, extension);
+    if (cx < 0 || cy < 0) return;
+    const float* t = im.rgba + (size_t(im.height - 1 - cy) * size_t(im.width) + size_t(cx)) * 4;
+    for (int c = 0; c < 4; ++c) acc[c] += weight * t[c];
+}
+
+// The sRGB transfer function, decoding (0 below 0).
+float srgb_to_linear(float c) {
+    if (c < 0.04045f) return c < 0.0f ? 0.0f : c * (1.0f / 12.92f);
+    return std::pow((c + 0.055f) * (1.0f / 1.055f), 2.4f);
+}
+
+// Uniform cubic B-spline weights of the 4 texels around a sample at fraction t.
+void bspline_weights(float t, float* w) {
+    const float t2 = t * t, t3 = t2 * t;
+    w[0] = (1.0f / 6.0f) * (1.0f - 3.0f * t + 3.0f * t2 - t3);
+    w[1] = (1.0f / 6.0f) * (4.0f - 6.0f * t2 + 3.0f * t3);
+    w[2] = (1.0f / 6.0f) * (1.0f + 3.0f * t + 3.0f * t2 - 3.0f * t3);
+    w[3] = (1.0f / 6.0f) * t3;
+}
+
 }  // namespace
+
+void shading_image_lookup(const ShadingImage& im, ImageInterpolation interpolation, ImageExtension extension,
+                          float x, float y, float* out) {
+    for (int c = 0; c < 4; ++c) out[c] = 0.0f;
+    if (im.width <= 0 || im.height <= 0 || im.rgba == nullptr) return;
+    // Non-finite or huge coordinates (no texel index fits an int): read as 0 / clamped.
+    constexpr float kLimit = 1.0e7f;
+    x = std::isfinite(x) ? clampf(x, -kLimit, kLimit) : 0.0f;
+    y = std::isfinite(y) ? clampf(y, -kLimit, kLimit) : 0.0f;
+    const float fx = x * float(im.width), fy = y * float(im.height);
+    int ix, iy;
+    switch (interpolation) {
+        case ImageInterpolation::Closest:
+            texel_frac(fx, ix);
+            texel_frac(fy, iy);
+            add_texel(im, extension, ix, iy, 1.0f, out);
+            return;
+        case ImageInterpolation::Linear: {
+            const float tx = texel_frac(fx - 0.5f, ix), ty = texel_frac(fy - 0.5f, iy);
+            float row0[4] = {0, 0, 0, 0}, row1[4] = {0, 0, 0, 0};
+            add_texel(im, extension, ix, iy, 1.0f - tx, row0);
+            add_texel(im, extension, ix + 1, iy, tx, row0);
+            add_texel(im, extension, ix, iy + 1, 1.0f - tx, row1);
+            add_texel(im, extension, ix + 1, iy + 1, tx, row1);
+            for (int c = 0; c < 4; ++c) out[c] = (1.0f - ty) * row0[c] + ty * row1[c];
+            return;
+        }
+        case ImageInterpolation::Cubic: {
+            const float tx = texel_frac(fx - 0.5f, ix), ty = texel_frac(fy - 0.5f, iy);
+            float wx[4], wy[4];
+            bspline_weights(tx, wx);
+            bspline_weights(ty, wy);
+            for (int j = 0; j < 4; ++j) {
+                float row[4] = {0, 0, 0, 0};
+                for (int i = 0; i < 4; ++i) add_texel(im, extension, ix - 1 + i, iy - 1 + j, wx[i], row);
+                for (int c = 0; c < 4; ++c) out[c] += wy[j] * row[c];
+            }
+            return;
+        }
+    }
+}
+
 
 float shading_math(MathType type, float a, float b, float c) {
     switch (type) {
@@ -302,7 +394,7 @@ void shading_mix(MixBlend blend, float t, const float* a, const float* b, float*
     out[2] = r[2];
 }
 
-void validate_program(const ShadingProgram& p, int attribute_count) {
+void validate_program(const ShadingProgram& p, int attribute_count, int image_count) {
     const int32_t n_const = int32_t(p.constants.size());
     if (p.register_count < n_const)
         throw std::invalid_argument("program: registers (" + std::to_string(p.register_count) +
@@ -382,6 +474,14 @@ void validate_program(const ShadingProgram& p, int attribute_count) {
             case ShadingOp::Attribute:
                 in_range(a[0], 0, attribute_count - 1, "attribute index");
                 write(a[1], 5, "out");
+                break;
+            case ShadingOp::ImageTexture:
+                in_range(a[0], 0, image_count - 1, "image index");
+                in_range(a[1], 0, 2, "interpolation");
+                in_range(a[2], 0, 3, "extension");
+                in_range(a[3], 0, kImageUnassociateAlpha | kImageSrgbDecode, "flags");
+                write(a[4], 4, "out");
+                read(a[5], 3, "vector");
                 break;
         }
         pc += 1 + size_t(argc);
@@ -496,6 +596,19 @@ void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r
                 r[a[1] + 2] = rgba[2];
                 r[a[1] + 3] = (rgba[0] + rgba[1] + rgba[2]) * (1.0f / 3.0f);
                 r[a[1] + 4] = rgba[3];
+                break;
+            }
+            case ShadingOp::ImageTexture: {
+                float rgba[4] = {0, 0, 0, 0};
+                if (ctx.images && a[0] < ctx.image_count)
+                    shading_image_lookup(ctx.images[a[0]], ImageInterpolation(a[1]), ImageExtension(a[2]), r[a[5]],
+                                         r[a[5] + 1], rgba);
+                // Cycles' svm_image_texture: unassociate where 0 < alpha != 1.
+                if ((a[3] & kImageUnassociateAlpha) && rgba[3] != 1.0f && rgba[3] != 0.0f)
+                    for (int c = 0; c < 3; ++c) rgba[c] /= rgba[3];
+                if (a[3] & kImageSrgbDecode)
+                    for (int c = 0; c < 3; ++c) rgba[c] = srgb_to_linear(rgba[c]);
+                for (int c = 0; c < 4; ++c) r[a[4] + c] = rgba[c];
                 break;
             }
         }

@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from ._common import radius_scale, transform_points
+from .shading_network import UV_ATTRIBUTE
 
 DEFAULT_CURVES_RADIUS = 0.005
 
@@ -129,7 +130,22 @@ def point_intercept(pos: np.ndarray, counts: np.ndarray) -> np.ndarray:
 ATTRIBUTE_READERS = {  # data_type -> (foreach_get property, components)
     "FLOAT": ("value", 1), "INT": ("value", 1), "BOOLEAN": ("value", 1), "INT8": ("value", 1),
     "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4),
+    "FLOAT2": ("vector", 2),
 }
+
+
+def curves_uv_name(data, name):
+    """The Curves attribute a program's UV attribute name stands for (shading_network.UV_ATTRIBUTE):
+    a named map is the attribute of that name; the default UV is, as in Cycles (3.4.1 and 4.5.15,
+    checked by rendering Texture Coordinate > UV), the first 2D-vector attribute of the curve
+    domain in the attribute order (`surface_uv_coordinate` for hair made by Blender's tools);
+    None when there is none (the UV reads 0)."""
+    if name != UV_ATTRIBUTE:
+        return name[len(UV_ATTRIBUTE):]
+    for attr in data.attributes:
+        if attr.domain == "CURVE" and attr.data_type == "FLOAT2" and not attr.name.startswith("."):
+            return attr.name
+    return None
 
 
 def curves_attribute_rgba(obj, data, name, report):
@@ -157,6 +173,8 @@ def curves_attribute_rgba(obj, data, name, report):
         rgba[:, :3] = raw
     else:
         rgba[:, :n] = raw
+        if n == 2:  # 2D vector (a UV): (u, v, 0, 1)
+            rgba[:, 2] = 0.0
     if attr.domain == "CURVE":
         counts = np.diff(_curve_offsets(data))
         rgba = np.repeat(rgba, counts, axis=0)
@@ -356,7 +374,8 @@ def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cac
         columns.append(("intercept", point_intercept(pos, counts)[:, None]))
     domains = {}
     for name in sorted(attribute_names):
-        got = curves_attribute_rgba(obj, data, name, report)
+        source = curves_uv_name(data, name) if name.startswith(UV_ATTRIBUTE) else name
+        got = None if source is None else curves_attribute_rgba(obj, data, source, report)
         if got is not None:
             domains[name] = got[0]
             columns.append((name, got[1]))
@@ -412,6 +431,44 @@ def has_particle_hair(obj, render: bool) -> bool:
 CO_HAIR_CHUNK = 8192  # strands per co_hair batch between cancel checks
 
 
+def _uv_layer_index(mesh, name):
+    """Index of the emitter's UV layer a program's UV attribute name stands for: the active
+    render layer for the default UV, the named layer otherwise; None when there is none."""
+    layers = list(getattr(mesh, "uv_layers", []))
+    if name == UV_ATTRIBUTE:
+        for i, layer in enumerate(layers):
+            if layer.active_render:
+                return i
+        return 0 if layers else None
+    wanted = name[len(UV_ATTRIBUTE):]
+    for i, layer in enumerate(layers):
+        if layer.name == wanted:
+            return i
+    return None
+
+
+def particle_uvs(obj, psys, first, ncurves, names):
+    """{name: (ncurves, 4) float32 (u, v, 0, 1)}: each curve's UV as Cycles exports it for
+    particle hair (the emitter's UV map at the root, ParticleSystem.uv_on_emitter; checked by
+    rendering Texture Coordinate > UV and a UV Map node with bpy 4.5); 0 without that map."""
+    mod = next((m for m in obj.modifiers if m.type == "PARTICLE_SYSTEM" and m.particle_system.name == psys.name),
+               None)
+    particles = psys.particles
+    out = {}
+    for name in names:
+        uv = np.zeros((ncurves, 4), np.float32)
+        uv[:, 3] = 1.0
+        layer = _uv_layer_index(obj.data, name)
+        if layer is not None and mod is not None and len(particles):
+            last = len(particles) - 1
+            fn = psys.uv_on_emitter
+            vals = np.array([tuple(fn(mod, particles[min(p, last)], particle_no=p, uv_no=layer))
+                             for p in range(first, first + ncurves)], np.float32).reshape(ncurves, 2)
+            uv[:, :2] = vals
+        out[name] = uv
+    return out
+
+
 def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, render=True, cancel=None):
     """All particle hair systems of one evaluated mesh object, as Cycles' ObtainCacheParticleData
     + ExportCurveSegments.  `matrix`: the instance's world matrix."""
@@ -427,6 +484,7 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
         return 0
     slots = materials.slot_indices(obj)
     all_pts, all_counts, all_len, all_mat, all_t = [], [], [], [], []
+    all_uv = {}
     for psys, part in _particle_systems(obj, render):
         totpart = len(psys.particles)
         totchild = len(psys.child_particles)
@@ -482,6 +540,12 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
         all_t.append(t.reshape(-1).astype(np.float32))  # Hair Info > Intercept (curve_time / length)
         slot = min(max(int(part.material) - 1, 0), len(slots) - 1)
         all_mat.append(np.full(ncurves, slots[slot], np.int32))
+        # Curve UVs, only when this system's material reads them (Image Texture, UV nodes).
+        uv_names = sorted(n for n in materials.needs[slots[slot]][1] if n.startswith(UV_ATTRIBUTE))
+        got = particle_uvs(obj, psys, first, ncurves, uv_names)
+        for name in set(all_uv) | set(got):
+            all_uv.setdefault(name, [np.zeros((c.size, 4), np.float32) for c in all_counts[:-1]])
+            all_uv[name].append(got.get(name, np.zeros((ncurves, 4), np.float32)))
         report.add_count("particle_systems", 1)
     if not all_counts:
         return 0
@@ -493,14 +557,22 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
     pts4[:, 3] *= np.float32(radius_scale(matrix))
     random = buffer.curve_random(counts.size).copy()  # index over all systems of the object
     needs_intercept = any(materials.needs[int(m)][0] for m in np.unique(mat))
+    columns = []  # per-key extras ride along as columns, so that clean_strands filters them with the keys
     if needs_intercept:
-        pts4 = np.concatenate([pts4, np.concatenate(all_t)[:, None]], axis=1)
+        columns.append(("intercept", np.concatenate(all_t)[:, None]))
+    for name in sorted(all_uv):
+        columns.append((name, np.repeat(np.concatenate(all_uv[name]), counts, axis=0)))
+    if columns:
+        pts4 = np.concatenate([pts4] + [c for _, c in columns], axis=1)
     pts4, counts, random, mat, lengths = clean_strands(obj.name, pts4, counts, random, mat, lengths, report)
-    intercept = None
-    if needs_intercept:
-        intercept = pts4[:, 4].copy()
-        pts4 = np.ascontiguousarray(pts4[:, :4])
-    buffer.add(pts4, counts, random, mat, lengths, intercept=intercept)
+    extras, col = {}, 4
+    for name, c in columns:
+        extras[name] = np.ascontiguousarray(pts4[:, col:col + c.shape[1]])
+        col += c.shape[1]
+    pts4 = np.ascontiguousarray(pts4[:, :4])
+    intercept = extras.pop("intercept", None)
+    buffer.add(pts4, counts, random, mat, lengths, intercept=None if intercept is None else intercept[:, 0].copy(),
+               attributes={name: ("CURVE", a) for name, a in extras.items()})
     report.timings["particle_hair"] = report.timings.get("particle_hair", 0.0) + time.perf_counter() - t0
     return int(counts.size)
 

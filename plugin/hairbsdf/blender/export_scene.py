@@ -215,6 +215,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         "camera": camera,
         "lights": lights,
         "world": world,
+        "images": materials.attributes.images.images,
         "integrator": integrator,
         "source": {"blender_version": ".".join(str(v) for v in blender_version()),
                    "scene": scene.name, "view_layer": view_layer.name if view_layer else "",

@@ -1,11 +1,15 @@
-"""Blender images -> scene-linear float RGB arrays (H, W, 3), row 0 = the image's top row.
+"""Blender images -> scene-linear float RGB (H, W, 3) or RGBA (H, W, 4) arrays, row 0 = the
+image's top row. The world's Environment Texture reads RGB, the shading programs' Image Texture
+nodes RGBA (alpha associated as Cycles' image loader does, see read_image_rgba).
 
 Files are read with OpenImageIO (the pip wheel in bpy 4.5's venv, Debian's python3-openimageio in
 Blender 3.4), as Cycles reads them; packed, generated or missing files fall back to Blender's own
 pixel buffer. Colour spaces: Linear / Linear Rec.709 / Non-Color / Raw pass through, sRGB is
 decoded with the sRGB transfer function; any other space is read as linear with a warning.
-Difference from Cycles: Cycles interpolates 8-bit sRGB textures before decoding them; here each
-texel is decoded first (the two agree at texel centres).
+Alpha: files are read with their alpha as stored (straight stays straight, as Cycles configures
+OpenImageIO) and associated here as Cycles' loader does (read_image_rgba). 8-bit sRGB images: the
+Image Texture path keeps the encoded values and the VM decodes after interpolating, as Cycles;
+the world's path (read_image_linear) decodes each texel first (the two agree at texel centres).
 """
 
 from __future__ import annotations
@@ -25,67 +29,138 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 
 
 def _read_file(path: str):
-    """(H, W, 3) float32 from the file with OpenImageIO, or None when it cannot be read."""
+    """((H, W, 4) float32, alpha associated in the file, 8 bits per channel) from the file with
+    OpenImageIO, or (None, False, False) when it cannot be read."""
     try:
         import OpenImageIO as oiio
     except ImportError:
-        return None
-    buf = oiio.ImageBuf(path)
+        return None, False, False
+    # As Cycles: keep unassociated alpha as it is in the file (OpenImageIO would otherwise
+    # associate it on read, for 8-bit sRGB files in linear space); read_image_rgba associates.
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    buf = oiio.ImageBuf(path, 0, 0, config)
     if buf.has_error:
-        return None
+        return None, False, False
     pixels = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float32)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     if pixels.ndim != 3 or pixels.shape[2] < 1:
-        return None
-    if pixels.shape[2] < 3:  # grey (and grey + alpha): replicate the first channel
-        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
-    return np.ascontiguousarray(pixels[:, :, :3])
+        return None, False, False
+    spec = buf.spec()
+    associated = not bool(spec.get_int_attribute("oiio:UnassociatedAlpha", 0))
+    is_byte = spec.format.basetype == oiio.UINT8
+    return _rgba(pixels, alpha_channel=spec.alpha_channel), associated, is_byte
+
+
+def _rgba(pixels, alpha_channel=-1):
+    """(H, W, C) -> (H, W, 4): grey replicated, alpha 1 when absent."""
+    h, w, c = pixels.shape
+    out = np.ones((h, w, 4), np.float32)
+    if c < 3:  # grey (and grey + alpha)
+        out[:, :, :3] = pixels[:, :, :1]
+        if c == 2:
+            out[:, :, 3] = pixels[:, :, 1]
+    else:
+        out[:, :, :3] = pixels[:, :, :3]
+        a = alpha_channel if alpha_channel is not None and 0 <= alpha_channel < c else (3 if c >= 4 else -1)
+        if a >= 0:
+            out[:, :, 3] = pixels[:, :, a]
+    return out
 
 
 def _read_blender_buffer(image):
-    """Blender's pixel buffer (bottom row first, RGBA), flipped to top row first."""
+    """Blender's pixel buffer (bottom row first, RGBA), flipped to top row first, as RGBA."""
     w, h = int(image.size[0]), int(image.size[1])
     if w <= 0 or h <= 0:
         return None
     channels = int(image.channels)
     buf = np.empty(w * h * channels, dtype=np.float32)
     image.pixels.foreach_get(buf)
-    buf = buf.reshape(h, w, channels)[::-1]
-    if channels < 3:
-        buf = np.repeat(buf[:, :, :1], 3, axis=2)
-    return np.ascontiguousarray(buf[:, :, :3])
+    return _rgba(np.ascontiguousarray(buf.reshape(h, w, channels)[::-1]))
 
 
-def read_image_linear(image, warn):
-    """Scene-linear RGB of a bpy Image, or None (after a warning naming the image) when it has
-    no pixels. `warn(message)` reports problems."""
+def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
+    """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded, 8 bits per channel):
+    scene-linear, except that with `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded
+    values (then sRGB-encoded is True)."""
     import bpy
 
     pixels = None
-    source = "file"
     path = ""
+    from_file = associated = is_byte = False
     if getattr(image, "source", "FILE") == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if path and os.path.exists(path):
-            pixels = _read_file(path)
+            pixels, associated, is_byte = _read_file(path)
+            from_file = pixels is not None
     if pixels is None:
-        source = "buffer"
         try:
             pixels = _read_blender_buffer(image)
+            # Blender's float buffers are premultiplied and linear, its byte buffers straight
+            # and encoded.
+            associated = bool(getattr(image, "is_float", False))
+            is_byte = not associated
         except Exception:  # noqa: BLE001 - a broken image must not stop the render
             pixels = None
     if pixels is None:
-        warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using black")
-        return None
+        warn(f"image '{image.name}' has no pixels (file '{path}' missing or unreadable); using {fallback}")
+        return None, associated, False, False
     space = image.colorspace_settings.name
+    encoded = False
     if space in SRGB_SPACES:
         # Files and Blender's byte buffers hold encoded values; its float buffers are linear.
-        if source == "file" or not bool(getattr(image, "is_float", False)):
-            pixels = srgb_to_linear(pixels)
+        if keep_srgb_bytes and is_byte:
+            encoded = True
+        elif from_file or is_byte:
+            pixels[:, :, :3] = srgb_to_linear(pixels[:, :, :3])
     elif space not in LINEAR_SPACES:
         warn(f"image '{image.name}': colour space '{space}' is not supported; read as linear")
     if not np.all(np.isfinite(pixels)):
         warn(f"image '{image.name}': NaN/Inf pixels set to 0")
         pixels = np.where(np.isfinite(pixels), pixels, 0.0).astype(np.float32)
-    return pixels
+    return pixels, associated, encoded, is_byte
+
+
+def read_image_linear(image, warn):
+    """Scene-linear RGB of a bpy Image (alpha associated as read_image_rgba does, 8-bit sRGB
+    decoded per texel), or None (after a warning naming the image) when it has no pixels.
+    `warn(message)` reports problems."""
+    pixels, _, encoded = read_image_rgba(image, warn, fallback="black")
+    if pixels is None:
+        return None
+    rgb = pixels[:, :, :3]
+    return np.ascontiguousarray(srgb_to_linear(rgb) if encoded else rgb)
+
+
+def is_data_space(image) -> bool:
+    return image.colorspace_settings.name in ("Non-Color", "Raw")
+
+
+def read_image_rgba(image, warn, fallback="magenta (Cycles' missing-texture colour)"):
+    """(RGBA (H, W, 4) float32 or None, alpha associated, sRGB-encoded) of a bpy Image for the
+    Image Texture node, as Cycles' image manager loads it: 8-bit sRGB images keep their encoded
+    values (the VM interpolates them and decodes afterwards, as Cycles does), every other image
+    is scene-linear; alpha mode None reads alpha 1; Channel Packed and Non-Color images keep
+    their channels as they are; otherwise straight alpha is associated (RGB x A) at load, so
+    that the node's Color output is associated and is divided by the interpolated alpha only
+    when its Alpha output is used. 8-bit images are associated in 8 bits, truncating, as
+    Cycles does."""
+    pixels, associated, encoded, is_byte = _read(image, warn, keep_srgb_bytes=True, fallback=fallback)
+    if pixels is None:
+        return None, False, False
+    mode = getattr(image, "alpha_mode", "STRAIGHT")
+    if mode == "NONE":
+        pixels[:, :, 3] = 1.0
+        return pixels, False, encoded
+    if mode == "CHANNEL_PACKED" or is_data_space(image):
+        return pixels, False, encoded
+    if not associated:
+        if is_byte:
+            # Cycles associates 8-bit images in 8 bits, truncating: c = floor(c a / 255)
+            # (matched texel for texel against Cycles 4.5.15 renders of an sRGB PNG)
+            b = np.round(pixels * 255.0).astype(np.int64)
+            pixels[:, :, :3] = ((b[:, :, :3] * b[:, :, 3:4]) // 255).astype(np.float32) / np.float32(255.0)
+        else:
+            pixels[:, :, :3] *= pixels[:, :, 3:4]
+    return pixels, True, encoded

@@ -12,7 +12,9 @@ socket's own default value is used, as the exporter always did.
 
 Supported: Value, RGB, Hair Info (Random, Intercept, Length, Is Strand), Attribute (Geometry),
 Math, Map Range (float), Clamp, ColorRamp, Mix (float, vector, colour) and legacy MixRGB,
-Separate / Combine RGB, XYZ and Color (RGB mode), Invert, Gamma, Brightness/Contrast, reroutes
+Separate / Combine RGB, XYZ and Color (RGB mode), Invert, Gamma, Brightness/Contrast, Image
+Texture (flat projection) on curve UVs from Texture Coordinate > UV or a UV Map node, Mapping
+(Point / Texture / Vector, unlinked Location / Rotation / Scale), reroutes
 and muted nodes (their internal links). Socket conversions follow Cycles: colour -> float is the
 luminance, vector -> float the average, float -> colour / vector (f, f, f).
 """
@@ -28,7 +30,7 @@ from ._common import REC709_Y, rgb
 # Opcodes and enum values of shading_vm.h (ShadingOp, MathType, MapRangeType, MixBlend).
 OP_MATH, OP_MAP_RANGE, OP_CLAMP, OP_COLOR_RAMP, OP_MIX_COLOR, OP_MIX_FLOAT, OP_MIX_VECTOR = 1, 2, 3, 4, 5, 6, 7
 OP_INVERT, OP_GAMMA, OP_BRIGHT_CONTRAST, OP_COPY, OP_LUMINANCE, OP_AVERAGE = 8, 9, 10, 11, 12, 13
-OP_HAIR_INFO, OP_ATTRIBUTE = 14, 15
+OP_HAIR_INFO, OP_ATTRIBUTE, OP_IMAGE_TEXTURE = 14, 15, 16
 
 MATH_TYPES = {
     "ADD": 0, "SUBTRACT": 1, "MULTIPLY": 2, "DIVIDE": 3, "SINE": 4, "COSINE": 5, "TANGENT": 6, "ARCSINE": 7,
@@ -45,6 +47,13 @@ MIX_BLENDS = {
     "SOFT_LIGHT": 16, "LINEAR_LIGHT": 17, "EXCLUSION": 18,
 }
 HAIR_INFO_OUTPUTS = {"Random": 0, "Intercept": 1, "Length": 2, "Is Strand": 3}
+IMAGE_INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}  # Smart: Cubic, as Cycles' CPU kernel
+IMAGE_EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
+IMAGE_UNASSOCIATE_ALPHA, IMAGE_SRGB_DECODE = 1, 2
+# Curve attribute names that stand for a UV map: UV_ATTRIBUTE is the default one (Texture
+# Coordinate > UV, a UV Map node with no map named), UV_ATTRIBUTE + name a named map. The hair
+# exporter resolves them per object (export_hair.uv_rgba).
+UV_ATTRIBUTE = "<uv>"
 RAMP_TABLE_SIZE = 256  # Cycles bakes a ColorRamp into 256 RGBA entries (RAMP_TABLE_SIZE)
 MAX_DEPTH = 64
 
@@ -79,11 +88,38 @@ def _kind_of(socket_type: str) -> str:
     return {"RGBA": "color", "VECTOR": "vector"}.get(socket_type, "float")
 
 
+class ImageTable:
+    """Scene-wide list of the images programs sample (index = VM image index), read once each."""
+
+    def __init__(self):
+        self.images: list[dict] = []     # {"name", "pixels" (H, W, 4) float32}
+        self.associated: list[bool] = []
+        self.srgb_encoded: list[bool] = []
+        self._index: dict = {}
+
+    def index(self, image, warn):
+        """The VM index of a bpy Image, or None when it has no pixels (warned)."""
+        key = image.name_full
+        if key not in self._index:
+            from .images import read_image_rgba
+            pixels, associated, encoded = read_image_rgba(image, warn)
+            if pixels is None:
+                self._index[key] = None
+            else:
+                self._index[key] = len(self.images)
+                self.images.append({"name": image.name_full, "pixels": np.ascontiguousarray(pixels, np.float32)})
+                self.associated.append(associated)
+                self.srgb_encoded.append(encoded)
+        return self._index[key]
+
+
 class AttributeTable:
-    """Scene-wide list of the named curve attributes programs read (index = VM attribute index)."""
+    """Scene-wide list of the named curve attributes programs read (index = VM attribute index),
+    and the images they sample (`images`)."""
 
     def __init__(self):
         self.names: list[str] = []
+        self.images = ImageTable()
 
     def index(self, name: str) -> int:
         if name not in self.names:
@@ -254,7 +290,8 @@ class ShadingNetwork:
         prog = {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
                 "registers": n_const + self.temps}
         n_attr = max(len(self.attributes.names), 1)
-        return _render.eval_program(prog, 0.0, 0.0, 0.0, 1.0, np.zeros((1, n_attr, 4), np.float32))[0]
+        return _render.eval_program(prog, 0.0, 0.0, 0.0, 1.0, np.zeros((1, n_attr, 4), np.float32),
+                                    images=self.attributes.images.images)[0]
 
     def _read(self, values, value):
         base = value.reg.index if value.reg.kind == "k" else len(self.constants) + value.reg.index
@@ -337,6 +374,13 @@ def _label(node):
 
 
 def _setting(node):
+    if node.bl_idname == "ShaderNodeTexImage":
+        source = getattr(node.image, "source", "none") if node.image is not None else "none"
+        return (f"projection {node.projection}, interpolation {node.interpolation}, extension {node.extension}, "
+                f"image source {source}")
+    if node.bl_idname == "ShaderNodeMapping":
+        linked = [s.name for s in node.inputs if s.name != "Vector" and s.is_linked]
+        return f"vector_type {node.vector_type}" + (f", linked {' / '.join(linked)}" if linked else "")
     for prop in ("data_type", "mode", "attribute_type", "operation"):
         if hasattr(node, prop):
             return f"{prop} {getattr(node, prop)}"
@@ -376,19 +420,105 @@ def _hair_info(net, node, out, depth):
     return Value(reg, 1)
 
 
-def _attribute(net, node, out, depth):
-    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY" or not node.attribute_name:
-        return _UNSUPPORTED
-    key = (node.as_pointer(), "__block__")
+def _attribute_block(net, name):
+    """The 5 registers (RGB, Fac, Alpha) of curve attribute `name`, one instruction per program."""
+    key = ("__attribute__", name)
     block = net._outputs.get(key)
     if block is None:
-        index = net.attributes.index(node.attribute_name)
-        net.attribute_names.add(node.attribute_name)
+        index = net.attributes.index(name)
+        net.attribute_names.add(name)
         block = Value(net._temp(5), 5)
         net._emit(OP_ATTRIBUTE, [index, block.reg], [], [(1, 5)], dynamic=True)
         net._outputs[key] = block
+    return block
+
+
+def _attribute(net, node, out, depth):
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY" or not node.attribute_name:
+        return _UNSUPPORTED
+    block = _attribute_block(net, node.attribute_name)
     offset, width = {"Color": (0, 3), "Vector": (0, 3), "Fac": (3, 1), "Alpha": (4, 1)}[out.identifier]
     return Value(Reg("t", block.reg.index + offset), width)
+
+
+def _uv(net, map_name=""):
+    """The UV (u, v, 0) of the strand: Cycles' curve UV (docs/shading_vm.md)."""
+    return Value(_attribute_block(net, UV_ATTRIBUTE + map_name).reg, 3)
+
+
+def _tex_coord(net, node, out, depth):
+    if out.identifier != "UV" or getattr(node, "from_instancer", False):
+        return _UNSUPPORTED
+    return _uv(net)
+
+
+def _uv_map(net, node, out, depth):
+    if getattr(node, "from_instancer", False):
+        return _UNSUPPORTED
+    return _uv(net, node.uv_map)
+
+
+def _mapping(net, node, out, depth):
+    """Mapping (Point, Texture, Vector) with unlinked Location / Rotation / Scale: the affine map
+    Blender's node applies, as three multiply-adds per component (float32 constants)."""
+    if node.vector_type == "NORMAL":  # normalised after the map: not an affine map
+        return _UNSUPPORTED
+    values = {}
+    for name, default in (("Location", (0.0, 0.0, 0.0)), ("Rotation", (0.0, 0.0, 0.0)), ("Scale", (1.0, 1.0, 1.0))):
+        sock = _sock(node, name)
+        if sock is None or not getattr(sock, "enabled", True):
+            values[name] = default
+            continue
+        if net.link_source(sock) is not None:
+            return _UNSUPPORTED
+        values[name] = tuple(float(v) for v in sock.default_value)
+    from .export_world import mapping_matrix  # noqa: PLC0415 - export_world imports this module's users
+    m = mapping_matrix(node.vector_type, values["Location"], values["Rotation"], values["Scale"])
+    vec = _in(net, node, "Vector", "vector", depth)
+    parts = []
+    for i in range(3):
+        acc = net.constant((m[i, 3],))
+        for j in (2, 1, 0):
+            reg = net._temp(1)
+            net._emit(OP_MATH, [MATH_TYPES["MULTIPLY_ADD"], 0, reg, net.component(vec, j).reg,
+                                net.constant((m[i, j],)).reg, acc.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+            acc = Value(reg, 1)
+        parts.append(acc)
+    return net.gather(parts)
+
+
+def _image_texture(net, node, out, depth):
+    if node.projection != "FLAT" or out.identifier not in ("Color", "Alpha"):
+        return _UNSUPPORTED
+    image = node.image
+    if image is None:
+        # Cycles' missing-texture colour (magenta, alpha 1)
+        net.warn(f"'{node.name}' has no image; like Cycles, it reads magenta")
+        return net.constant((1.0, 0.0, 1.0) if out.identifier == "Color" else (1.0,))
+    if getattr(image, "source", "FILE") not in ("FILE", "GENERATED") or node.interpolation not in IMAGE_INTERPOLATIONS \
+            or node.extension not in IMAGE_EXTENSIONS:
+        return _UNSUPPORTED
+    key = (node.as_pointer(), "__image__")
+    block = net._outputs.get(key)
+    if block is None:
+        index = net.attributes.images.index(image, net.warn)
+        if index is None:  # no pixels (warned): Cycles' missing-texture magenta, alpha 1
+            return net.constant((1.0, 0.0, 1.0) if out.identifier == "Color" else (1.0,))
+        src = net.link_source(_sock(node, "Vector"))
+        vector = _in(net, node, "Vector", "vector", depth) if src is not None else _uv(net)
+        # Cycles divides by alpha only when the Alpha output is used and alpha was associated.
+        alpha_used = any(o.identifier == "Alpha" and o.is_linked for o in node.outputs)
+        flags = IMAGE_UNASSOCIATE_ALPHA if alpha_used and net.attributes.images.associated[index] else 0
+        if net.attributes.images.srgb_encoded[index]:  # 8-bit sRGB: decoded after the lookup, as Cycles
+            flags |= IMAGE_SRGB_DECODE
+        block = Value(net._temp(4), 4)
+        net._emit(OP_IMAGE_TEXTURE, [index, IMAGE_INTERPOLATIONS[node.interpolation],
+                                     IMAGE_EXTENSIONS[node.extension], flags, block.reg, vector.reg],
+                  [(5, 3)], [(4, 4)])
+        net._outputs[key] = block
+    if out.identifier == "Alpha":
+        return Value(Reg("t", block.reg.index + 3), 1)
+    return Value(block.reg, 3)
 
 
 def _math(net, node, out, depth):
@@ -537,6 +667,10 @@ _NODES = {
     "ShaderNodeRGB": _rgb_node,
     "ShaderNodeHairInfo": _hair_info,
     "ShaderNodeAttribute": _attribute,
+    "ShaderNodeTexCoord": _tex_coord,
+    "ShaderNodeUVMap": _uv_map,
+    "ShaderNodeTexImage": _image_texture,
+    "ShaderNodeMapping": _mapping,
     "ShaderNodeMath": _math,
     "ShaderNodeMapRange": _map_range,
     "ShaderNodeClamp": _clamp,

@@ -53,6 +53,7 @@ struct PreparedScene {
     LightSet lights;
     std::vector<MaterialShader> materials;
     FilterTable filter;
+    std::vector<ShadingImage> images;  // views of desc.images for the shading programs
 };
 
 struct PathCounters {

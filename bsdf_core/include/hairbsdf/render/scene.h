@@ -160,6 +160,14 @@ struct EnvironmentDesc {
     bool has_texture() const { return width > 0 && height > 0 && pixels.size() == size_t(width) * height * 3; }
 };
 
+// An image the shading programs sample (Image Texture nodes; docs/scene_desc.md `images`).
+struct ImageDesc {
+    std::string name;
+    int width = 0, height = 0;
+    std::vector<float> pixels;  // (height, width, 4) scene-linear RGBA; row 0 = the image's top row
+    bool valid() const { return width > 0 && height > 0 && pixels.size() == size_t(width) * height * 4; }
+};
+
 struct SceneDesc {
     CurveData curves;
     CurveShape curve_shape = CurveShape::Thick;
@@ -174,6 +182,7 @@ struct SceneDesc {
     std::vector<LightDesc> lights;
     RGB world{0.0};
     EnvironmentDesc world_texture;
+    std::vector<ImageDesc> images;  // read by the shading programs' ImageTexture op
     // World > Settings > Sampling (4.x Method != None, 3.x Multiple Importance). Even on, a
     // world without a texture is not sampled as a light (render/lights.h).
     bool world_mis = true;

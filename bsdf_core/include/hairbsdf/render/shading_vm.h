@@ -31,6 +31,25 @@ enum class ShadingOp : int32_t {
     Average = 13,        // out, vector(3)
     HairInfo = 14,       // which (HairInfoOutput), out
     Attribute = 15,      // attribute index, out(5): r, g, b, fac = average(rgb), alpha
+    ImageTexture = 16,   // image index, interpolation, extension, flags, out(4): r, g, b, alpha, vector(3)
+};
+
+// Image Texture node settings (Cycles' InterpolationType / ExtensionType, in Blender's enum
+// order); Smart is evaluated as Cubic, as Cycles' CPU kernel does.
+enum class ImageInterpolation : int32_t { Linear = 0, Closest = 1, Cubic = 2 };
+enum class ImageExtension : int32_t { Repeat = 0, Extend = 1, Clip = 2, Mirror = 3 };
+// ImageTexture flags: divide the interpolated colour by its alpha (Cycles does so when the
+// node's Alpha output is used and the image's alpha is associated at load); decode the
+// interpolated colour from sRGB (8-bit sRGB images are stored encoded and decoded after the
+// lookup, as Cycles does).
+constexpr int32_t kImageUnassociateAlpha = 1;
+constexpr int32_t kImageSrgbDecode = 2;
+
+// An image a program samples: (height, width, 4) float RGBA, scene-linear, row 0 = the image's
+// top row (as Blender shows it; texture v = 0 is the bottom row).
+struct ShadingImage {
+    int width = 0, height = 0;
+    const float* rgba = nullptr;
 };
 
 enum class HairInfoOutput : int32_t { Random = 0, Intercept = 1, Length = 2, IsStrand = 3 };
@@ -65,11 +84,13 @@ struct ShadingHitContext {
     float random = 0, intercept = 0, length = 0, is_strand = 0;
     const float* attributes = nullptr;  // RGBA per attribute at the hit (0 where absent)
     int attribute_count = 0;
+    const ShadingImage* images = nullptr;  // the scene's images (ImageTexture op)
+    int image_count = 0;
 };
 
 // Throws std::invalid_argument naming the instruction and what is wrong; `attribute_count`
-// bounds the Attribute op's index.
-void validate_program(const ShadingProgram& program, int attribute_count);
+// bounds the Attribute op's index, `image_count` the ImageTexture op's.
+void validate_program(const ShadingProgram& program, int attribute_count, int image_count = 0);
 
 // Evaluates a validated program; `registers` has program.register_count slots.
 void run_program(const ShadingProgram& program, const ShadingHitContext& context, float* registers);
@@ -79,5 +100,9 @@ float shading_math(MathType type, float a, float b, float c);
 float shading_map_range(MapRangeType type, float value, float from_min, float from_max, float to_min, float to_max,
                         float steps);
 void shading_mix(MixBlend blend, float t, const float* a, const float* b, float* out);
+// Cycles' image lookup at texture coordinates (x, y) (texel centres at (i + 0.5) / width),
+// before any alpha unassociation: RGBA into `out`.
+void shading_image_lookup(const ShadingImage& image, ImageInterpolation interpolation, ImageExtension extension,
+                          float x, float y, float* out);
 
 }  // namespace hairbsdf::render
