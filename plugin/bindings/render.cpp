@@ -532,6 +532,9 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
                                          {{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}});
     if (auto o = get_optional(in, "accuracy"))
         s.accuracy = as_enum<Accuracy>(*o, sub(key, "accuracy"), {{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}});
+    if (auto o = get_optional(in, "huang_sampler"))
+        s.huang_sampler = as_enum<HuangSampler>(*o, sub(key, "huang_sampler"),
+                                                {{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}});
     if (auto o = get_optional(in, "passes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             fail(sub(key, "passes"), "expected a list of pass names");

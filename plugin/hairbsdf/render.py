@@ -35,6 +35,7 @@ HAIR_MODELS = ("CHIANG", "HUANG")
 PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
 ACCURACIES = ("cycles", "exact")
+HUANG_SAMPLERS = ("cycles", "mixture")  # the engine's Huang BSDF sampler (docs/huang.md §10)
 # integrator["passes"] -> result keys: hair_lobes -> hair_r, hair_tt, hair_trt, hair_trrt (H, W, 3);
 # depth -> depth (H, W); normal -> normal (H, W, 3); variance -> variance (H, W, 3) (docs/engine.md)
 PASSES = ("hair_lobes", "depth", "normal", "variance")
@@ -459,6 +460,8 @@ def _check_integrator(scene, out):
         d["tilt"] = _Checker.choice(f"{key}['tilt']", s["tilt"], TILTS)
     if s.get("accuracy") is not None:
         d["accuracy"] = _Checker.choice(f"{key}['accuracy']", s["accuracy"], ACCURACIES)
+    if s.get("huang_sampler") is not None:
+        d["huang_sampler"] = _Checker.choice(f"{key}['huang_sampler']", s["huang_sampler"], HUANG_SAMPLERS)
     if s.get("passes") is not None:
         names = _Checker.list(f"{key}['passes']", s["passes"])
         d["passes"] = [_Checker.choice(f"{key}['passes'][{i}]", n, PASSES) for i, n in enumerate(names)]

@@ -478,6 +478,62 @@ def test_huang_strand_pixels_equal_bsdf_eval():
     assert np.median(rel) < 0.05, f"median relative error {np.median(rel):.2e}"
 
 
+def test_huang_sampler_setting_picks_the_estimator():
+    """One Huang strand in a uniform white world, one bounce: each pixel is the mean BSDF-sample
+    weight at its h (a uniform world is reached by BSDF rays only). With huang_sampler "cycles"
+    (the default) that is the mean of Cycles' sampler weight, which is NOT the directional albedo
+    of the eval: Cycles' weight is an energy estimate of the traced path, about 4 % above the
+    integral of its own eval here (docs/huang.md §10). With "mixture" (exact pdf) it is the albedo."""
+    wo = _unit((0.0, 0.6, 0.8))
+    height, across = 64, 48
+    pixel = 2 * R / across
+    camera, yc = _ortho_camera(wo, height * pixel, (2, height))
+    x = np.array([1.0, 0, 0])
+    normal = _unit(wo - np.dot(wo, x) * x)
+    strand = _straight_strand()
+    strand["normals"] = np.tile(normal, (len(strand["points"]), 1)).astype(np.float32)
+    inputs = dict(parametrization="COLOR", color=(0.6, 0.4, 0.25), roughness=0.35, aspect_ratio=0.5)
+    material = {"name": "huang", "closures": [{"type": "principled_hair", "weight": (1, 1, 1), "model": "HUANG",
+                                               "parametrization": "COLOR",
+                                               "inputs": {k: v for k, v in inputs.items() if k != "parametrization"}
+                                               | {"random": None}}]}
+    scene = {"version": 1, "curves": strand, "curve_shape": "THICK", "curve_subdivisions": 2,
+             "materials": [material], "camera": camera, "lights": [], "world": {"color": (1.0, 1.0, 1.0)},
+             "integrator": _integrator(samples=512, max_bounces=1, glossy_bounces=1, transparent_bounces=4)}
+    rows = np.arange(height)
+    h = -(((height - 1 - rows) + 0.5 - height / 2) * pixel) * np.dot(yc, _unit(np.cross(x, wo))) / R
+    inside = np.abs(h) < 0.45
+    totals = {}
+    for sampler in ("cycles", "mixture"):
+        scene["integrator"]["huang_sampler"] = sampler
+        img = render(scene)["combined"]
+        totals[sampler] = img[inside, :, :3].astype(np.float64).mean(axis=1).sum(axis=0)
+
+    y = _unit(np.cross(x, wo))
+    frame = lambda w: np.array([w @ x, w @ y, w @ (np.cross(x, y))])  # noqa: E731
+    rng = np.random.default_rng(5)
+    n_per_row = 4000
+    hs = np.repeat(h[inside], n_per_row)
+    kw = dict(normal=frame(normal), pixel_coverage=0.5 * pixel / R, near_field=True)
+    wo_rows = np.tile(frame(wo), (len(hs), 1))
+    cycles = hairbsdf.principled_hair(model="huang", sampler="cycles", random=hairbsdf.cycles_curve_random(0),
+                                      **inputs)
+    s = cycles.sample(wo_rows, hs, rng.random((len(hs), 3)), **kw)
+    weight = np.where(s.lobe[:, None] >= 0, s.weight, 0.0)
+    expected_cycles = weight.reshape(-1, n_per_row, 3).mean(axis=1).sum(axis=0)
+    # the albedo of the eval: uniform directions over the sphere, Cycles' unbiased eval estimator
+    z = rng.uniform(-1, 1, len(hs))
+    phi = rng.uniform(0, 2 * np.pi, len(hs))
+    wi = np.stack([z, np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi)], axis=1)
+    f = cycles.cycles_estimate(wo_rows, wi, hs, samples=1, seed=9, **kw).sum(axis=1) * 4 * np.pi
+    expected_albedo = f.reshape(-1, n_per_row, 3).mean(axis=1).sum(axis=0)
+
+    np.testing.assert_allclose(totals["cycles"], expected_cycles, rtol=0.01)
+    np.testing.assert_allclose(totals["mixture"], expected_albedo, rtol=0.025)
+    ratio = totals["cycles"] / totals["mixture"]
+    assert np.all(ratio > 1.02), f"Cycles' estimator should be brighter here, ratio {ratio}"
+
+
 # --------------------------------------------------------------------------------------
 # Passes: hair lobes of the first hair hit, depth, normal, variance of the pixel mean
 

@@ -269,7 +269,7 @@ HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
         simpson(kRStep, sp.r_nodes);
         simpson(kResidualStep, sp.residual_nodes);
     }
-    build_sampler(sp);
+    if (params_.mixture_detail != HuangHairParams::MixtureDetail::None) build_sampler(sp);
     return sp;
 }
 
@@ -981,7 +981,7 @@ double HuangHair::pdf_local(const ShadingPoint& sp, Vec3 O) const {
 
 int HuangHair::sample_direction(const ShadingPoint& sp, const std::array<double, 3>& u, Vec3& O) const {
     const int none = -1;
-    if (sp.transparent || !sp.valid) return none;
+    if (sp.transparent || !sp.valid || params_.mixture_detail == HuangHairParams::MixtureDetail::None) return none;
     // Lobe, then component, from u[2].
     double ul = u[2];
     int lobe = 4;

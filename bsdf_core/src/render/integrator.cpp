@@ -13,7 +13,7 @@ constexpr int kMaxLightHits = 8;
 std::vector<MaterialShader> build_materials(const SceneDesc& scene) {
     std::vector<MaterialShader> out;
     out.reserve(scene.materials.size());
-    for (const MaterialDesc& m : scene.materials) out.emplace_back(m, scene.integrator.tilt, scene.integrator.accuracy);
+    for (const MaterialDesc& m : scene.materials) out.emplace_back(m, scene.integrator.tilt, scene.integrator.accuracy, scene.integrator.huang_sampler);
     return out;
 }
 

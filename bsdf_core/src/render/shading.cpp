@@ -7,10 +7,13 @@ namespace hairbsdf::render {
 
 namespace {
 
-// Huang in the renderer: the coarse sampling mixture (exact pdf, fewer components: noise only).
-HuangHairParams render_huang_params(const PrincipledHairInputs& in) {
+// Huang in the renderer: Cycles' sampler (Cycles' estimator), or the coarse sampling mixture
+// (exact pdf, fewer components than the API's: noise only).
+HuangHairParams render_huang_params(const PrincipledHairInputs& in, HuangSampler sampler) {
     HuangHairParams p = huang_params_from_principled(in);
-    p.mixture_detail = HuangHairParams::MixtureDetail::Coarse;
+    p.sampler = sampler;
+    p.mixture_detail = sampler == HuangSampler::Cycles ? HuangHairParams::MixtureDetail::None
+                                                       : HuangHairParams::MixtureDetail::Coarse;
     return p;
 }
 
@@ -71,8 +74,9 @@ RGB MaterialShader::emission(const float* registers) const {
     return e;
 }
 
-MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy)
-    : program_(desc.program), tilt_(tilt), accuracy_(accuracy) {
+MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy,
+                               HuangSampler huang_sampler)
+    : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler) {
     const bool with_program = !desc.program.empty();
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
@@ -90,7 +94,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
                     if (h.huang)
-                        h.fixed_huang.emplace(render_huang_params(in));
+                        h.fixed_huang.emplace(render_huang_params(in, huang_sampler));
                     else
                         h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
@@ -197,7 +201,7 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
                 if (h.fixed_huang) {
                     params = h.fixed_huang->params();
                 } else {
-                    params = render_huang_params(hit_inputs(h, g));
+                    params = render_huang_params(hit_inputs(h, g), material.huang_sampler());
                 }
                 if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
                 huang_storage_[size_t(slot)].emplace(params);
@@ -356,13 +360,23 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
     }
     if (e.kind == Entry::Kind::Huang) {
         const HuangHair::ShadingPoint& sp = huang_points_[size_t(picked)];
-        Vec3 local;
-        if (e.huang->sample_direction(sp, {u0, u1, u2}, local) < 0) return out;
-        out.wi = e.huang->to_world(sp, local);
-        own.pdf = e.huang->pdf_local(sp, local);
-        if (!(own.pdf > 0)) return out;
-        own.lobes = eval_huang(picked, out.wi);
-        own.value = lobe_sum(own.lobes);
+        if (e.huang->params().sampler == HuangSampler::Cycles) {
+            // Cycles' estimator: the traced path's energy estimate as the value, pdf 1.
+            const BsdfSample s = e.huang->sample(sp, {u0, u1, u2});
+            if (s.lobe < 0) return out;
+            out.wi = s.wi;
+            own.pdf = 1.0;
+            own.value = e.weight * s.value;
+            own.lobes[size_t(std::min(s.lobe, kLobeCount - 1))] = own.value;
+        } else {
+            Vec3 local;
+            if (e.huang->sample_direction(sp, {u0, u1, u2}, local) < 0) return out;
+            out.wi = e.huang->to_world(sp, local);
+            own.pdf = e.huang->pdf_local(sp, local);
+            if (!(own.pdf > 0)) return out;
+            own.lobes = eval_huang(picked, out.wi);
+            own.value = lobe_sum(own.lobes);
+        }
         out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
     } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
         const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2})

@@ -47,7 +47,8 @@ def engine_settings(scene) -> dict:
     properties are not registered."""
     s = getattr(scene, "hairbsdf", None)
     return {"threads": int(_get(s, "threads", 0)), "tilt": str(_get(s, "tilt", "AUTO")),
-            "accuracy": str(_get(s, "accuracy", "CYCLES"))}
+            "accuracy": str(_get(s, "accuracy", "CYCLES")),
+            "huang_sampler": str(_get(s, "huang_sampler", "CYCLES"))}
 
 
 def export_integrator(scene, view_layer, render: bool, settings: dict, report) -> dict:
@@ -101,6 +102,7 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "clamp_indirect": float(g("sample_clamp_indirect", 10.0)),
         "tilt": tilt,
         "accuracy": settings.get("accuracy", "CYCLES").lower(),
+        "huang_sampler": settings.get("huang_sampler", "CYCLES").lower(),
         "passes": passes.requested(view_layer) if render else [],
     }
 

@@ -77,8 +77,10 @@ struct HuangHairParams {
     HuangSampler sampler = HuangSampler::Mixture;
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
     // point) or Coarse (up to 12, 16 and 16: the renderer's choice; the pdf stays exact, only
-    // the importance sampling is rougher, so renders get noisier but not biased).
-    enum class MixtureDetail { Full, Coarse } mixture_detail = MixtureDetail::Full;
+    // the importance sampling is rougher, so renders get noisier but not biased), or None (no
+    // mixture is built: for the renderer with Cycles' sampler; sample_direction then returns -1
+    // and pdf_local 0).
+    enum class MixtureDetail { Full, Coarse, None } mixture_detail = MixtureDetail::Full;
 };
 
 class HuangHair {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hairbsdf/models/huang.h"
 #include "hairbsdf/models/model_params.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "hairbsdf/render/shading_vm.h"
@@ -140,6 +141,9 @@ struct IntegratorSettings {
     double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
     TiltConvention tilt = TiltConvention::Blender42;
     Accuracy accuracy = Accuracy::Cycles;   // Chiang's special functions: Cycles' or exact
+    // Huang's BSDF sampler: Cycles' (its energy-estimate weight, pdf 1: Cycles' estimator, so the
+    // image's expected value is Cycles') or the mixture with an exact pdf (docs/huang.md §10).
+    HuangSampler huang_sampler = HuangSampler::Cycles;
     // Extra passes besides Combined (docs/engine.md, Passes).
     bool pass_hair_lobes = false;  // R, TT, TRT, TRRT+ of the light leaving the first hair hit
     bool pass_depth = false;       // camera-space depth of the first hit

@@ -42,7 +42,8 @@ enum ScatterLabel : uint8_t {
 // One material, prepared once per render.
 class MaterialShader {
 public:
-    MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy = Accuracy::Cycles);
+    MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy = Accuracy::Cycles,
+                   HuangSampler huang_sampler = HuangSampler::Cycles);
     struct HairClosure {
         RGB weight;
         PrincipledHairInputs inputs;
@@ -78,6 +79,7 @@ public:
     bool has_huang() const { return has_huang_; }
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
+    HuangSampler huang_sampler() const { return huang_sampler_; }
 
 private:
     size_t closure_count() const { return hair_.size() + diffuse_.size() + cycles_hair_.size() + models_.size(); }
@@ -91,6 +93,7 @@ private:
     bool has_huang_ = false;
     TiltConvention tilt_;
     Accuracy accuracy_;
+    HuangSampler huang_sampler_;
 };
 
 // The local geometry a BSDF needs.
