@@ -45,15 +45,23 @@ def _chord_exit(p, d, b):
     return p + t[..., None] * d, t
 
 
-def _scatter(v, m, macro, alpha, eta, u, tables, sqrt_alpha):
+def _scatter(v, m, macro, alpha, eta, u, tables, sqrt_alpha, force=None):
     """One interface event for the incident direction v (pointing away from the surface, on the
     side macro points to), mesonormal m, geometric normal macro (both on v's side), relative IOR
-    eta (other side / v's side). Returns (new direction, weight, refracted flag, valid)."""
+    eta (other side / v's side). Returns (new direction, weight, refracted flag, valid).
+    force="reflect" / "refract" takes that branch with the Fresnel probability as a weight instead
+    of choosing it at random (splitting: the same expectation, every ray in the wanted lobe)."""
     a2 = alpha * alpha
     h = ref.sample_vndf(v, m, alpha, u[:, 0], u[:, 1])
     cos_vh = ref._dot(v, h)
     f, cos_t = ref.fresnel(cos_vh, eta)
-    refract = u[:, 2] >= f
+    branch = np.ones_like(f)
+    if force is None:
+        refract = u[:, 2] >= f
+    elif force == "reflect":
+        refract, branch = np.zeros(len(f), bool), f
+    else:
+        refract, branch = np.ones(len(f), bool), 1.0 - f
     with np.errstate(invalid="ignore"):
         wt = ref.refract(v, h, np.nan_to_num(cos_t), 1.0 / eta)
     wr = 2.0 * cos_vh[:, None] * h - v
@@ -63,12 +71,15 @@ def _scatter(v, m, macro, alpha, eta, u, tables, sqrt_alpha):
     e = ref.energy_scale(sqrt_alpha, cos_vm, eta, tables)
     side = ref._dot(out, macro)
     valid = (cos_vh > 0) & (cos_vm > 0) & (ref._dot(v, macro) > 0) & np.where(refract, side < 0, side > 0)
-    return out, np.where(valid, g * e, 0.0), refract, valid
+    valid = valid & (branch > 0)
+    return out, np.where(valid, g * e * branch, 0.0), refract, valid
 
 
-def trace(I, alpha, eta, sigma_a, tilt=0.0, b=1.0, n=1_000_000, rng=None, tables=None):
+def trace(I, alpha, eta, sigma_a, tilt=0.0, b=1.0, n=1_000_000, rng=None, tables=None, lobe=None):
     """Traces n rays arriving from the unit direction I (local frame, propagation -I) uniformly over
     the projected width. Returns {"R": (dirs, weights), "TT": ..., "TRT": ...} with RGB weights;
+    lobe="R" | "TT" | "TRT" forces every interface event onto that lobe's path (Fresnel factors as
+    weights) and returns that lobe alone, with all n rays in it (far less noise per ray);
     the weights are normalised so that a histogram density of them estimates the far-field BSDF
     value per unit solid angle times cos theta_I... exactly eval(I, O) in Cycles' convention."""
     rng = rng or np.random.default_rng(0)
@@ -96,8 +107,12 @@ def trace(I, alpha, eta, sigma_a, tilt=0.0, b=1.0, n=1_000_000, rng=None, tables
     macro = np.stack([n2[:, 0], np.zeros(n), n2[:, 1]], axis=-1)
     m = _mesonormal(n2, tilt)
     u = rng.random((n, 3))
-    d, w, refr, ok = _scatter(v, m, macro, alpha, eta, u, tables, sqrt_alpha)
+    events = {"R": ("reflect",), "TT": ("refract", "refract"), "TRT": ("refract", "reflect", "refract")}
+    plan = events[lobe] if lobe is not None else (None, None, None)
+    d, w, refr, ok = _scatter(v, m, macro, alpha, eta, u, tables, sqrt_alpha, force=plan[0])
     out["R"] = (d[ok & ~refr], np.repeat(w[ok & ~refr, None], 3, axis=1))
+    if lobe == "R":
+        return out, n
     keep = ok & refr
     d, w, p = d[keep], np.repeat(w[keep, None], 3, axis=1), p[keep]
     tt, trt = [], []
@@ -114,7 +129,8 @@ def trace(I, alpha, eta, sigma_a, tilt=0.0, b=1.0, n=1_000_000, rng=None, tables
         inward = -np.stack([n2[:, 0], np.zeros(len(p)), n2[:, 1]], axis=-1)
         m = _mesonormal(-n2, -tilt)
         u = rng.random((len(p), 3))
-        dn, wn, refr, ok = _scatter(-d, m, inward, alpha, 1.0 / eta, u, tables, sqrt_alpha)
+        force = plan[bounce + 1] if bounce + 1 < len(plan) else "refract"
+        dn, wn, refr, ok = _scatter(-d, m, inward, alpha, 1.0 / eta, u, tables, sqrt_alpha, force=force)
         # Refracting out: TT after the first internal event, TRT after the second.
         leave = ok & refr
         (tt if bounce == 0 else trt).append((dn[leave], w[leave] * wn[leave, None]))
@@ -122,6 +138,8 @@ def trace(I, alpha, eta, sigma_a, tilt=0.0, b=1.0, n=1_000_000, rng=None, tables
         d, w, p = dn[stay], w[stay] * wn[stay, None], p[stay]
     out["TT"] = tt[0]
     out["TRT"] = trt[0]
+    if lobe is not None:
+        return {lobe: out[lobe]}, n
     # Weights: each ray carries the projected width 2 half (far field: the BSDF averages over the
     # width, Cycles divides by cos theta_I dh with dh = 2 in r-normalised units); the histogram
     # density per unit solid angle of the mean weight is eval(I, O).
