@@ -46,8 +46,9 @@ private:
 Vec3 sample_phase(Vec3 d, double g, Rng& rng) {
     const double u1 = rng.next(), u2 = rng.next();
     double cos_t;
-    if (std::fabs(g) < 1e-4) {
-        cos_t = 1.0 - 2.0 * u1;
+    if (std::fabs(g) < 1e-4) {  // isotropic: a uniform direction, no basis needed
+        const double z = 1.0 - 2.0 * u1, r = cos_from_sin(z), phi = kTwoPi * u2;
+        return {z, r * std::cos(phi), r * std::sin(phi)};
     } else {
         const double s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1);
         cos_t = clamp((1.0 + g * g - s * s) / (2.0 * g), -1.0, 1.0);
@@ -79,6 +80,7 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
     const double sigma_t = key.medulla_absorption + key.medulla_scattering;
     const double medulla_albedo = sigma_t > 0 ? key.medulla_scattering / sigma_t : 0.0;
     const RGB sigma_c = key.cortex_absorption;
+    const bool grey = sigma_c.r == sigma_c.g && sigma_c.g == sigma_c.b;
     const double cos_o = cos_from_sin(sin_o);
     const Vec3 d_in{-sin_o, -cos_o, 0.0};  // travelling towards the fibre from the view at +y
     // Distance of the refracted chord from the axis per unit h (sin gamma_t / h, Bravais).
@@ -99,10 +101,43 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
         Vec3 d = normalize((1.0 / eta) * d_in + (cos_i / eta - cos_t_in) * n);
         bool in_medulla = false, scattered = false;
         int reflections = 0;
+        // Forced first collision: an unscattered path crossing the medulla (chord t_exit) splits
+        // into a part that scatters in it (weight 1 - exp(-sigma_t t_exit), the position from the
+        // truncated exponential) and an unscattered part that crosses it; the latter is saved here
+        // and resumed when the scattered part ends. Unscattered light is not tallied (it is the
+        // analytic R/TT/TRT/TRRT+), so every crossing feeds the tables.
+        struct Saved {
+            double y, z;
+            Vec3 d;
+            RGB w;
+            int reflections;
+        };
+        Saved saved{};
+        bool has_saved = false;
+        auto resume = [&] {
+            if (!has_saved) return false;
+            y = saved.y, z = saved.z, d = saved.d, w = saved.w, reflections = saved.reflections;
+            in_medulla = false, scattered = false, has_saved = false;
+            return true;
+        };
         for (int step = 0; step < 100000; ++step) {
             const double a = d.y * d.y + d.z * d.z;
             const double b = y * d.y + z * d.z;
             const double c = y * y + z * z;
+            if (in_medulla && !scattered && sigma_t > 0 && a > 1e-300) {
+                const double t_exit = (-b + safe_sqrt(b * b - a * (c - kappa2))) / a;
+                const double pass = std::exp(-sigma_t * t_exit);
+                const RGB cortex = grey ? RGB(std::exp(-t_exit * sigma_c.r)) : exp((-t_exit) * sigma_c);
+                saved = {y + t_exit * d.y, z + t_exit * d.z, d, pass * (w * cortex), reflections};
+                has_saved = true;
+                const double s = -std::log1p(-rng.next() * (1.0 - pass)) / sigma_t;
+                y += s * d.y;
+                z += s * d.z;
+                w = (medulla_albedo * (1.0 - pass)) * (grey ? std::exp(-s * sigma_c.r) * w : w * exp((-s) * sigma_c));
+                scattered = true;
+                d = sample_phase(d, key.medulla_g, rng);
+                continue;
+            }
             if (in_medulla) {
                 double t_exit = 1e300;
                 if (a > 1e-300) t_exit = (-b + safe_sqrt(b * b - a * (c - kappa2))) / a;
@@ -110,26 +145,32 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
                 if (s < t_exit) {
                     y += s * d.y;
                     z += s * d.z;
-                    w = medulla_albedo * (w * exp((-s) * sigma_c));
+                    w = medulla_albedo * (grey ? std::exp(-s * sigma_c.r) * w : w * exp((-s) * sigma_c));
                     scattered = true;
                     d = sample_phase(d, key.medulla_g, rng);
                     continue;
                 }
-                if (t_exit >= 1e300) break;  // along the axis with no extinction: never leaves
-                w = w * exp((-t_exit) * sigma_c);
+                if (t_exit >= 1e300) {  // along the axis with no extinction: never leaves
+                    if (!resume()) break;
+                    continue;
+                }
+                w = grey ? std::exp(-t_exit * sigma_c.r) * w : w * exp((-t_exit) * sigma_c);
                 y += t_exit * d.y;
                 z += t_exit * d.z;
                 in_medulla = false;
                 continue;
             }
-            if (!(a > 1e-300)) break;  // along the axis in the cortex: absorbed (or never leaves)
+            if (!(a > 1e-300)) {  // along the axis in the cortex: absorbed (or never leaves)
+                if (!resume()) break;
+                continue;
+            }
             const double t_out = (-b + safe_sqrt(b * b - a * (c - 1.0))) / a;
             if (kappa > 0) {
                 const double disc = b * b - a * (c - kappa2);
                 if (disc > 0) {
                     const double t1 = (-b - std::sqrt(disc)) / a;
                     if (t1 > 1e-12 && t1 < t_out) {
-                        w = w * exp((-t1) * sigma_c);
+                        w = grey ? std::exp(-t1 * sigma_c.r) * w : w * exp((-t1) * sigma_c);
                         y += t1 * d.y;
                         z += t1 * d.z;
                         in_medulla = true;
@@ -137,7 +178,7 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
                     }
                 }
             }
-            w = w * exp((-t_out) * sigma_c);
+            w = grey ? std::exp(-t_out * sigma_c.r) * w : w * exp((-t_out) * sigma_c);
             y += t_out * d.y;
             z += t_out * d.z;
             const double r = std::sqrt(y * y + z * z);
@@ -159,7 +200,15 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
             w = f * w;
             ++reflections;
             d = normalize(d - (2.0 * cos_b) * n);
-            if (std::max(w.r, std::max(w.g, w.b)) < 1e-4) break;  // bias <= 1e-4 of the path's energy
+            // Total internal reflection on a chord that misses the medulla repeats forever: the
+            // light is guided along the fibre and never leaves (nor scatters again).
+            bool end = f >= 1.0 && !(sqr(y * d.z - z * d.y) / (d.y * d.y + d.z * d.z) < kappa2);
+            // Russian roulette below 1 % of the path's energy (unbiased).
+            if (!end && std::max(w.r, std::max(w.g, w.b)) < 0.01) {
+                if (rng.next() < 0.5) end = true;
+                else w = 2.0 * w;
+            }
+            if (end && !resume()) break;
         }
     }
 }

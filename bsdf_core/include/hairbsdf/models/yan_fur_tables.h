@@ -45,12 +45,12 @@ struct YanFurTableKey {
 class YanFurTable {
 public:
     static constexpr int kLobes = 2;     // TTs, TRTs
-    static constexpr int kNodes = 16;    // |sin theta_o| nodes at kMaxSin k / (kNodes - 1)
+    static constexpr int kNodes = 8;     // |sin theta_o| nodes at kMaxSin k / (kNodes - 1)
     static constexpr int kTheta = 24;    // sin theta_i bins over [-1, 1]
     static constexpr int kPhi = 24;      // |phi| bins over [0, pi]
     static constexpr int kBins = kTheta * kPhi;
     static constexpr int kH = 24;        // chord bins of the scattered energy (chord_coordinate)
-    static constexpr long kPathsPerNode = 40000;
+    static constexpr long kPathsPerNode = 160000;
 
     explicit YanFurTable(const YanFurTableKey& key);
 
