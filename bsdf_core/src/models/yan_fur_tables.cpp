@@ -96,6 +96,14 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
         if (!(cos_i > 0)) continue;
         const double f_in = fresnel_dielectric(cos_i, eta);
         ++tally.h_paths[size_t(h_bin)];
+        // Per-path normalisation of the tally: entering energy times the analytic prefactor.
+        const double sin_gamma_t = h * chord_per_h, cos_gamma_t = cos_from_sin(sin_gamma_t);
+        const double cos_theta_t = cos_from_sin(sin_o / eta);
+        const RGB cortex_pass = exp((-2.0 * cos_gamma_t / cos_theta_t) * sigma_c);
+        const double medulla_pass = std::exp(-sigma_t * 2.0 * safe_sqrt(kappa2 - sqr(sin_gamma_t)) / cos_theta_t);
+        const RGB prefactor = (1.0 - f_in) * YanFurTable::scattering_prefactor(f_in, cortex_pass, medulla_pass);
+        const RGB inv_prefactor(prefactor.r > 0 ? 1.0 / prefactor.r : 0.0, prefactor.g > 0 ? 1.0 / prefactor.g : 0.0,
+                                prefactor.b > 0 ? 1.0 / prefactor.b : 0.0);
         RGB w(1.0 - f_in);
         const double cos_t_in = safe_sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta));
         Vec3 d = normalize((1.0 / eta) * d_in + (cos_i / eta - cos_t_in) * n);
@@ -195,7 +203,7 @@ void walk_node(const YanFurTableKey& key, double sin_o, long paths, uint64_t see
                 const RGB e = (1.0 - f) * w;
                 const double abs_phi = std::fabs(std::atan2(out.z, out.y));
                 tally.bins[size_t(lobe)][size_t(YanFurTable::bin(clamp(out.x, -1.0, 1.0), abs_phi))] += e;
-                tally.h_energy[size_t(lobe)][size_t(h_bin)] += (1.0 / (1.0 - f_in)) * e;
+                tally.h_energy[size_t(lobe)][size_t(h_bin)] += inv_prefactor * e;
             }
             w = f * w;
             ++reflections;

@@ -103,10 +103,11 @@ public:
         });
         const double sin_o = sp.frame.sin_theta(ctx.wo);
         const double cos_o = cos_from_sin(sin_o);
-        // Energy entering the fibre at h (exact Fresnel at the entry point, as Chiang's A_p).
-        const double entering = 1.0 - fresnel_dielectric(cos_o * cos_from_sin(clamp(ctx.h, -1.0, 1.0)), params_.eta);
+        // Energy entering the fibre at h (exact Fresnel at the entry point, as Chiang's A_p) times
+        // the share of it that scatters (YanFurTable::scattering_prefactor).
+        const double f = fresnel_dielectric(cos_o * cos_from_sin(clamp(ctx.h, -1.0, 1.0)), params_.eta);
         sp.mirror = sin_o < 0;
-        const double x = std::fabs(sin_o) / YanFurTable::kMaxSin * (YanFurTable::kNodes - 1);
+        const double x = YanFurTable::node_position(cos_o);
         if (x <= 0) {
             sp.node[0] = sp.node[1] = 0;
         } else if (x >= YanFurTable::kNodes - 1) {
@@ -120,6 +121,13 @@ public:
         // The refracted chord's distance from the axis, |h| / eta' (as Chiang's sin gamma_t).
         const double sin_gamma_t =
             std::fabs(clamp(ctx.h, -1.0, 1.0)) * cos_o / std::sqrt(params_.eta * params_.eta - sin_o * sin_o);
+        RGB entering(0.0);
+        if (sin_gamma_t < kappa && sigma_mt > 0) {
+            const double cos_theta_t = cos_from_sin(sin_o / params_.eta);
+            const RGB cortex_pass = exp((-2.0 * cos_from_sin(sin_gamma_t) / cos_theta_t) * sigma_c);
+            const double medulla_pass = std::exp(-sigma_mt * 2.0 * std::sqrt(kappa2 - sqr(sin_gamma_t)) / cos_theta_t);
+            entering = (1.0 - f) * YanFurTable::scattering_prefactor(f, cortex_pass, medulla_pass);
+        }
         double total = 0;
         if (sp.view.valid) {
             RGB a(0.0);
@@ -134,7 +142,7 @@ public:
                 if (params_.scattered_at_h) {
                     // The far-field shape of node n with the energy the walk leaves at (theta_o, h).
                     const RGB e = table_->energy(lobe, n);
-                    const RGB g = entering * table_->scattered_per_entering(lobe, n, sin_gamma_t);
+                    const RGB g = entering * table_->scattered_per_entering(lobe, n, sin_gamma_t);  // RGB product
                     sp.h_scale[size_t(lobe)][size_t(k)] =
                         RGB(e.r > 0 ? g.r / e.r : 0.0, e.g > 0 ? g.g / e.g : 0.0, e.b > 0 ? g.b / e.b : 0.0);
                 } else {

@@ -13,7 +13,7 @@
 //   TRTs: every other scattered path.
 // Cortex absorption acts along the whole path inside the fibre and the medulla's extinction on top
 // of it inside the medulla (as in the unscattered lobes).
-// Tables are over (|sin theta_o| node, sin theta_i bin, |phi| bin); the symmetries used are the
+// Tables are over (theta_o node, sin theta_i bin, |phi| bin); the symmetries used are the
 // fibre's mirror x -> -x (sin theta_o < 0: sin theta_i flips) and phi -> -phi (after the h average).
 // The value stored is the energy per unit solid angle of the exit direction for unit energy
 // entering from the view: the library's eval (cosine included, docs/conventions.md).
@@ -45,18 +45,26 @@ struct YanFurTableKey {
 class YanFurTable {
 public:
     static constexpr int kLobes = 2;     // TTs, TRTs
-    static constexpr int kNodes = 8;     // |sin theta_o| nodes at kMaxSin k / (kNodes - 1)
+    static constexpr int kNodes = 12;    // theta_o nodes, uniform in cos theta_o (node_cos)
     static constexpr int kTheta = 24;    // sin theta_i bins over [-1, 1]
     static constexpr int kPhi = 24;      // |phi| bins over [0, pi]
     static constexpr int kBins = kTheta * kPhi;
     static constexpr int kH = 24;        // chord bins of the scattered energy (chord_coordinate)
-    static constexpr long kPathsPerNode = 160000;
+    static constexpr long kPathsPerNode = 110000;
 
     explicit YanFurTable(const YanFurTableKey& key);
 
     const YanFurTableKey& key() const { return key_; }
-    static constexpr double kMaxSin = 0.999;  // last node (87.4 deg); steeper views clamp to it
-    static double node_sin(int k) { return kMaxSin * k / (kNodes - 1); }
+    // Nodes uniform in cos theta_o from 1 to kMinCos (89.4 deg; steeper views clamp to it): near
+    // grazing the Fresnel factors at cos theta_o cos gamma that trap light inside the fibre (and
+    // so decide how much of it reaches the medulla) are close to linear in cos theta_o.
+    static constexpr double kMinCos = 0.01;
+    static double node_cos(int k) { return 1.0 - (1.0 - kMinCos) * k / (kNodes - 1); }
+    static double node_sin(int k) { return cos_from_sin(node_cos(k)); }
+    // Position of a view between the nodes: k + t.
+    static double node_position(double cos_theta_o) {
+        return clamp((1.0 - cos_theta_o) / (1.0 - kMinCos) * (kNodes - 1), 0.0, kNodes - 1.0);
+    }
     static double bin_width_sin() { return 2.0 / kTheta; }
     static double bin_width_phi() { return kPi / kPhi; }
     // The bin of (sin theta_i, |phi|) (sin theta_i already mirrored for sin theta_o < 0).
@@ -90,10 +98,21 @@ public:
         if (!(std::fabs(sin_gamma_t) < kappa)) return -1;
         return std::min(kH - 1, int(chord_coordinate(sin_gamma_t, kappa) * kH));
     }
-    // Scattered energy of the lobe leaving the fibre per unit energy that entered it (after the
-    // entry Fresnel) for the chord at |sin gamma_t|: per chord bin, linear between the bin
-    // centres (RGB), 0 where the chord misses the medulla. Times 1 - F(cos theta_o cos gamma_o)
-    // it is the lobe's energy at (theta_o, h).
+    // The energy that scatters in the medulla per unit energy entering the fibre, counting the
+    // unscattered passes as the analytic lobes do: (1 - T_m) / (1 - f T_c T_m), with f the Fresnel
+    // factor at cos theta_o cos gamma_o, T_c = exp(-sigma_ca 2 cos gamma_t / cos theta_t) and
+    // T_m = exp(-sigma_mt L_m) one pass's cortex and medulla transmittances (RGB; 0 where the
+    // chord misses the medulla). It carries the steep dependence on the view (light trapped by
+    // Fresnel near grazing); the table stores the rest.
+    static RGB scattering_prefactor(double f, RGB cortex_pass, double medulla_pass) {
+        const RGB tf = (f * medulla_pass) * cortex_pass;
+        const double m = 1.0 - medulla_pass;
+        return RGB(m / (1.0 - tf.r), m / (1.0 - tf.g), m / (1.0 - tf.b));
+    }
+    // The lobe's energy leaving the fibre per unit of scattering_prefactor times the energy that
+    // entered (after the entry Fresnel), for the chord at |sin gamma_t|: per chord bin, linear
+    // between the bin centres (RGB), 0 where the chord misses the medulla. (Without absorption
+    // TTs + TRTs is about 1: all scattered light leaves.)
     RGB scattered_per_entering(int lobe, int node, double sin_gamma_t) const;
     // A bin drawn from sampling_density (u in [0, 1)) and u rescaled within the bin.
     int sample_bin(int lobe, int node, double u, double& u_rest) const;
@@ -107,7 +126,7 @@ private:
     std::vector<double> sampling_density_;  // [lobe][node][bin]
     std::vector<double> cdf_;               // [lobe][node][bin + 1]
     std::vector<RGB> energy_;               // [lobe][node]
-    std::vector<RGB> h_energy_;             // [lobe][node][chord bin], per unit entering energy
+    std::vector<RGB> h_energy_;             // [lobe][node][chord bin], per entering energy and prefactor
     double build_seconds_ = 0;
 };
 
