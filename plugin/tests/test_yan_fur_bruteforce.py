@@ -157,7 +157,7 @@ def random_walk(theta_o, kappa, sigma_c, sigma_ma, sigma_ms, eta, n_paths, seed)
 # --- binning --------------------------------------------------------------------------------------
 
 N_FINE_PHI = 384           # 0.9375 deg cells for the azimuthal distributions
-N_SIN, N_PHI = 3, 4        # coarse (sin theta_i, |delta_phi|) bins of the scattered lobes (h-averaged: phi -> -phi)
+N_SIN, N_PHI = 3, 3        # coarse (sin theta_i, |delta_phi|) bins of the scattered lobes (h-averaged: phi -> -phi)
 N_COARSE_PHI = 24          # coarse delta_phi bins of the unscattered lobes (15 deg)
 
 

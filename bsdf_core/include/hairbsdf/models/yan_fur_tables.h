@@ -20,6 +20,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -52,7 +53,10 @@ public:
     static constexpr int kH = 24;        // chord bins of the scattered energy (chord_coordinate)
     static constexpr long kPathsPerNode = 110000;
 
-    explicit YanFurTable(const YanFurTableKey& key);
+    // `seed` changes the random streams (tests measure the table's noise with it); the cache uses
+    // the default.
+    static constexpr uint64_t kDefaultSeed = 0x5eed0000ull;
+    explicit YanFurTable(const YanFurTableKey& key, uint64_t seed = kDefaultSeed, long paths_per_node = kPathsPerNode);
 
     const YanFurTableKey& key() const { return key_; }
     // Nodes uniform in cos theta_o from 1 to kMinCos (89.4 deg; steeper views clamp to it): near
