@@ -62,7 +62,7 @@ Vec3 sample_phase(Vec3 d, double g, double u1, double u2) {
 
 struct NodeTally {
     std::array<std::vector<RGB>, YanFurTable::kLobes> bins;
-    std::array<std::array<RGB, YanFurTable::kH>, YanFurTable::kLobes> h_energy{};  // per entering energy
+    std::array<std::array<RGB, YanFurTable::kH>, YanFurTable::kLobes> h_energy{};  // per chord bin, / prefactor
     std::array<long, YanFurTable::kH> h_paths{};
     NodeTally() {
         for (auto& b : bins) b.assign(YanFurTable::kBins, RGB(0.0));
@@ -285,7 +285,7 @@ YanFurTable::YanFurTable(const YanFurTableKey& key, uint64_t seed, long paths_pe
                 for (int b = 0; b <= kBins; ++b) cdf[b] /= cdf[kBins];
                 cdf[kBins] = 1.0;
             }
-            // Scattered energy per unit energy entering the fibre, per chord bin; bins no path
+            // Scattered energy per unit of entering energy x prefactor, per chord bin; bins no path
             // reached (outside this view's range of chords) take the nearest reached bin's value.
             RGB* g = &h_energy_[i * kH];
             int first = -1;

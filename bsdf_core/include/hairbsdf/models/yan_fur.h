@@ -15,9 +15,11 @@
 //   4 TTs, 5 TRTs              scattered in the medulla at least once: far-field tables of a 3D
 //        random walk through the smooth double cylinder (models/yan_fur_tables.h), cached per
 //        (kappa, sigma_ma, sigma_ms, g, eta, sigma_ca). Their angular shape does not depend on
-//        h; their energy does: (1 - F(cos theta_o cos gamma_o)) times the walk's scattered energy
-//        per entering energy for the chord at |h| / eta' (tabulated over the chord), so that unscattered plus scattered energy is
-//        conserved at every h (a pure far-field magnitude is not: docs/models.md §7).
+//        h; their energy does: (1 - F(cos theta_o cos gamma_o)) times the analytic share of the
+//        entering light that scatters, (1 - T_m) / (1 - f T_c T_m), times the walk's tabulated
+//        TTs / TRTs fraction of it for the chord at |h| / eta' (YanFurTable::scattering_prefactor,
+//        scattered_per_entering), so that unscattered plus scattered energy is conserved at every
+//        h (a pure far-field magnitude is not: docs/models.md §7).
 // Sampler: a mixture of Chiang's sampler (weight: luminance of sum A_p) and the two tables
 // (weight: luminance of each lobe's energy at theta_o and h); pdf is its exact density.
 #pragma once
@@ -43,7 +45,7 @@ struct YanFurParams {
     double radial_roughness = 0.2186326880;  // Chiang's beta_n: logistic sd pi s / sqrt 3 = 7.49 deg
     // Internal switch (tests, docs): false gives the scattered lobes the pure far-field magnitude
     // (the h average, independent of h); true (the model) gives them the energy the walk leaves
-    // at the view's (theta_o, h): (1 - F) times the tabulated energy per entering energy.
+    // at the view's (theta_o, h): (1 - F) x prefactor x the tabulated fraction (see the top).
     bool scattered_at_h = true;
 };
 
