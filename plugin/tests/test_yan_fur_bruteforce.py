@@ -266,8 +266,8 @@ CASES = [dict(BASE, medulla_ratio=0.88, medulla_scattering=1.69), dict(BASE, med
 
 
 # A lobe is checked where it carries at least this much of the incident energy: below it the lobe
-# is a handful of paths (TRT behind a dense medulla carries 1e-4) and its L1 is noise.
-MIN_ENERGY = 0.01
+# is a handful of paths (TRT behind a dense medulla carries 1e-4 or less) and its L1 is noise.
+MIN_ENERGY = 0.005
 
 
 def _check(params, theta_o, n_paths):
@@ -284,7 +284,7 @@ def _check(params, theta_o, n_paths):
 @pytest.mark.parametrize("case, theta_o", [(0, NODE_THETA[1]), (1, NODE_THETA[3])])
 def test_matches_brute_force(case, theta_o):
     checked = _check(CASES[case], theta_o, n_paths=1_000_000)
-    assert {"R", "TT", "TTs", "TRTs"} <= set(checked) or case == 1
+    assert {"R", "TT", "TTs", "TRTs"} <= set(checked) if case == 0 else set(checked) == {"R", "TT", "TRT", "TTs", "TRTs"}
 
 
 @pytest.mark.slow
