@@ -23,7 +23,7 @@ HAIR = {  # name -> Principled Hair target (melanin parametrization)
     "blonde": "principled_hair(melanin=0.25, melanin_redness=0.3)",
     "red": "principled_hair(melanin=0.5, melanin_redness=0.9)",
 }
-MODELS = ("epic", "kajiya_kay", "scheuermann", "marschner", "deon")
+MODELS = ("epic", "kajiya_kay", "scheuermann", "marschner", "deon", "yan_fur")
 
 
 def cell(err, key):
@@ -36,7 +36,7 @@ def main(argv=None):
     ap.add_argument("--grid", type=int, default=24, help="theta cells (default 24, as hairbsdf fit)")
     ap.add_argument("--h-nodes", type=int, default=H_NODES, help=f"h nodes for the target (default {H_NODES})")
     ap.add_argument("--starts", type=int, default=3,
-                    help="optimiser starts (declared start + random ones, seed 0); d'Eon gets 1 (each of its evaluations builds tables, ~0.4 s) (default 3)")
+                    help="optimiser starts (declared start + random ones, seed 0); d'Eon and yan_fur get 1 (each of their evaluations builds tables, ~0.4 s / ~1 s) (default 3)")
     ap.add_argument("--out", default="out/fit_table")
     ap.add_argument("--models", default=",".join(MODELS))
     args = ap.parse_args(argv)
@@ -44,7 +44,7 @@ def main(argv=None):
     for model in args.models.split(","):
         for hair, target in HAIR.items():
             print(f"[table] {model} <- {hair}", file=sys.stderr, flush=True)
-            starts = 1 if model == "deon" else args.starts
+            starts = 1 if model in ("deon", "yan_fur") else args.starts
             res = fit(target, model, grid=args.grid, h_count=args.h_nodes, starts=starts, seed=0, progress=True)
             results.append({"hair": hair, **res.as_json()})
             rows.append(f"| {model} | {hair} | {cell(res.error, 'total')} | "

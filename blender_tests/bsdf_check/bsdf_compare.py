@@ -4,7 +4,7 @@
     python bsdf_compare.py file.npz --model SPEC       # any hair BSDF against Cycles' Principled Hair
 
 SPEC (the same forms as `hairbsdf compare --model`, plus Python-defined BSDFs):
-    NAME[:MAPPING.py]                    a zoo model (kajiya_kay, epic, scheuermann, marschner, deon)
+    NAME[:MAPPING.py]                    a zoo model (kajiya_kay, epic, scheuermann, marschner, deon, yan_fur)
     plugin:LIBRARY[:MAPPING.py]          a BSDF plugin (docs/plugins.md)
     python:FILE.py:FUNCTION[:MAPPING.py] FUNCTION(**params) returns a closure with eval(wo, wi, h),
                                          e.g. a hairbsdf.python_bsdf

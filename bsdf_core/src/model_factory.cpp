@@ -106,6 +106,21 @@ const std::vector<ModelParamSpec>& deon_schema() {
     return s;
 }
 
+const std::vector<ModelParamSpec>& yan_fur_schema() {
+    static const std::vector<ModelParamSpec> s = {
+        real("medulla_ratio", 0.88, 0, 0.99, "kappa, the medulla's radius over the fibre's"),
+        rgb("cortex_absorption", {0.64, 0.64, 0.64}, 0, 1e4, "sigma_ca, cortex absorption per unit radius"),
+        real("medulla_absorption", 0.17, 0, 10, "sigma_ma, medulla absorption per unit radius"),
+        real("medulla_scattering", 1.69, 0, 10, "sigma_ms, medulla scattering per unit radius"),
+        real("medulla_g", 0, -0.9, 0.9, "Henyey-Greenstein asymmetry of the medulla (0: isotropic)"),
+        real("eta", 1.55, 1.1, 3, "index of refraction of cortex and medulla"),
+        real("alpha", 0.0956440430, -0.2, 0.2, "cuticle tilt (rad, Principled Hair's Offset convention); 5.48 deg"),
+        real("roughness", 0.2238067333, 0.01, 1, "Chiang's beta_m; default: R's longitudinal sd = 11.64 deg"),
+        real("radial_roughness", 0.2186326880, 0.01, 1, "Chiang's beta_n; default: azimuthal sd = 7.49 deg"),
+    };
+    return s;
+}
+
 // --- values by name -----------------------------------------------------------------------------
 std::string number_text(double x, int precision = 10) {
     std::ostringstream s;
@@ -276,6 +291,21 @@ HairModel build_deon(const ModelParams& given) {
     return DeonHair(p);
 }
 
+HairModel build_yan_fur(const ModelParams& given) {
+    const Values v(owner("yan_fur"), yan_fur_schema(), given);
+    YanFurParams p;
+    p.medulla_ratio = v.number("medulla_ratio");
+    p.cortex_absorption = v.color("cortex_absorption");
+    p.medulla_absorption = v.number("medulla_absorption");
+    p.medulla_scattering = v.number("medulla_scattering");
+    p.medulla_g = v.number("medulla_g");
+    p.eta = v.number("eta");
+    p.alpha = v.number("alpha");
+    p.roughness = v.number("roughness");
+    p.radial_roughness = v.number("radial_roughness");
+    return YanFurHair(p);
+}
+
 struct ZooEntry {
     const char* name;
     const std::vector<ModelParamSpec>& (*schema)();
@@ -285,7 +315,8 @@ const ZooEntry kZoo[] = {{"kajiya_kay", kajiya_kay_schema, build_kajiya_kay},
                          {"epic", epic_schema, build_epic},
                          {"scheuermann", scheuermann_schema, build_scheuermann},
                          {"marschner", marschner_schema, build_marschner},
-                         {"deon", deon_schema, build_deon}};
+                         {"deon", deon_schema, build_deon},
+                         {"yan_fur", yan_fur_schema, build_yan_fur}};
 
 const ZooEntry& zoo_entry(const std::string& model) {
     for (const ZooEntry& e : kZoo)

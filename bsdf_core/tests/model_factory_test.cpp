@@ -43,7 +43,7 @@ void expect_rgb_eq(RGB a, RGB b) {
 }  // namespace
 
 TEST(ModelFactory, NamesAndSchemas) {
-    EXPECT_EQ(zoo_model_names(), (std::vector<std::string>{"kajiya_kay", "epic", "scheuermann", "marschner", "deon"}));
+    EXPECT_EQ(zoo_model_names(), (std::vector<std::string>{"kajiya_kay", "epic", "scheuermann", "marschner", "deon", "yan_fur"}));
     for (const std::string& name : zoo_model_names()) {
         EXPECT_TRUE(is_zoo_model(name));
         for (const ModelParamSpec& p : zoo_model_schema(name)) {
@@ -72,6 +72,7 @@ TEST(ModelFactory, DefaultsAreTheModelDefaults) {
     expect_rgb_eq(value(make_zoo_model("epic", {})), value(EpicHair(EpicHairParams{})));
     expect_rgb_eq(value(make_zoo_model("scheuermann", {})), value(ScheuermannHair(ScheuermannHairParams{})));
     expect_rgb_eq(value(make_zoo_model("marschner", {})), value(MarschnerHair(MarschnerHairParams{})));
+    expect_rgb_eq(value(make_zoo_model("yan_fur", {})), value(YanFurHair(YanFurParams{})));
     // d'Eon's Python defaults are melanin 0.8, redness 1 (Cycles' pigments), not the header's sigma_a.
     DeonHairParams deon;
     deon.sigma_a = absorption_from_melanin(0.8, 1.0, RGB(1.0), 0.3);

@@ -18,7 +18,8 @@ TEST(Zoo, ModelsMixInAClosureSumWithChiang) {
     epic.base_color = RGB(0.7, 0.5, 0.3);
     const ClosureSum sum({Closure{RGB(0.3), chiang}, Closure{RGB(0.5, 0.4, 0.3), KajiyaKayHair(KajiyaKayHairParams{})},
                           Closure{RGB(0.6), EpicHair(epic)}, Closure{RGB(0.2), ScheuermannHair(ScheuermannHairParams{})},
-                          Closure{RGB(0.4), MarschnerHair(MarschnerHairParams{})}, Closure{RGB(0.5), DeonHair(DeonHairParams{})}});
+                          Closure{RGB(0.4), MarschnerHair(MarschnerHairParams{})}, Closure{RGB(0.5), DeonHair(DeonHairParams{})},
+                          Closure{RGB(0.3), YanFurHair(YanFurParams{})}});
     std::mt19937_64 rng(3);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     int produced = 0;
@@ -48,6 +49,7 @@ TEST(Zoo, WorldSpaceEvalIsInvariantUnderRotation) {
     const KajiyaKayHair kk(KajiyaKayHairParams{});
     const MarschnerHair marschner(MarschnerHairParams{});
     const DeonHair deon(DeonHairParams{});
+    const YanFurHair yan(YanFurParams{});
     std::mt19937_64 rng(5);
     auto rotate = [](Vec3 v) { return Vec3{v.z, v.x, v.y}; };  // a cyclic permutation is a rotation
     for (int i = 0; i < 500; ++i) {
@@ -68,5 +70,6 @@ TEST(Zoo, WorldSpaceEvalIsInvariantUnderRotation) {
         check(kk);
         check(marschner);
         check(deon);
+        check(yan);
     }
 }

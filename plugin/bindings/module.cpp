@@ -147,7 +147,11 @@ py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Ar
     check_rows(wo, n, 3, "wo");
     check_rows(wi, n, 3, "wi");
     check_rows(h, n, 0, "h");
-    auto out = lobes ? new_array({py::ssize_t(n), kLobeCount, 3}) : new_array({py::ssize_t(n), 3});
+    // R, TT, TRT, TRRT+; plus TTs and TRTs when a yan_fur closure is in the sum (docs/models.md §7).
+    bool six = false;
+    for (const Closure& c : bsdf.closures()) six = six || std::holds_alternative<YanFurHair>(c.model);
+    const int count = six ? kLobeCount : kChiangLobeCount;
+    auto out = lobes ? new_array({py::ssize_t(n), count, 3}) : new_array({py::ssize_t(n), 3});
     double* o = out.mutable_data();
     const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
     {
@@ -157,7 +161,7 @@ py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Ar
             for (size_t i = b; i < e; ++i) {
                 const BsdfEval r = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i));
                 if (lobes) {
-                    for (int p = 0; p < kLobeCount; ++p) store(o + 3 * kLobeCount * i, size_t(p), r.lobes[p]);
+                    for (int p = 0; p < count; ++p) store(o + 3 * count * i, size_t(p), r.lobes[p]);
                 } else {
                     store(o, i, r.value());
                 }
@@ -473,6 +477,22 @@ py::dict model_dict(const DeonHair& m) {
     d["roughness"] = p.roughness;
     d["tilt"] = p.tilt;
     d["tabulated"] = p.tabulated;
+    return zoo_scales(d, m.angular_scales());
+}
+py::dict model_dict(const YanFurHair& m) {
+    const YanFurParams& p = m.params();
+    py::dict d;
+    d["model"] = "yan_fur";
+    d["medulla_ratio"] = p.medulla_ratio;
+    d["cortex_absorption"] = std::array<double, 3>{p.cortex_absorption.r, p.cortex_absorption.g, p.cortex_absorption.b};
+    d["medulla_absorption"] = p.medulla_absorption;
+    d["medulla_scattering"] = p.medulla_scattering;
+    d["medulla_g"] = p.medulla_g;
+    d["eta"] = p.eta;
+    d["alpha"] = p.alpha;
+    d["roughness"] = p.roughness;
+    d["radial_roughness"] = p.radial_roughness;
+    d["table_build_seconds"] = m.table()->build_seconds();
     return zoo_scales(d, m.angular_scales());
 }
 py::dict model_dict(const PluginHair& m) { return plugin_params_dict(m); }

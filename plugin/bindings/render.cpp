@@ -657,7 +657,7 @@ py::dict py_render(const py::dict& scene_dict, py::object progress, py::object c
     };
     const Film::Passes& passes = out.passes;
     if (!passes.hair_lobes.empty()) {
-        const char* names[kLobeCount] = {"hair_r", "hair_tt", "hair_trt", "hair_trrt"};
+        const char* names[kLobeCount] = {"hair_r", "hair_tt", "hair_trt", "hair_trrt", "hair_tts", "hair_trts"};
         for (size_t k = 0; k < size_t(kLobeCount); ++k)
             result[names[k]] = image(passes.hair_lobes, {h, w, 3}, 3 * k, 3 * kLobeCount, 3);
     }
@@ -734,7 +734,7 @@ PYBIND11_MODULE(_render, m) {
           py::arg("threads") = 0,
           "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
           "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}} "
-          "plus the passes asked for in integrator['passes']: 'hair_r', 'hair_tt', 'hair_trt', 'hair_trrt', "
+          "plus the passes asked for in integrator['passes']: 'hair_r', 'hair_tt', 'hair_trt', 'hair_trrt', 'hair_tts', 'hair_trts' (yan_fur's medulla lobes, 0 for other models), "
           "'normal', 'variance' (H, W, 3) and 'depth' (H, W).");
     m.def("eval_program", &py_eval_program, py::arg("program"), py::arg("random") = 0.0f,
           py::arg("intercept") = 0.0f, py::arg("length") = 0.0f, py::arg("is_strand") = 1.0f,

@@ -18,7 +18,7 @@ from .plugins import (PLUGIN_ABI_VERSION, ParamSpec, PluginConstructor, PluginEr
                       python_bsdf, test_plugin)
 from . import zoo
 from .zoo import (cycles_hair_bsdf, deon_hair, epic_hair, kajiya_kay_hair, make_model, marschner_hair, model_schema,
-                  scheuermann_hair, zoo_model_names)
+                  scheuermann_hair, yan_fur, zoo_model_names)
 
 __version__ = "0.1.0"
 
@@ -39,6 +39,6 @@ __all__ = [
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
     "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
     "python_bsdf", "PluginConstructor", "PluginError", "PythonBSDF", "ParamSpec", "PLUGIN_ABI_VERSION",
-    "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair", "cycles_hair_bsdf",
+    "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair", "yan_fur", "cycles_hair_bsdf",
     "make_model", "model_schema", "zoo_model_names",
 ]

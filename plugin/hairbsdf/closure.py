@@ -12,6 +12,8 @@ from . import _core
 from . import _validate as check
 
 LOBES = ("R", "TT", "TRT", "TRRT+")
+# eval_lobes of a closure with yan_fur in it has two more slots: its medulla-scattered lobes (docs/models.md §7).
+YAN_FUR_LOBES = LOBES + ("TTs", "TRTs")
 
 
 class SampleResult(NamedTuple):
@@ -21,7 +23,7 @@ class SampleResult(NamedTuple):
     wi: np.ndarray      # (N, 3) sampled direction towards the light, fibre frame
     weight: np.ndarray  # (N, 3) eval / pdf
     pdf: np.ndarray     # (N,) density per unit solid angle
-    lobe: np.ndarray    # (N,) index into LOBES
+    lobe: np.ndarray    # (N,) index into LOBES (YAN_FUR_LOBES for yan_fur)
 
 
 class Closure:
@@ -61,7 +63,8 @@ class Closure:
 
     def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
                    shadow=None) -> np.ndarray:
-        """Per-lobe values (N, 4, 3) in the order R, TT, TRT, TRRT+; they sum to eval."""
+        """Per-lobe values (N, 4, 3) in the order R, TT, TRT, TRRT+; they sum to eval. With a
+        yan_fur closure in the sum: (N, 6, 3), adding its medulla-scattered TTs and TRTs."""
         return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow)
 
     def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,

@@ -147,12 +147,23 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("offset", -0.2, 0.2, 0.0349066, doc="radians")),
         lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=("R", "TT", "TRT", "TRRT+"),
         depends_on_h=True, note="Chiang (Principled Hair) in the melanin parametrization, coat 0, IOR 1.55"),
+    FitModel(
+        "yan_fur", "yan_fur",
+        (*_rgb_params("cortex_absorption", 0.0, 40.0, (0.64, 0.64, 0.64), "sigma_ca per channel"),
+         FreeParam("roughness", 0.05, 1.0, 0.2238, doc="Chiang's beta_m"),
+         FreeParam("radial_roughness", 0.05, 1.0, 0.2186, doc="Chiang's beta_n"),
+         FreeParam("alpha", -0.2, 0.2, 0.0956, doc="cuticle tilt, radians")),
+        lambda v: {"cortex_absorption": _rgb(v, "cortex_absorption"), "roughness": v["roughness"],
+                   "radial_roughness": v["radial_roughness"], "alpha": v["alpha"]},
+        fixed={"eta": 1.55}, lobe_of_slot=("R", "TT", "TRT", "TRRT+", None, None), depends_on_h=True,
+        note="the medulla at Yan 2015's fit (kappa 0.88); TTs / TRTs have no Principled Hair counterpart "
+             "(in the total only); each evaluation with a new cortex_absorption builds a table (~1 s)"),
 )}
 
 
 def fit_model(name: str) -> FitModel:
     key = {"kajiya_kay_hair": "kajiya_kay", "epic_hair": "epic", "scheuermann_hair": "scheuermann",
-           "marschner_hair": "marschner", "deon_hair": "deon", "principled_hair": "principled",
+           "marschner_hair": "marschner", "deon_hair": "deon", "principled_hair": "principled", "yan": "yan_fur",
            "chiang": "principled"}.get(name, name)
     if key not in FIT_MODELS:
         raise ValueError(f"unknown fit model {name!r}; choose one of {', '.join(FIT_MODELS)}")

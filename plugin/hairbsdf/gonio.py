@@ -30,22 +30,25 @@ def h_nodes(count: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def depends_on_h(name: str, kwargs: dict) -> bool:
-    """Whether a spec's value changes with h. Chiang (Principled Hair) does; Huang's far field
-    integrates over the width (h only decides the hit), and the zoo models have no h."""
+    """Whether a spec's value changes with h. Chiang (Principled Hair) and yan_fur (its unscattered
+    lobes) do; Huang's far field integrates over the width (h only decides the hit), and the other
+    zoo models have no h."""
+    if name == "yan_fur":
+        return True
     return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() != "huang"
 
 
 def far_field_lobes(closure, wo, wi, h_count: int, h_dependent: bool) -> np.ndarray:
-    """Per-lobe values (N, 4, 3) averaged over h (Gauss-Legendre, h_count nodes) when the model
-    depends on h, else at h = 0."""
+    """Per-lobe values (N, 4, 3) ((N, 6, 3) for yan_fur) averaged over h (Gauss-Legendre, h_count
+    nodes) when the model depends on h, else at h = 0."""
     wo = np.asarray(wo, float).reshape(-1, 3)
     wi = np.asarray(wi, float).reshape(-1, 3)
     if not h_dependent:
         return closure.eval_lobes(wo, wi, 0.0)
     nodes, weights = h_nodes(h_count)
-    total = np.zeros((max(len(wo), len(wi)), 4, 3))
+    total = 0.0
     for h, w in zip(nodes, weights):
-        total += w * closure.eval_lobes(wo, wi, float(h))
+        total = total + w * closure.eval_lobes(wo, wi, float(h))
     return total
 
 

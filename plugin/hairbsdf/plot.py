@@ -13,11 +13,12 @@ import numpy as np
 
 from . import gonio
 from .gonio import H_NODES
-from .closure import LOBES
+from .closure import YAN_FUR_LOBES
 from .spec import SpecError, build, format_spec, parse_spec
 
 RGB_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
-LOBE_COLOURS = {"R": "#1f77b4", "TT": "#d62728", "TRT": "#2ca02c", "TRRT+": "#9467bd", "total": "black"}
+LOBE_COLOURS = {"R": "#1f77b4", "TT": "#d62728", "TRT": "#2ca02c", "TRRT+": "#9467bd", "TTs": "#ff7f0e",
+                "TRTs": "#8c564b", "total": "black"}
 DEFAULT_THETA_O = (0.0, 30.0, 60.0)
 
 
@@ -129,8 +130,8 @@ def lobe_polar_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_T
         for col, slicer in enumerate((longitudinal_slice, azimuthal_slice)):
             ax = axes[row, col]
             x, lobes = slicer(closure, to, h_count=h_count, h_dependent=h_dep)
-            lum = luminance(lobes)  # (n, 4)
-            for p, lobe in enumerate(LOBES):
+            lum = luminance(lobes)  # (n, 4), (n, 6) for yan_fur
+            for p, lobe in enumerate(YAN_FUR_LOBES[:lum.shape[1]]):
                 if np.any(lum[:, p] > 0):
                     ax.plot(x, lum[:, p], color=LOBE_COLOURS[lobe], lw=1.0, label=lobe)
             ax.plot(x, lum.sum(axis=1), color="black", lw=1.4, ls=":", label="total")
@@ -155,9 +156,10 @@ def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THET
     for deg in theta_o_deg:
         wo = np.broadcast_to(gonio.direction(np.radians(deg), 0.0), wi.shape)
         lum = luminance(gonio.far_field_lobes(closure, wo, wi, h_count, h_dep))
-        maps.append(np.concatenate([lum, lum.sum(axis=1, keepdims=True)], axis=1).reshape(*TI.shape, 5))
-    names = (*LOBES, "total")
-    fig, axes = plt.subplots(5, len(theta_o_deg), figsize=(3.2 * len(theta_o_deg) + 1.2, 11), squeeze=False)
+        maps.append(np.concatenate([lum, lum.sum(axis=1, keepdims=True)], axis=1).reshape(*TI.shape, lum.shape[1] + 1))
+    names = (*YAN_FUR_LOBES[:maps[0].shape[-1] - 1], "total")
+    fig, axes = plt.subplots(len(names), len(theta_o_deg), figsize=(3.2 * len(theta_o_deg) + 1.2, 2.2 * len(names)),
+                             squeeze=False)
     fig.subplots_adjust(left=0.08, right=0.86, top=0.92, bottom=0.05, hspace=0.45, wspace=0.25)
     fig.suptitle(_wrap(f"{text}\nluminance over (Δφ, θi), log scale"), fontsize=9)
     extent = (-180, 180, -90, 90)
@@ -227,7 +229,7 @@ def build_parser(prog: str = "hairbsdf plot") -> argparse.ArgumentParser:
         description="Per-lobe polar plots, (theta_i, delta_phi) heat maps and directional albedo of a hair BSDF, "
                     "as PNG files.",
         epilog="SPEC is parsed, never evaluated: one call of principled_hair, kajiya_kay_hair, epic_hair, "
-               "scheuermann_hair, marschner_hair or deon_hair (or a short name) with literal keyword arguments.\n\n"
+               "scheuermann_hair, marschner_hair, deon_hair or yan_fur (or a short name) with literal keyword arguments.\n\n"
                "Example:\n  hairbsdf plot \"principled_hair(melanin=0.6)\" --out out/plot\n\nDocs: docs/fit.md.")
     ap.add_argument("spec", metavar="SPEC", help="the BSDF, e.g. \"principled_hair(melanin=0.6)\" or \"epic_hair(roughness=0.3)\"")
     ap.add_argument("--out", default="out/plot", metavar="DIR", help="output directory (default out/plot)")

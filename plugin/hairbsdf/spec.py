@@ -18,10 +18,11 @@ CONSTRUCTORS = {
     "scheuermann_hair": "scheuermann_hair",
     "marschner_hair": "marschner_hair",
     "deon_hair": "deon_hair",
+    "yan_fur": "yan_fur",
 }
 ALIASES = {"principled": "principled_hair", "chiang": "principled_hair", "kajiya_kay": "kajiya_kay_hair",
            "epic": "epic_hair", "scheuermann": "scheuermann_hair", "marschner": "marschner_hair",
-           "deon": "deon_hair"}
+           "deon": "deon_hair", "yan": "yan_fur"}
 ALLOWED_TEXT = ("a call of one of " + ", ".join(CONSTRUCTORS) +
                 " (or the short names " + ", ".join(ALIASES) + ") with literal keyword arguments, "
                 "e.g. \"principled_hair(melanin=0.6, roughness=0.3)\"")

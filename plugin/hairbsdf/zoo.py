@@ -17,7 +17,7 @@ from .closure import Closure
 
 
 def zoo_model_names() -> list[str]:
-    """The zoo's model names: kajiya_kay, epic, scheuermann, marschner, deon."""
+    """The zoo's model names: kajiya_kay, epic, scheuermann, marschner, deon, yan_fur."""
     return list(_core.zoo_model_names())
 
 
@@ -242,3 +242,37 @@ def cycles_hair_bsdf(*, component: str = CYCLES_HAIR_DEFAULTS["component"], colo
     core = _core.cycles_hair(comp == "transmission", c, off, ru, rv)
     return Closure(core, f"cycles_hair_bsdf(component={comp!r}, color={c}, offset={off:g}, roughness_u={ru:g}, "
                          f"roughness_v={rv:g})")
+
+
+# --- Yan et al. 2015 fur ------------------------------------------------------------------------
+YAN_FUR_DEFAULTS = _defaults("yan_fur")
+
+
+def yan_fur(*, medulla_ratio: float = YAN_FUR_DEFAULTS["medulla_ratio"],
+            cortex_absorption=YAN_FUR_DEFAULTS["cortex_absorption"],
+            medulla_absorption: float = YAN_FUR_DEFAULTS["medulla_absorption"],
+            medulla_scattering: float = YAN_FUR_DEFAULTS["medulla_scattering"],
+            medulla_g: float = YAN_FUR_DEFAULTS["medulla_g"], eta: float = YAN_FUR_DEFAULTS["eta"],
+            alpha: float = YAN_FUR_DEFAULTS["alpha"], roughness: float = YAN_FUR_DEFAULTS["roughness"],
+            radial_roughness: float = YAN_FUR_DEFAULTS["radial_roughness"]) -> Closure:
+    """Yan et al. 2015 fur, the double cylinder (docs/models.md §7). Defaults: Yan 2015's measured fit.
+
+    medulla_ratio: kappa in [0, 0.99] (0.88); cortex_absorption: sigma_ca per unit radius, RGB in
+    [0, 1e4] (0.64 grey); medulla_absorption, medulla_scattering: sigma_ma, sigma_ms per unit radius
+    in [0, 10] (0.17, 1.69); medulla_g: Henyey-Greenstein asymmetry in [-0.9, 0.9] (0, isotropic);
+    eta: [1.1, 3] (1.55); alpha: cuticle tilt in [-0.2, 0.2] rad, Principled Hair's Offset convention
+    (5.48 deg); roughness, radial_roughness: Chiang's beta_m, beta_n in [0.01, 1] (0.2238, 0.2186:
+    R's longitudinal sd 11.64 deg and the azimuthal sd 7.49 deg of the fit).
+    Lobes (eval_lobes is (N, 6, 3)): R, TT, TRT, TRRT+ unscattered (Chiang's with the medulla's
+    transmittance, at h), TTs and TRTs scattered in the medulla (Monte Carlo tables, built once per
+    (medulla_ratio, cortex_absorption, medulla_*, eta) in the process).
+    """
+    s = check.color("cortex_absorption", cortex_absorption)
+    reals = {"medulla_ratio": medulla_ratio, "medulla_absorption": medulla_absorption,
+             "medulla_scattering": medulla_scattering, "medulla_g": medulla_g, "eta": eta, "alpha": alpha,
+             "roughness": roughness, "radial_roughness": radial_roughness}
+    core = _core.make_model("yan_fur", {"cortex_absorption": s, **{k: check.real(k, v) for k, v in reals.items()}})
+    return Closure(core, f"yan_fur(medulla_ratio={medulla_ratio:g}, cortex_absorption={s}, "
+                         f"medulla_absorption={medulla_absorption:g}, medulla_scattering={medulla_scattering:g}, "
+                         f"medulla_g={medulla_g:g}, eta={eta:g}, alpha={alpha:g}, roughness={roughness:g}, "
+                         f"radial_roughness={radial_roughness:g})")

@@ -114,7 +114,7 @@ def test_fit_starts_are_seeded_and_evaluations_bounded():
 
 
 @pytest.mark.parametrize("model, evaluations", [("epic", 30), ("kajiya_kay", 30), ("scheuermann", 20),
-                                                ("marschner", 20), ("deon", 8)])
+                                                ("marschner", 20), ("deon", 8), ("yan_fur", 24)])
 def test_fit_residual_is_not_above_the_start(model, evaluations):
     res = fit("principled_hair(melanin=0.5, melanin_redness=0.5)", model, grid=8, h_count=16,
               max_evaluations=evaluations)

@@ -22,8 +22,10 @@ ZOO = [
     ("marschner", {"sigma_a": (0.2, 0.4, 0.8), "beta_r": 0.2},
      lambda: hairbsdf.marschner_hair(sigma_a=(0.2, 0.4, 0.8), beta_r=0.2)),
     ("deon", {"melanin": 0.3, "roughness": 0.25}, lambda: hairbsdf.deon_hair(melanin=0.3, roughness=0.25)),
+    ("yan_fur", {"medulla_ratio": 0.6, "cortex_absorption": (0.2, 0.4, 0.8)},
+     lambda: hairbsdf.yan_fur(medulla_ratio=0.6, cortex_absorption=(0.2, 0.4, 0.8))),
 ]
-IDS = ["kajiya_kay", "kajiya_kay-params", "epic", "scheuermann", "marschner", "deon"]
+IDS = ["kajiya_kay", "kajiya_kay-params", "epic", "scheuermann", "marschner", "deon", "yan_fur"]
 
 
 def _material(model, params, path=None, weight=(1.0, 1.0, 1.0)):
@@ -157,7 +159,7 @@ def test_schema_matches_the_constructors():
     import inspect
     ctors = {"kajiya_kay": hairbsdf.kajiya_kay_hair, "epic": hairbsdf.epic_hair,
              "scheuermann": hairbsdf.scheuermann_hair, "marschner": hairbsdf.marschner_hair,
-             "deon": hairbsdf.deon_hair}
+             "deon": hairbsdf.deon_hair, "yan_fur": hairbsdf.yan_fur}
     assert sorted(hairbsdf.zoo_model_names()) == sorted(ctors)
     for name, ctor in ctors.items():
         sig = inspect.signature(ctor).parameters

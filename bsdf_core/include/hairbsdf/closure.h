@@ -32,15 +32,23 @@ struct ShadingContext {
     double shadow = 1;
 };
 
-constexpr int kLobeCount = 4;  // R, TT, TRT, TRRT+ (Chiang); models with fewer lobes leave the rest 0
-enum Lobe { LobeR = 0, LobeTT = 1, LobeTRT = 2, LobeTRRT = 3 };
+// R, TT, TRT, TRRT+ (Chiang), then the medulla-scattered TTs and TRTs of yan_fur (docs/models.md §7);
+// models with fewer lobes leave the rest 0. Python's eval_lobes reports the first
+// kChiangLobeCount slots unless a yan_fur closure is present.
+constexpr int kLobeCount = 6;
+constexpr int kChiangLobeCount = 4;
+enum Lobe { LobeR = 0, LobeTT = 1, LobeTRT = 2, LobeTRRT = 3, LobeTTs = 4, LobeTRTs = 5 };
 
 // Value of a closure for one direction pair: per-lobe RGB values including the cosine
 // factor, and the density `sample` reports for this direction.
 struct BsdfEval {
     std::array<RGB, kLobeCount> lobes{};
     double pdf = 0;
-    RGB value() const { return lobes[0] + lobes[1] + lobes[2] + lobes[3]; }
+    RGB value() const {
+        RGB sum = lobes[0];
+        for (int p = 1; p < kLobeCount; ++p) sum += lobes[p];
+        return sum;
+    }
 };
 
 struct BsdfSample {

@@ -16,16 +16,18 @@
 #include "hairbsdf/models/marschner.h"
 #include "hairbsdf/models/plugin_hair.h"
 #include "hairbsdf/models/scheuermann.h"
+#include "hairbsdf/models/yan_fur.h"
 
 namespace hairbsdf {
 
 using HairModel = std::variant<ChiangHair, HuangHair, KajiyaKayHair, EpicHair, ScheuermannHair, MarschnerHair, DeonHair,
-                               PluginHair, CyclesHair>;
+                               PluginHair, CyclesHair, YanFurHair>;
 // Per-shading-point state of each model (its `ShadingPoint`), from model.prepare(ctx).
 using PreparedModel = std::variant<std::monostate, ChiangHair::ShadingPoint, HuangHair::ShadingPoint,
                                    KajiyaKayHair::ShadingPoint, EpicHair::ShadingPoint,
                                    ScheuermannHair::ShadingPoint, MarschnerHair::ShadingPoint,
-                                   DeonHair::ShadingPoint, PluginHair::ShadingPoint, CyclesHair::ShadingPoint>;
+                                   DeonHair::ShadingPoint, PluginHair::ShadingPoint, CyclesHair::ShadingPoint,
+                                   YanFurHair::ShadingPoint>;
 
 // A closure is a weight times a model (OSL's `weight * closure`).
 struct Closure {

@@ -563,8 +563,8 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
 
 // --- eval ---------------------------------------------------------------------------------------
 
-std::array<RGB, 4> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations) const {
-    std::array<RGB, 4> lobes{};
+std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations) const {
+    std::array<RGB, kLobeCount> lobes{};
     if (evaluations) *evaluations = 0;
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
@@ -732,8 +732,8 @@ double HuangHair::pdf(const ShadingPoint& sp, Vec3 wi) const {
 
 // --- Cycles' stochastic eval ------------------------------------------------------------------
 
-std::array<RGB, 4> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
-    std::array<RGB, 4> lobes{};
+std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
+    std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
     const double cto = cos_theta(O);

@@ -275,7 +275,11 @@ std::array<RGB, kLobeCount> Bsdf::eval_huang(int i, Vec3 wi) const {
 }
 
 namespace {
-RGB lobe_sum(const std::array<RGB, kLobeCount>& lobes) { return lobes[0] + lobes[1] + lobes[2] + lobes[3]; }
+RGB lobe_sum(const std::array<RGB, kLobeCount>& lobes) {
+    RGB sum = lobes[0];
+    for (int k = 1; k < kLobeCount; ++k) sum += lobes[size_t(k)];
+    return sum;
+}
 }  // namespace
 
 BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {

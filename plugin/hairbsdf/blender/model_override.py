@@ -33,6 +33,7 @@ OVERRIDES = (
     ("scheuermann", "Scheuermann (ATI) 2004", "Two shifted Kajiya-Kay lobes (docs/models.md §3)"),
     ("marschner", "Marschner 2003", "R, TT, TRT with glints (docs/models.md §4)"),
     ("deon", "d'Eon 2011", "Energy-conserving R, TT, TRT, TRRT+ (docs/models.md §5)"),
+    ("yan_fur", "Yan 2015 fur", "Double cylinder: cortex and scattering medulla (docs/models.md §7)"),
     ("plugin", "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
 )
 PRINCIPLED_HAIR_NODE = "ShaderNodeBsdfHairPrincipled"

@@ -71,7 +71,7 @@ def build_parser(prog="hairbsdf compare"):
     p.add_argument("--shard", metavar="I/N", help="render only shard I of N of the sorted case list (CI matrices; "
                                                   "join the reports with `hairbsdf report merge`)")
     p.add_argument("--model", metavar="NAME|plugin:PATH[:mapping.py]",
-                   help="render our side with a zoo model (kajiya_kay, epic, scheuermann, marschner, deon) or a BSDF "
+                   help="render our side with a zoo model (kajiya_kay, epic, scheuermann, marschner, deon, yan_fur) or a BSDF "
                         "plugin in place of every Principled Hair closure; mapping.py maps the node's inputs to the "
                         "model's parameters (map_inputs), else the model's defaults (docs/compare.md)")
     p.add_argument("--engine", default="HAIRBSDF",

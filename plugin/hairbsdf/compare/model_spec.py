@@ -1,6 +1,6 @@
 """`--model` of hairbsdf compare: which hair model our engine renders in place of Principled Hair.
 
-    NAME[:MAPPING.py]              a zoo model (kajiya_kay, epic, scheuermann, marschner, deon)
+    NAME[:MAPPING.py]              a zoo model (kajiya_kay, epic, scheuermann, marschner, deon, yan_fur)
     plugin:PATH[:MAPPING.py]       a BSDF plugin library (docs/plugins.md)
 
 MAPPING.py defines `map_inputs(inputs: dict) -> dict`: a Principled Hair node's inputs (the keys of

@@ -85,6 +85,30 @@ inline SinCos rotate_angle(double sin_t, double cos_t, double sin_a, double cos_
     return {sin_t * cos_a + cos_t * sin_a, std::fabs(cos_t * cos_a - sin_t * sin_a)};
 }
 
+// Geometry of one internal pass of the refracted ray at the view's offset h (notes §4.2), handed
+// to a pass-transmittance function: the 2D distance of the chord from the axis is |sin_gamma_t|,
+// its 3D length 2 cos_gamma_t / cos_theta_t (unit radius).
+struct ChiangPassGeometry {
+    double sin_gamma_t, cos_gamma_t, cos_theta_t;
+};
+
+// A_p for R, TT, TRT and the residual TRRT+ from the Fresnel factor f and the transmittance T of
+// one internal pass (notes §4.2): f, (1-f)^2 T, (1-f)^2 T^2 f, and the geometric tail of TRT.
+inline std::array<RGB, 4> chiang_attenuation(double f, RGB T) {
+    std::array<RGB, 4> out;
+    const double one_minus_f = 1.0 - f;
+    RGB a = RGB(f);
+    out[0] = a;
+    a = (one_minus_f * one_minus_f) * T;
+    out[1] = a;
+    a = a * T * f;
+    out[2] = a;
+    const RGB tf = f * T;
+    auto safe_ratio = [](double x) { return x == 1.0 ? 0.0 : x / (1.0 - x); };
+    out[3] = a * RGB(safe_ratio(tf.r), safe_ratio(tf.g), safe_ratio(tf.b));
+    return out;
+}
+
 class ChiangHair {
 public:
     explicit ChiangHair(const ChiangHairParams& params) : params_(params) {
@@ -131,6 +155,53 @@ public:
         return {frame, view_terms(frame, ctx)};
     }
 
+    // The view terms with Chiang's pass transmittance exp(-sigma_a 2 cos gamma_t / cos theta_t).
+    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
+        return view_terms(frame, ctx, [this](const ChiangPassGeometry& g) {
+            return exp((-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a);
+        });
+    }
+    // The same with another transmittance per internal pass (yan_fur's medulla): a callable
+    // RGB(const ChiangPassGeometry&). Everything else (Fresnel, A_p, lobe weights) is Chiang's.
+    template <class PassTransmittance>
+    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
+                         const PassTransmittance& pass_transmittance) const {
+        ViewTerms vt;
+        const double eta = params_.eta;
+        vt.sin_theta_o = frame.sin_theta(ctx.wo);
+        vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
+        vt.phi_o = -0.5 * kPi;  // by construction of the frame
+
+        const double sin_theta_t = vt.sin_theta_o / eta;
+        const double cos_theta_t = cos_from_sin(sin_theta_t);
+        const double h = ctx.h;
+        const double cos_gamma_o = cos_from_sin(h);
+        vt.gamma_o = safe_asin(h);
+        // NaN for eta < 1 at grazing angles, as in Cycles; caught below and returned as 0.
+        const double sin_gamma_t = h * vt.cos_theta_o / std::sqrt(eta * eta - sqr(vt.sin_theta_o));
+        const double cos_gamma_t = cos_from_sin(sin_gamma_t);
+        vt.gamma_t = safe_asin(sin_gamma_t);
+
+        const RGB T = pass_transmittance(ChiangPassGeometry{sin_gamma_t, cos_gamma_t, cos_theta_t});
+        const double f = fresnel_dielectric(vt.cos_theta_o * cos_gamma_o, eta);
+        vt.attenuation = chiang_attenuation(f, T);
+
+        double total = 0;
+        for (int p = 0; p < 4; ++p) {
+            vt.attenuation[p] = vt.attenuation[p] * params_.tint[p];
+            vt.lobe_weight[p] = luminance(vt.attenuation[p]);
+            total += vt.lobe_weight[p];
+        }
+        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
+        for (double& w : vt.lobe_weight) w /= total;
+
+        for (int p = 0; p < 3; ++p) {
+            vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
+        }
+        vt.valid = true;
+        return vt;
+    }
+
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
@@ -158,35 +229,8 @@ public:
         }
         u_lobe = vt.lobe_weight[p] > 0 ? u_lobe / vt.lobe_weight[p] : 0.5;
 
-        const double v = params_.v_sample[p];
-        double sin_theta_i;
-        if (params_.tilt_convention == TiltConvention::Blender42) {
-            // Sample around the tilted view angle (the importance-sampling fix #114780).
-            const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
-            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u[1], o.sin, o.cos);
-        } else {
-            // Blender 3.4: sample around the untilted view angle, then rotate the result
-            // back by the lobe's tilt (the pbrt-v3 scheme that #114780 replaced).
-            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u[1], vt.sin_theta_o,
-                                              vt.cos_theta_o);
-        }
-        double cos_theta_i = cos_from_sin(sin_theta_i);
-
-        double phi;
-        if (p < 3) {
-            phi = azimuth_center(p, vt) + sample_trimmed_logistic(u[0], params_.s[p]);
-        } else {
-            phi = kTwoPi * u[0];
-        }
-        if (params_.tilt_convention == TiltConvention::Blender34 && p < 3) {
-            // Rotate theta_i by minus the lobe's tilt; past the pole the direction flips in phi.
-            const SinCos& r = rotations_[p];
-            const double s = sin_theta_i, c = cos_theta_i;
-            sin_theta_i = clamp(s * r.cos - c * r.sin, -1.0, 1.0);
-            const double c_rotated = c * r.cos + s * r.sin;
-            cos_theta_i = std::fabs(c_rotated);
-            if (c_rotated < 0) phi += kPi;
-        }
+        const LobeDirection d = sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
+        const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         const BsdfEval e = eval_local(vt, sin_theta_i, cos_theta_i, phi);
         const RGB value = e.value();
         const RGB weight = (1.0 / e.pdf) * value;
@@ -199,59 +243,58 @@ public:
         return out;
     }
 
+    // A direction from lobe p's sampling density (M_p about the lobe's tilted cone, N_p's trimmed
+    // logistic; uniform azimuth for TRRT+): u_theta for theta_i, u_azimuth for the longitudinal
+    // sampler's azimuth, u_phi for the azimuthal offset. phi is relative to the view's phi_o.
+    struct LobeDirection {
+        double sin_theta_i, cos_theta_i, phi;
+    };
+    LobeDirection sample_lobe_direction(const ViewTerms& vt, int p, double u_lobe, double u1, double u0) const {
+        const double v = params_.v_sample[p];
+        double sin_theta_i;
+        if (params_.tilt_convention == TiltConvention::Blender42) {
+            // Sample around the tilted view angle (the importance-sampling fix #114780).
+            const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, o.sin, o.cos);
+        } else {
+            // Blender 3.4: sample around the untilted view angle, then rotate the result
+            // back by the lobe's tilt (the pbrt-v3 scheme that #114780 replaced).
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, vt.sin_theta_o,
+                                              vt.cos_theta_o);
+        }
+        double cos_theta_i = cos_from_sin(sin_theta_i);
+
+        double phi;
+        if (p < 3) {
+            phi = azimuth_center(p, vt) + sample_trimmed_logistic(u0, params_.s[p]);
+        } else {
+            phi = kTwoPi * u0;
+        }
+        if (params_.tilt_convention == TiltConvention::Blender34 && p < 3) {
+            // Rotate theta_i by minus the lobe's tilt; past the pole the direction flips in phi.
+            const SinCos& r = rotations_[p];
+            const double s = sin_theta_i, c = cos_theta_i;
+            sin_theta_i = clamp(s * r.cos - c * r.sin, -1.0, 1.0);
+            const double c_rotated = c * r.cos + s * r.sin;
+            cos_theta_i = std::fabs(c_rotated);
+            if (c_rotated < 0) phi += kPi;
+        }
+        return {sin_theta_i, cos_theta_i, phi};
+    }
+
+    // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o (pdf: the
+    // density of sample(), the lobe mixture by lobe_weight).
+    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
+        return eval_local_impl(vt, sin_theta_i, cos_theta_i, phi);
+    }
+
 private:
     static double azimuth_center(int p, const ViewTerms& vt) {
         return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
     }
 
-    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
-        ViewTerms vt;
-        const double eta = params_.eta;
-        vt.sin_theta_o = frame.sin_theta(ctx.wo);
-        vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
-        vt.phi_o = -0.5 * kPi;  // by construction of the frame
-
-        const double sin_theta_t = vt.sin_theta_o / eta;
-        const double cos_theta_t = cos_from_sin(sin_theta_t);
-        const double h = ctx.h;
-        const double cos_gamma_o = cos_from_sin(h);
-        vt.gamma_o = safe_asin(h);
-        // NaN for eta < 1 at grazing angles, as in Cycles; caught below and returned as 0.
-        const double sin_gamma_t = h * vt.cos_theta_o / std::sqrt(eta * eta - sqr(vt.sin_theta_o));
-        const double cos_gamma_t = cos_from_sin(sin_gamma_t);
-        vt.gamma_t = safe_asin(sin_gamma_t);
-
-        const RGB T = exp((-2.0 * cos_gamma_t / cos_theta_t) * params_.sigma_a);
-        const double f = fresnel_dielectric(vt.cos_theta_o * cos_gamma_o, eta);
-        const double one_minus_f = 1.0 - f;
-        RGB a = RGB(f);
-        vt.attenuation[0] = a;
-        a = (one_minus_f * one_minus_f) * T;
-        vt.attenuation[1] = a;
-        a = a * T * f;
-        vt.attenuation[2] = a;
-        const RGB tf = f * T;
-        auto safe_ratio = [](double x) { return x == 1.0 ? 0.0 : x / (1.0 - x); };
-        vt.attenuation[3] = a * RGB(safe_ratio(tf.r), safe_ratio(tf.g), safe_ratio(tf.b));
-
-        double total = 0;
-        for (int p = 0; p < 4; ++p) {
-            vt.attenuation[p] = vt.attenuation[p] * params_.tint[p];
-            vt.lobe_weight[p] = luminance(vt.attenuation[p]);
-            total += vt.lobe_weight[p];
-        }
-        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
-        for (double& w : vt.lobe_weight) w /= total;
-
-        for (int p = 0; p < 3; ++p) {
-            vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
-        }
-        vt.valid = true;
-        return vt;
-    }
-
     // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o.
-    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
+    BsdfEval eval_local_impl(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
         BsdfEval out;
         for (int p = 0; p < 3; ++p) {
             double mp;

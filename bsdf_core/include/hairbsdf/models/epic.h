@@ -174,8 +174,8 @@ private:
         return std::exp(-0.5 * sqr(x / beta)) / (beta * 2.5066282746310002);
     }
 
-    std::array<RGB, 4> lobes(const ShadingPoint& sp, Vec3 wi, double sin_theta_i, double phi) const {
-        std::array<RGB, 4> out{};
+    std::array<RGB, kLobeCount> lobes(const ShadingPoint& sp, Vec3 wi, double sin_theta_i, double phi) const {
+        std::array<RGB, kLobeCount> out{};
         const RGB& C = params_.base_color;
         auto cpow = [&](double e) { return RGB(std::pow(C.r, e), std::pow(C.g, e), std::pow(C.b, e)); };
         const double x = sin_theta_i + sp.sin_theta_o;

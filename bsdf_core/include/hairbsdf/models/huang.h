@@ -136,10 +136,10 @@ public:
     std::array<double, 2> angular_scales() const { return {std::max(0.5 * alpha_, 0.01), std::max(0.5 * alpha_, 0.01)}; }
 
     // Per-lobe values in the local frame (exposed for tests): the expected value of Cycles' eval.
-    std::array<RGB, 4> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
+    std::array<RGB, kLobeCount> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
-    std::array<RGB, 4> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
+    std::array<RGB, kLobeCount> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
     // The mixture density in the local frame.
     double pdf_local(const ShadingPoint& sp, Vec3 O) const;
     Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }

@@ -13,7 +13,7 @@
 
 namespace hairbsdf {
 
-// "kajiya_kay", "epic", "scheuermann", "marschner", "deon".
+// "kajiya_kay", "epic", "scheuermann", "marschner", "deon", "yan_fur".
 const std::vector<std::string>& zoo_model_names();
 bool is_zoo_model(const std::string& model);
 

@@ -96,7 +96,7 @@ public:
             return failed_eval();
         }
         if (want_lobes) {
-            for (int p = 0; p < kLobeCount; ++p) out.lobes[p] = RGB(lobes[3 * p], lobes[3 * p + 1], lobes[3 * p + 2]);
+            for (int p = 0; p < kChiangLobeCount; ++p) out.lobes[p] = RGB(lobes[3 * p], lobes[3 * p + 1], lobes[3 * p + 2]);
         } else {
             out.lobes[0] = RGB(value[0], value[1], value[2]);
         }
