@@ -68,7 +68,7 @@ def test_passes_reach_the_compositor_and_the_exr(run_blender, blender_kind, rend
     r = run_blender(blender_kind, PASSES).result
     record(f"engine_passes_{KINDS[blender_kind]}", {k: v for k, v in r.items() if k != "exr"})
     assert r["status"] == "ok", r
-    wanted = ["Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Variance", "Depth", "Normal"]
+    wanted = ["Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Hair TTs", "Hair TRTs", "Variance", "Depth", "Normal"]
     missing = [w for w in wanted if w not in r["sockets"]]
     assert not missing, (missing, r["sockets"])
     ch = _read_layers(r["exr"])
@@ -80,7 +80,8 @@ def test_passes_reach_the_compositor_and_the_exr(run_blender, blender_kind, rend
     combined = np.stack([ch[f"{layer}.Combined.{c}"] for c in "RGBA"], -1)
     hair = combined[..., 3] > 0.999
     assert hair.sum() > 100
-    lobes = sum(rgb(n) for n in ("Hair R", "Hair TT", "Hair TRT", "Hair TRRT"))
+    lobes = sum(rgb(n) for n in ("Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Hair TTs", "Hair TRTs"))
+    assert np.all(rgb("Hair TTs") == 0) and np.all(rgb("Hair TRTs") == 0)  # Principled Hair has no medulla
     np.testing.assert_allclose(lobes, combined[..., :3], rtol=1e-4, atol=1e-6)
     assert rgb("Hair TRT")[hair].sum() > 0 and rgb("Hair R")[hair].sum() > 0
     depth = ch[f"{layer}.Depth.Z"] if f"{layer}.Depth.Z" in ch else ch[f"{layer}.Depth.V"]

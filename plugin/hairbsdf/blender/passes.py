@@ -4,9 +4,10 @@ Blender's own view-layer switches: Data > Z (Depth: camera-space depth of the fi
 1e10 on the background) and Data > Normal (world-space shading normal of the first hit), both
 averaged over the pixel's samples. The engine's own (view_layer.hairbsdf, panel "hairbsdf
 Passes" in the View Layer properties):
-  Hair Lobes  "Hair R", "Hair TT", "Hair TRT", "Hair TRRT": the light leaving the camera
-              ray's first hair hit, split by the lobe of that hit (they add up to that part of
-              Combined; Cycles has no such passes);
+  Hair Lobes  "Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Hair TTs", "Hair TRTs": the light
+              leaving the camera ray's first hair hit, split by the lobe of that hit (they add up
+              to that part of Combined; TTs / TRTs are yan_fur's medulla-scattered lobes, 0 for
+              other models; Cycles has no such passes);
   Variance    the variance of each pixel's mean (squared standard error, per channel), for
               noise-aware comparisons.
 The passes show as Render Layers outputs in the compositor and in multilayer EXRs.
@@ -17,13 +18,15 @@ from __future__ import annotations
 import bpy
 
 # (result key of hairbsdf.render, Blender pass name, channels, channel ids, socket type)
-LOBE_PASSES = (("hair_r", "Hair R"), ("hair_tt", "Hair TT"), ("hair_trt", "Hair TRT"), ("hair_trrt", "Hair TRRT"))
+LOBE_PASSES = (("hair_r", "Hair R"), ("hair_tt", "Hair TT"), ("hair_trt", "Hair TRT"), ("hair_trrt", "Hair TRRT"),
+               ("hair_tts", "Hair TTs"), ("hair_trts", "Hair TRTs"))
 
 
 class HairBsdfViewLayerSettings(bpy.types.PropertyGroup):
     pass_hair_lobes: bpy.props.BoolProperty(
         name="Hair Lobes", default=False,
-        description="Passes Hair R, TT, TRT and TRRT: the light leaving the first hair hit, split by lobe")
+        description="Passes Hair R, TT, TRT, TRRT (and yan_fur's TTs, TRTs): the light leaving the first "
+                    "hair hit, split by lobe")
     pass_variance: bpy.props.BoolProperty(
         name="Variance", default=False,
         description="Variance of each pixel's mean (squared standard error), for noise-aware comparisons")
