@@ -431,26 +431,38 @@ def test_validate_scene_normalises_dtypes():
 # Huang in the engine: near field with the camera ray's footprint, the curve normal as the
 # ellipse's major axis, and the transparent continuation outside the projected ellipse.
 
-def test_huang_strand_pixels_equal_bsdf_eval():
-    wo, wi = _unit((0.2, 0.3, 1.0)), _unit((-0.3, 0.6, 0.7))
-    height, across = 96, 72
+HUANG_INPUTS = dict(parametrization="COLOR", color=(0.6, 0.4, 0.25), roughness=0.35, aspect_ratio=0.5)
+
+
+def _huang_strand_scene(wo, height, across, lights, world):
+    """One straight elliptical Huang strand (HUANG_INPUTS) seen along wo by an orthographic camera
+    `across` pixels per diameter, its major axis towards the viewer (projected width b).
+    Returns (scene without integrator, pixel size, camera up vector, curve normal)."""
     pixel = 2 * R / across
     camera, yc = _ortho_camera(wo, height * pixel, (2, height))
     x = np.array([1.0, 0, 0])
-    normal = _unit(wo - np.dot(wo, x) * x)  # major axis towards the viewer: projected width b
+    normal = _unit(wo - np.dot(wo, x) * x)
     strand = _straight_strand()
     strand["normals"] = np.tile(normal, (len(strand["points"]), 1)).astype(np.float32)
-    inputs = dict(parametrization="COLOR", color=(0.6, 0.4, 0.25), roughness=0.35, aspect_ratio=0.5)
     material = {"name": "huang", "closures": [{"type": "principled_hair", "weight": (1, 1, 1), "model": "HUANG",
                                                "parametrization": "COLOR",
-                                               "inputs": {k: v for k, v in inputs.items() if k != "parametrization"}
-                                               | {"random": None}}]}
-    strength = 2.0
+                                               "inputs": {k: v for k, v in HUANG_INPUTS.items()
+                                                          if k != "parametrization"} | {"random": None}}]}
     scene = {"version": 1, "curves": strand, "curve_shape": "THICK", "curve_subdivisions": 2,
-             "materials": [material], "camera": camera,
-             "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
-             "world": {"color": (0, 0, 0)},
-             "integrator": _integrator(samples=256, transparent_bounces=4)}
+             "materials": [material], "camera": camera, "lights": lights, "world": {"color": world}}
+    return scene, pixel, yc, normal
+
+
+def test_huang_strand_pixels_equal_bsdf_eval():
+    wo, wi = _unit((0.2, 0.3, 1.0)), _unit((-0.3, 0.6, 0.7))
+    height, across = 96, 72
+    strength = 2.0
+    scene, pixel, yc, normal = _huang_strand_scene(
+        wo, height, across, [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
+        (0, 0, 0))
+    x = np.array([1.0, 0, 0])
+    inputs = HUANG_INPUTS
+    scene["integrator"] = _integrator(samples=256, transparent_bounces=4)
     out = render(scene)
     img = out["combined"]
     assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
@@ -486,20 +498,10 @@ def test_huang_sampler_setting_picks_the_estimator():
     integral of its own eval here (docs/huang.md §10). With "mixture" (exact pdf) it is the albedo."""
     wo = _unit((0.0, 0.6, 0.8))
     height, across = 64, 48
-    pixel = 2 * R / across
-    camera, yc = _ortho_camera(wo, height * pixel, (2, height))
+    scene, pixel, yc, normal = _huang_strand_scene(wo, height, across, [], (1.0, 1.0, 1.0))
+    scene["integrator"] = _integrator(samples=512, max_bounces=1, glossy_bounces=1, transparent_bounces=4)
     x = np.array([1.0, 0, 0])
-    normal = _unit(wo - np.dot(wo, x) * x)
-    strand = _straight_strand()
-    strand["normals"] = np.tile(normal, (len(strand["points"]), 1)).astype(np.float32)
-    inputs = dict(parametrization="COLOR", color=(0.6, 0.4, 0.25), roughness=0.35, aspect_ratio=0.5)
-    material = {"name": "huang", "closures": [{"type": "principled_hair", "weight": (1, 1, 1), "model": "HUANG",
-                                               "parametrization": "COLOR",
-                                               "inputs": {k: v for k, v in inputs.items() if k != "parametrization"}
-                                               | {"random": None}}]}
-    scene = {"version": 1, "curves": strand, "curve_shape": "THICK", "curve_subdivisions": 2,
-             "materials": [material], "camera": camera, "lights": [], "world": {"color": (1.0, 1.0, 1.0)},
-             "integrator": _integrator(samples=512, max_bounces=1, glossy_bounces=1, transparent_bounces=4)}
+    inputs = HUANG_INPUTS
     rows = np.arange(height)
     h = -(((height - 1 - rows) + 0.5 - height / 2) * pixel) * np.dot(yc, _unit(np.cross(x, wo))) / R
     inside = np.abs(h) < 0.45
