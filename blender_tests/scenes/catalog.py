@@ -71,7 +71,9 @@ SCENES = {
     "ribbons_vs_3d": dict(
         module="ribbons_vs_3d", kind="noisy", model="chiang", min_blender=(3, 4, 0),
         variants=["RIBBONS", "THICK"],
-        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
+        # 16 CI seeds: single renders are heavy-tailed here (one seed's image mean ranges 0.96-1.04 x the
+        # mean), and 4 seeds made a -2.3 % "bias" (z -4.9) that 16 seeds show to be chance (-0.26 %, z -0.5).
+        ci=dict(res=(128, 96), spp=8, seeds=16), full=dict(res=(320, 240), spp=32, seeds=8),
         title="Ribbons vs 3D curves",
         description="Thick wavy strands seen from close by, rendered as Rounded Ribbons and as 3D Curves "
                     "(one variant each)."),
