@@ -380,12 +380,37 @@ def test_lights_visible_to_camera_only_when_set(visible):
     (lambda s: s["integrator"].update(samples=-1), ValueError, r"scene\['integrator'\]\['samples'\]"),
     (lambda s: s["integrator"].update(filter_type="MITCHELL"), ValueError, r"\['filter_type'\]"),
     (lambda s: s["curves"].update(curve_material=np.array([0.5] * 5)), TypeError, r"\['curve_material'\]"),
+    (lambda s: s["integrator"].update(light_tree="yes"), TypeError, r"\['integrator'\]\['light_tree'\]"),
 ])
 def test_structural_errors_name_the_key(mutate, error, match):
     scene = _small_scene()
     mutate(scene)
     with pytest.raises(error, match=match):
         render(scene)
+
+
+def test_light_tree_changes_only_the_noise_with_delta_lights():
+    """Direct light from zero-radius point lights has no MIS, so the estimator is unbiased for
+    any pick: Cycles' light tree (integrator light_tree) and the uniform pick agree in the mean."""
+    camera, _ = _ortho_camera(_unit((0.2, 0.1, 1.0)), 1.2, (32, 32))
+    lights = [{"type": "POINT", "position": p, "strength": (w, w, w), "radius": 0.0}
+              for p, w in (((1.0, 0.5, 1.5), 20.0), ((-1.5, 0.2, 0.8), 5.0), ((0.3, -2.0, 2.0), 40.0),
+                           ((0.0, 0.0, -1.5), 10.0))]
+    lights.append({"type": "SUN", "direction": (0.3, 0.2, 1.0), "strength": (1, 1, 1)})
+    scene = {"curves": _clump(n=30), "materials": [_hair_material()], "camera": camera, "lights": lights,
+             "world": {"color": (0, 0, 0)}, "integrator": _integrator(samples=64, film_transparent=True)}
+    means, sems, images = [], [], []
+    for tree in (False, True):
+        out = render(dict(scene, integrator=dict(scene["integrator"], light_tree=tree)), threads=2)
+        img = out["combined"]
+        hair = img[..., 3] > 0.99
+        assert hair.sum() > 50
+        v = img[..., :3][hair].mean(axis=1)
+        images.append(img)
+        means.append(v.mean())
+        sems.append(v.std() / math.sqrt(v.size))
+    assert not np.array_equal(images[0], images[1])  # the setting reaches the renderer
+    assert abs(means[0] - means[1]) < 4 * math.hypot(*sems) + 1e-6, (means, sems)
 
 
 def test_bad_arguments():
