@@ -153,6 +153,39 @@ TEST(RenderLightTree, EmitterMeasures) {
     EXPECT_FALSE(s.tree_emitter().measure.bbox.valid());
 }
 
+// The world's energy: pi x its average radiance x the Background strength (Cycles counts the
+// strength twice: in the importance map and in the shader's emission estimate).
+TEST(RenderLightTree, WorldEnergyCountsTheStrengthTwice) {
+    EnvironmentDesc tex;
+    tex.width = 8;
+    tex.height = 4;
+    tex.weight = RGB(2.0);
+    tex.pixels.assign(size_t(8 * 4 * 3), 0.2f);
+    const Light world(RGB(0.0), tex, true);
+    const LightTreeEmitter& e = world.tree_emitter();
+    EXPECT_EQ(e.kind, LightTreeEmitter::Kind::World);
+    EXPECT_NEAR(e.energy(), kPi * 0.4 * 2.0, 1e-6);
+    EXPECT_EQ(e.measure.cone.theta_o, kPi);
+    // Importance: E whatever the normal, I_min = 0.
+    const LightTree t({e});
+    const LightTreeImportance I = t.emitter_importance({1, 2, 3}, normalize(Vec3{0.3, -1, 0.2}), false, 0);
+    EXPECT_NEAR(I.max, e.energy(), 1e-12);
+    EXPECT_EQ(I.min, 0.0);
+}
+
+// A sun's importance does not depend on P: I_max = cos(theta_i - theta_u) E, I_min = cos(theta_i + theta_u) E cos^3.
+TEST(RenderLightTree, SunImportance) {
+    const Light sun(sun_light({0, 0, 1}, 2.0, 0.2));
+    const LightTree t({sun.tree_emitter()});
+    const Vec3 N = normalize(Vec3{1, 0, 1});
+    const double tu = 0.1, ti = kPi / 4;
+    for (const Vec3 P : {Vec3{0, 0, 0}, Vec3{5, -3, 2}}) {
+        const LightTreeImportance I = t.emitter_importance(P, N, false, 0);
+        EXPECT_NEAR(I.max, std::cos(ti - tu) * 2.0, 1e-12);
+        EXPECT_NEAR(I.min, std::cos(ti + tu) * 2.0 * std::pow(std::cos(tu), 3), 1e-12);
+    }
+}
+
 TEST(RenderLightTree, RootSplitsLocalAndDistant) {
     const LightSet set(mixed_scene());
     ASSERT_TRUE(set.uses_tree());
