@@ -296,3 +296,15 @@ TEST(RenderLightTree, SamplingFrequenciesMatchPdf) {
         EXPECT_NEAR(fails, n * q, 5 * (std::sqrt(n * q * (1 - q)) + 1)) << "trial " << trial;
     }
 }
+
+// Without integrator.light_tree (Blender 3.x scenes) the pick stays uniform.
+TEST(RenderLightTree, OffMeansUniformPick) {
+    SceneDesc s = mixed_scene();
+    s.integrator.light_tree = false;
+    const LightSet set(s);
+    EXPECT_FALSE(set.uses_tree());
+    const LightPickContext at{{0.1, 0.2, 0.3}, {0, 0, 1}, false};
+    for (size_t i = 0; i < set.size(); ++i) EXPECT_DOUBLE_EQ(set.selection_pdf(int(i), at), 1.0 / double(set.size()));
+    LightSample ls;
+    ASSERT_TRUE(set.sample(at, 0.5, 0.3, 0.7, ls));
+}
