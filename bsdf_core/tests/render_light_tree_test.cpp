@@ -308,3 +308,34 @@ TEST(RenderLightTree, OffMeansUniformPick) {
     LightSample ls;
     ASSERT_TRUE(set.sample(at, 0.5, 0.3, 0.7, ls));
 }
+
+// Spot: the build's theta_e follows the object scale (atan(tan(t) max(|u|,|v|) / |w|)); the
+// importance scales E by the smoothstep of the cone edge seen from P (Cycles 4.2+).
+TEST(RenderLightTree, SpotConeAndBlend) {
+    LightDesc d = spot_light(0, 0, 0, {0, 0, -1}, 100);
+    d.spot_size = 1.0;
+    d.spot_blend = 0.5;
+    d.radius = 0.1;
+    // scale (1, 2, 0.5), no rotation: the light looks along -Z
+    d.matrix_world = {1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1};
+    d.has_matrix = true;
+    const Light spot(d);
+    const LightTreeEmitter& e = spot.tree_emitter();
+    EXPECT_NEAR(e.measure.cone.theta_e, std::atan(std::tan(0.5) * 2.0 / 0.5), 1e-12);
+    EXPECT_EQ(e.measure.cone.theta_o, 0.0);
+    const LightTree t({e});
+    const Vec3 N{0, 0, 1};
+    const double px = 2 * std::tan(1.1);
+    const Vec3 P{px, 0, -2};  // 1.1 rad off the axis, in the blend zone of the scaled cone
+    const double dist = std::sqrt(px * px + 4), tu = std::atan(0.1 / dist), theta = 1.1;
+    const double te = e.measure.cone.theta_e;
+    const double smooth = 1.0 / ((1.0 - std::cos(0.5)) * 0.5);
+    const double x = (std::cos(std::max(0.0, theta - tu)) - std::cos(te)) * smooth;
+    const double blend = x <= 0 ? 0 : (x >= 1 ? 1 : x * x * (3 - 2 * x));
+    const double E = 100 / (4 * kPi) * blend;
+    const double ti = std::acos(2 / dist);  // angle between N and the direction to the light
+    const LightTreeImportance I = t.emitter_importance(P, N, true, 0);
+    EXPECT_NEAR(I.max, std::cos(std::max(0.0, ti - tu)) * E * std::cos(std::max(0.0, theta - tu)) / (dist * dist), 1e-9);
+    EXPECT_GT(blend, 0.0);
+    EXPECT_LT(blend, 1.0);  // the test point sits in the blend zone
+}
