@@ -26,6 +26,18 @@
 //   ~1e-7 relative, irrelevant for the expected image), with the same function on both sides
 //   of the I_min threshold comparison (notes §2.1).
 // * Not modelled: light linking, volumes (in_volume_segment), mesh lights.
+//
+// Status and known gaps (see also docs/engine.md):
+// * The build runs in double precision; Cycles' bucket index and SAOH costs are float, so
+//   a centroid on a bucket boundary or a near-tie of costs can give another topology.
+// * World energy: average radiance from a 256 x 128 solid-angle grid, not Cycles' importance
+//   map (its resolution, and the 0.8 / 0.2 blend with a Nishita sun); the emission estimate is
+//   avg(EnvironmentDesc::weight), which is Cycles' rule for one Background node but not for
+//   every Mix / Add network.
+// * Emitter order: the scene's light order (the exporter's depsgraph order, which Cycles'
+//   object order follows); meshes are not interleaved as in 4.5 because there are none.
+// * has_transmission for a Huang closure outside its ellipse (Entry::Kind::Transparent) is
+//   taken as set; unchecked against Cycles (it only matters when mixed with an eval closure).
 #pragma once
 
 #include <cstdint>
