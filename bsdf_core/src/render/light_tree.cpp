@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <limits>
 
@@ -15,7 +16,6 @@ constexpr int kMaxLeaf = 8;
 
 double safe_sqrt_one_minus_sq(double x) { return std::sqrt(std::max(0.0, 1.0 - x * x)); }
 double clamp01(double u) { return std::min(std::max(u, 0.0), 1.0); }
-double vmax(Vec3 a) { return std::max(a.x, std::max(a.y, a.z)); }
 Vec3 vabs(Vec3 a) { return {std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}; }
 double comp(Vec3 a, int d) { return d == 0 ? a.x : (d == 1 ? a.y : a.z); }
 
@@ -168,24 +168,32 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
         measure = n == 1 ? emitters_[size_t(order_[size_t(start)])].measure : LightTreeMeasure{};
         return false;
     }
-    LightTreeBBox cb;
-    for (int k = start; k < end; ++k) cb.grow(emitters_[size_t(order_[size_t(k)])].centroid);
-    const Vec3 extent = cb.size();
-    const double max_extent = vmax(extent);
+    // The centroid box, extents and bucket indices in single precision as Cycles computes them
+    // (evenly spaced lights put centroids on bucket boundaries, where rounding decides).
+    std::array<float, 3> cmin{FLT_MAX, FLT_MAX, FLT_MAX}, cmax{-FLT_MAX, -FLT_MAX, -FLT_MAX}, extf{};
+    for (int k = start; k < end; ++k) {
+        const Vec3 c = emitters_[size_t(order_[size_t(k)])].centroid;
+        for (int d = 0; d < 3; ++d) {
+            cmin[size_t(d)] = std::min(cmin[size_t(d)], float(comp(c, d)));
+            cmax[size_t(d)] = std::max(cmax[size_t(d)], float(comp(c, d)));
+        }
+    }
+    for (int d = 0; d < 3; ++d) extf[size_t(d)] = cmax[size_t(d)] - cmin[size_t(d)];
+    const float max_extent = std::max(std::max(extf[0], extf[1]), std::max(extf[2], 0.0f));
+    auto bucket_of = [&](const LightTreeEmitter& e, int dim) {
+        const float inv_extent = 1.0f / extf[size_t(dim)];
+        const int b = int(float(kBuckets) * (float(comp(e.centroid, dim)) - cmin[size_t(dim)]) * inv_extent);
+        return std::min(std::max(b, 0), kBuckets - 1);
+    };
     double total_cost = 0.0, best = std::numeric_limits<double>::infinity();
     int best_dim = -1, best_bucket = -1;
     for (int dim = 0; dim < 3; ++dim) {
-        const double ext = comp(extent, dim);
+        const float ext = extf[size_t(dim)];
         if (ext == 0 && dim != 0) continue;
         std::array<LightTreeMeasure, kBuckets> bucket{};
         for (int k = start; k < end; ++k) {
             const LightTreeEmitter& e = emitters_[size_t(order_[size_t(k)])];
-            int b = 0;
-            if (ext != 0) {
-                b = int(double(kBuckets) * (comp(e.centroid, dim) - comp(cb.min, dim)) / ext);
-                b = std::min(std::max(b, 0), kBuckets - 1);
-            }
-            bucket[size_t(b)].add(e.measure);
+            bucket[size_t(ext != 0 ? bucket_of(e, dim) : 0)].add(e.measure);
         }
         std::array<LightTreeMeasure, kBuckets - 1> left{}, right{};  // right[i]: buckets i+1..11
         left[0] = bucket[0];
@@ -206,7 +214,7 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
             if (total_cost == 0) break;  // quirk (c)
         }
         for (int i = 0; i < kBuckets - 1; ++i) {
-            const double c = (max_extent / ext) * (left[size_t(i)].cost() + right[size_t(i)].cost());
+            const double c = double(max_extent / ext) * (left[size_t(i)].cost() + right[size_t(i)].cost());
             if (c < total_cost && c < best) {
                 best = c;
                 best_dim = dim;
@@ -216,18 +224,13 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
     }
     if (best_dim >= 0 && best < total_cost) {
         // The emitters in buckets 0..best_bucket go first.
-        const double ext = comp(extent, best_dim);
         int count = 0;
-        for (int k = start; k < end; ++k) {
-            const LightTreeEmitter& e = emitters_[size_t(order_[size_t(k)])];
-            int b = int(double(kBuckets) * (comp(e.centroid, best_dim) - comp(cb.min, best_dim)) / ext);
-            b = std::min(std::max(b, 0), kBuckets - 1);
-            if (b <= best_bucket) ++count;
-        }
+        for (int k = start; k < end; ++k)
+            if (bucket_of(emitters_[size_t(order_[size_t(k)])], best_dim) <= best_bucket) ++count;
         middle = start + count;
         const int dim = best_dim;
         std::nth_element(order_.begin() + start, order_.begin() + middle, order_.begin() + end, [&](int a, int b) {
-            return comp(emitters_[size_t(a)].centroid, dim) < comp(emitters_[size_t(b)].centroid, dim);
+            return float(comp(emitters_[size_t(a)].centroid, dim)) < float(comp(emitters_[size_t(b)].centroid, dim));
         });
         return true;
     }

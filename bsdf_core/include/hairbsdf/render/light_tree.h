@@ -28,8 +28,9 @@
 // * Not modelled: light linking, volumes (in_volume_segment), mesh lights.
 //
 // Status and known gaps (see also docs/engine.md):
-// * The build runs in double precision; Cycles' bucket index and SAOH costs are float, so
-//   a centroid on a bucket boundary or a near-tie of costs can give another topology.
+// * The centroid box and bucket indices are computed in float as in Cycles (evenly spaced
+//   lights sit on bucket boundaries); measures and SAOH costs are double, so a near-tie of
+//   costs could still give another topology than Cycles' float costs.
 // * World energy: average radiance from a 256 x 128 solid-angle grid, not Cycles' importance
 //   map (its resolution, and the 0.8 / 0.2 blend with a Nishita sun); the emission estimate is
 //   avg(EnvironmentDesc::weight), which is Cycles' rule for one Background node but not for
