@@ -265,5 +265,6 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert it["exposure"] == pytest.approx(1.7) and it["film_transparent"] is True
     assert it["light_sampling_threshold"] == pytest.approx(0.02) and it["filter_glossy"] == pytest.approx(0.5)
     assert it["tilt"] == ("4.2" if v >= (4, 2, 0) else "3.4")
+    assert it["light_tree"] is (v >= (4, 0, 0))  # Cycles 4.x: use_light_tree on by default; 3.x has no tree
     assert desc["curve_shape"] == "RIBBONS" and desc["curve_subdivisions"] == 3
     assert "Denoising" in warnings

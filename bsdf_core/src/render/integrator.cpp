@@ -168,7 +168,6 @@ PreparedScene::PreparedScene(SceneDesc& scene)
 
 PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters) {
     const IntegratorSettings& is = s.desc.integrator;
-    const double selection = s.lights.selection_pdf();
     const double clamp_direct = is.clamp_direct > 0 ? 3.0 * is.clamp_direct : 0.0;
     const double clamp_indirect = is.clamp_indirect > 0 ? 3.0 * is.clamp_indirect : 0.0;
 
@@ -178,6 +177,9 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     bool camera = true;            // no scatter yet: PATH_RAY_CAMERA and MIS_SKIP
     bool terminate_after = false;  // PATH_RAY_TERMINATE_AFTER_TRANSPARENT
     double mis_ray_pdf = 0.0;
+    // Where the last BSDF ray left (Cycles' ray.P, mis_origin_n, PATH_RAY_MIS_HAD_TRANSMISSION):
+    // the light tree's selection pdf for forward MIS is taken there.
+    LightPickContext mis_origin;
     double min_ray_pdf = std::numeric_limits<double>::infinity();
     SkipPrim skip;
     // Hair lobe passes: the lobe shares of the first hair hit's sampled direction, once chosen.
@@ -203,6 +205,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         return c;
     };
     auto forward_mis = [&](double light_pdf) { return camera ? 1.0 : power_heuristic(mis_ray_pdf, light_pdf); };
+    auto selection = [&](int light) { return camera ? 0.0 : s.lights.selection_pdf(light, mis_origin); };
 
     for (;;) {
         const Hit hit = s.geometry.intersect(ray, skip);
@@ -214,7 +217,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             LightHit lh[kMaxLightHits];
             const int n = s.lights.intersect(ray, t_end, camera, lh, kMaxLightHits);
             for (int k = 0; k < n; ++k) {
-                add(forward_mis(lh[k].pdf * selection) * (throughput * lh[k].radiance), bounce - 1);
+                add(forward_mis(lh[k].pdf * selection(lh[k].light)) * (throughput * lh[k].radiance), bounce - 1);
                 if (++transparent >= is.transparent_bounces + 1) return res;
             }
         }
@@ -222,13 +225,13 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         if (!hit) {
             LightHit sh[kMaxLightHits];
             const int n = s.lights.eval_suns(ray.dir, camera, sh, kMaxLightHits);
-            for (int k = 0; k < n; ++k) add(forward_mis(sh[k].pdf * selection) * (throughput * sh[k].radiance), bounce - 1);
+            for (int k = 0; k < n; ++k) add(forward_mis(sh[k].pdf * selection(sh[k].light)) * (throughput * sh[k].radiance), bounce - 1);
             if (camera && is.film_transparent) {
                 res.transparent += average(throughput);
             } else if (const Light* world = s.lights.world()) {
                 LightHit wh;
                 world->eval_direction(ray.dir, wh);
-                const double mis = world->use_mis() ? forward_mis(wh.pdf * selection) : 1.0;
+                const double mis = world->use_mis() ? forward_mis(wh.pdf * selection(s.lights.world_index())) : 1.0;
                 add(mis * (throughput * wh.radiance), bounce - 1);
             }
             return res;
@@ -270,7 +273,8 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         if (s.lights.size() > 0) {
             const double u_sel = rng.next(), u0 = rng.next(), u1 = rng.next();
             LightSample ls;
-            if (s.lights.sample(sp.p, u_sel, u0, u1, ls)) {
+            const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
+            if (s.lights.sample(at, u_sel, u0, u1, ls)) {
                 const BsdfValue b = bsdf.eval(ls.wi);
                 const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
                 const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (throughput * b.value * ls.radiance);
@@ -304,6 +308,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             // hit); the path keeps its camera state, MIS pdfs and bounce counts.
             if (++transparent >= is.transparent_bounces) terminate_after = true;
             ray.tmin = std::nextafter(float(hit.t), std::numeric_limits<float>::infinity());
+            mis_origin.p = sp.p;  // Cycles moves ray.P to the hit; N and the flag stay
             continue;
         }
         if (first_hair) {
@@ -311,6 +316,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             split = true;
         }
         mis_ray_pdf = sc.pdf;
+        if (s.lights.uses_tree()) mis_origin = {sp.p, sp.g.n, bsdf.has_transmission()};
         min_ray_pdf = std::min(min_ray_pdf, sc.blur_pdf);
         if (++bounce >= is.max_bounces + 1) terminate_after = true;
         if (sc.label & LabelReflect) {

@@ -116,6 +116,7 @@ Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
     }
     // Cycles enables the background light only for a spatially varying world shader.
     use_mis_ = world_mis && environment_ != nullptr;
+    make_tree_emitter(nullptr);
 }
 
 Light::Light(const LightDesc& d) : type_(d.type) {
@@ -201,6 +202,92 @@ Light::Light(const LightDesc& d) : type_(d.type) {
         }
     }
     radiance_ = d.strength * eval_fac;
+    make_tree_emitter(&d);
+}
+
+void Light::make_tree_emitter(const LightDesc* desc) {
+    LightTreeEmitter& e = tree_;
+    auto avg_abs = [](RGB c) { return (std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b)) / 3.0; };
+    if (world_) {
+        // Cycles: E = pi x average radiance of the importance map x the shader's emission
+        // estimate (the Background strength, counted twice as Cycles does). The average is
+        // taken here over a 256 x 128 latitude-longitude grid weighted by solid angle; with a
+        // texture the estimate is taken as avg(weight) (exact for one Background node).
+        // TODO: Cycles' map resolution and its Nishita sun blend are not reproduced.
+        e.kind = LightTreeEmitter::Kind::World;
+        double sum = 0, wsum = 0;
+        const int nt = 128, np = 256;
+        for (int i = 0; i < nt; ++i) {
+            const double theta = kPi * (i + 0.5) / nt, st = std::sin(theta);
+            for (int j = 0; j < np; ++j) {
+                const double phi = kTwoPi * (j + 0.5) / np;
+                LightHit h;
+                eval_direction({st * std::cos(phi), st * std::sin(phi), std::cos(theta)}, h);
+                sum += st * avg_abs(h.radiance);
+                wsum += st;
+            }
+        }
+        const double estimate = environment_ ? avg_abs(environment_->weight()) : 1.0;
+        e.measure.energy = kPi * (wsum > 0 ? sum / wsum : 0.0) * estimate;
+        e.measure.cone = {{0, 0, 1}, kPi, 0.0};
+        return;
+    }
+    const LightDesc& d = *desc;
+    const double strength = avg_abs(d.strength);
+    switch (d.type) {
+        case LightType::Point:
+        case LightType::Spot: {
+            e.kind = d.type == LightType::Point ? LightTreeEmitter::Kind::Point : LightTreeEmitter::Kind::Spot;
+            e.position = e.centroid = co_;
+            e.radius = radius_;
+            e.sphere = sphere_;
+            const double area = radius_ > 0 ? 4.0 * kPi * radius_ * radius_ : 4.0;
+            e.measure.energy = strength / (4.0 * kPi) * (d.normalize ? 1.0 : area);
+            e.measure.bbox.grow(co_ - Vec3{radius_, radius_, radius_});
+            e.measure.bbox.grow(co_ + Vec3{radius_, radius_, radius_});
+            if (d.type == LightType::Point) {
+                e.measure.cone = {{0, 0, 1}, kPi, kPi / 2};  // axis irrelevant with theta_o = pi
+                e.spot_dir = {0, 0, 1};
+            } else {
+                e.spot_dir = spot_dir_;
+                e.spot_smooth = spot_smooth_;
+                const double t = std::min(0.5 * d.spot_size, kPi / 2);
+                double theta_e = kPi / 2;
+                if (std::fabs(kPi / 2 - t) >= 1e-6) {
+                    double lu = 1, lv = 1, lw = 1;
+                    if (d.has_matrix) {
+                        const auto& m = d.matrix_world;
+                        lu = m[0] * m[0] + m[4] * m[4] + m[8] * m[8];
+                        lv = m[1] * m[1] + m[5] * m[5] + m[9] * m[9];
+                        lw = m[2] * m[2] + m[6] * m[6] + m[10] * m[10];
+                    }
+                    theta_e = std::atan(std::tan(t) * std::sqrt(std::max(lu, lv)) / std::sqrt(lw));
+                }
+                e.measure.cone = {spot_dir_, 0.0, theta_e};
+            }
+            break;
+        }
+        case LightType::Sun: {
+            e.kind = LightTreeEmitter::Kind::Sun;
+            e.to_sun = co_;
+            const double area = half_angle_ > 0 ? kPi * sqr(std::sin(half_angle_)) : 1.0;
+            e.measure.energy = strength * (d.normalize ? 1.0 : area);
+            e.measure.cone = {-1.0 * co_, 0.0, half_angle_};
+            break;
+        }
+        case LightType::Area: {
+            e.kind = LightTreeEmitter::Kind::Area;
+            e.position = e.centroid = co_;
+            e.normal = normal_;
+            e.extent_u = len_u_ * axis_u_;
+            e.extent_v = len_v_ * axis_v_;
+            for (int i = 0; i < 4; ++i)
+                e.measure.bbox.grow(co_ + ((i & 1) ? 0.5 : -0.5) * e.extent_u + ((i & 2) ? 0.5 : -0.5) * e.extent_v);
+            e.measure.energy = strength / kPi * (d.normalize ? 1.0 : area_);
+            e.measure.cone = {normal_, 0.0, 0.5 * std::min(std::max(0.0, d.spread), kPi)};
+            break;
+        }
+    }
 }
 
 double Light::spot_attenuation(Vec3 from_light) const {
@@ -428,14 +515,28 @@ LightSet::LightSet(const SceneDesc& scene) {
             background_ = std::make_shared<const Light>(world);
         }
     }
+    if (scene.integrator.light_tree && !lights_.empty()) {
+        std::vector<LightTreeEmitter> emitters;
+        for (const Light& l : lights_) emitters.push_back(l.tree_emitter());
+        tree_ = std::make_shared<const LightTree>(std::move(emitters));
+    }
 }
 
-bool LightSet::sample(Vec3 p, double u_select, double u0, double u1, LightSample& out) const {
+bool LightSet::sample(const LightPickContext& at, double u_select, double u0, double u1, LightSample& out) const {
     if (lights_.empty()) return false;
-    const size_t n = lights_.size();
-    const size_t i = std::min(size_t(u_select * double(n)), n - 1);
-    if (!lights_[i].sample(p, u0, u1, out)) return false;
-    out.pdf *= selection_pdf();
+    size_t i;
+    double selection;
+    if (tree_) {
+        const int k = tree_->sample(at.p, at.n, at.transmission, u_select, selection);
+        if (k < 0 || !(selection > 0)) return false;  // no light has importance: the sample is lost
+        i = size_t(k);
+    } else {
+        const size_t n = lights_.size();
+        i = std::min(size_t(u_select * double(n)), n - 1);
+        selection = 1.0 / double(n);
+    }
+    if (!lights_[i].sample(at.p, u0, u1, out)) return false;
+    out.pdf *= selection;
     return out.pdf > 0 && std::isfinite(out.pdf);
 }
 

@@ -319,6 +319,25 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     return out;
 }
 
+bool Bsdf::has_transmission() const {
+    for (int i = 0; i < count_; ++i) {
+        const Entry& e = entries_[size_t(i)];
+        switch (e.kind) {
+            case Entry::Kind::Hair:
+            case Entry::Kind::Huang:
+            case Entry::Kind::Transparent:  // a Huang closure outside its ellipse
+            case Entry::Kind::Model:
+                return true;
+            case Entry::Kind::Legacy:
+                if (!e.legacy->reflection()) return true;
+                break;
+            case Entry::Kind::Diffuse:
+                break;
+        }
+    }
+    return false;
+}
+
 BsdfValue Bsdf::eval(Vec3 wi) const {
     BsdfValue out;
     for (int i = 0; i < count_; ++i) {

@@ -97,6 +97,8 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "exposure": float(g("film_exposure", 1.0)),
         "film_transparent": bool(scene.render.film_transparent),
         "light_sampling_threshold": float(g("light_sampling_threshold", 0.01)),
+        # Cycles 4.x picks NEE lights with its light tree (on by default); 3.x has none.
+        "light_tree": bool(g("use_light_tree", True)) if blender_version() >= (4, 0, 0) else False,
         "filter_glossy": float(g("blur_glossy", 1.0)),
         "clamp_direct": float(g("sample_clamp_direct", 0.0)),
         "clamp_indirect": float(g("sample_clamp_indirect", 10.0)),

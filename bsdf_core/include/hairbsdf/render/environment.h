@@ -22,6 +22,7 @@ public:
     // A direction with its solid-angle density.
     Vec3 sample(double u0, double u1, double& pdf) const;
     double pdf(Vec3 dir) const;
+    RGB weight() const { return weight_; }  // Background strength x Mix / Add weights
 
     // Texture coordinates of a lookup vector (Cycles' direction_to_equirectangular).
     static void equirectangular_uv(Vec3 lookup, double& u, double& v);

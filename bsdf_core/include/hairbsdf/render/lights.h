@@ -16,8 +16,10 @@
 //   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
-// Next-event estimation picks one light uniformly (Cycles 4.x uses a light tree, which
-// changes only the noise). A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
+// Next-event estimation picks one light uniformly, or (integrator `light_tree`, Cycles 4.x's
+// default) with Cycles' light tree (render/light_tree.h). The two picks have the same
+// expectation only where the closures' reported pdfs are their sampling densities, which the
+// hair closures' are not: hence the tree. A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
 // hit by BSDF rays: POINT / SPOT with r > 0, SUN with angle > 0, AREA with spread > 0, the
 // world; and use_mis is set. Lights are not in the BVH: rays pass through them (Cycles
 // counts each as a transparent bounce) and they cast no shadows.
@@ -33,6 +35,7 @@
 
 #include "hairbsdf/render/environment.h"
 #include "hairbsdf/render/geometry.h"
+#include "hairbsdf/render/light_tree.h"
 
 namespace hairbsdf::render {
 
@@ -63,6 +66,8 @@ public:
     bool use_mis() const { return use_mis_; }
     bool visible_camera() const { return visible_camera_; }
     bool has_contribution() const { return contributes_; }
+    // The light's measure and traversal data for the light tree (notes §1.2, §2.3).
+    const LightTreeEmitter& tree_emitter() const { return tree_; }
 
     bool sample(Vec3 p, double u0, double u1, LightSample& out) const;
     // Finite lights (point, spot, area): the hit along `ray` in (tmin, tmax), if any.
@@ -74,7 +79,10 @@ private:
     double spot_attenuation(Vec3 from_light) const;
     double spread_attenuation(Vec3 to_light) const;
 
+    void make_tree_emitter(const LightDesc* desc);
+
     bool world_ = false;
+    LightTreeEmitter tree_;
     std::shared_ptr<const EnvironmentMap> environment_;  // world texture, or null
     bool contributes_ = true;
     bool use_mis_ = true;
@@ -99,16 +107,31 @@ private:
     bool full_spread_ = true;
 };
 
+// Where a light is picked: the shading point, its shading normal (Cycles' sd->N; the radial
+// normal on curves) and whether a closure transmits (SD_BSDF_HAS_TRANSMISSION; hair does).
+struct LightPickContext {
+    Vec3 p, n;
+    bool transmission = false;
+};
+
 class LightSet {
 public:
     LightSet(const SceneDesc& scene);
     size_t size() const { return lights_.size(); }
     const Light& light(size_t i) const { return lights_[i]; }
-    double selection_pdf() const { return lights_.empty() ? 0.0 : 1.0 / double(lights_.size()); }
+    bool uses_tree() const { return tree_ != nullptr; }
+    const LightTree* tree() const { return tree_.get(); }
+    // The probability that sample() picks light `i` at `at` (uniform: 1 / size()).
+    double selection_pdf(int i, const LightPickContext& at) const {
+        if (lights_.empty() || i < 0) return 0.0;
+        return tree_ ? tree_->pdf(at.p, at.n, at.transmission, i) : 1.0 / double(lights_.size());
+    }
     bool has_finite_mis_lights(bool camera) const { return camera ? has_finite_camera_ : has_finite_mis_; }
 
     // Picks a light with u_select and samples it; out.pdf includes the selection probability.
-    bool sample(Vec3 p, double u_select, double u0, double u1, LightSample& out) const;
+    bool sample(const LightPickContext& at, double u_select, double u0, double u1, LightSample& out) const;
+    // The world's index in lights(), or -1 when it is not sampled.
+    int world_index() const { return world_; }
 
     // Finite lights crossed by `ray` before `tmax`, sorted by distance. Camera rays see the
     // lights with a surface that are visible to the camera (visible_camera); other rays only
@@ -123,6 +146,7 @@ private:
     std::vector<Light> lights_;  // the lights NEE picks from
     int world_ = -1;
     std::shared_ptr<const Light> background_;  // a world that is not a light (not sampled)
+    std::shared_ptr<const LightTree> tree_;     // integrator.light_tree; null: uniform pick
     bool has_finite_camera_ = false, has_finite_mis_ = false;
 };
 

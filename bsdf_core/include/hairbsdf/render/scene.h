@@ -137,6 +137,10 @@ struct IntegratorSettings {
     double exposure = 1.0;
     bool film_transparent = false;
     double light_sampling_threshold = 0.0;  // unbiased in Cycles; ignored here (noise only)
+    // Pick NEE lights with Cycles' light tree (render/light_tree.h; scene.cycles.use_light_tree,
+    // Blender >= 4.0) instead of uniformly (Blender 3.x). Changes the expected image where a
+    // closure's reported pdf is not its sampling density (hair).
+    bool light_tree = false;
     double filter_glossy = 0.0;             // Cycles' blur_glossy; 0 = off
     double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
     TiltConvention tilt = TiltConvention::Blender42;

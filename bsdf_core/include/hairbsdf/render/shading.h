@@ -134,6 +134,9 @@ public:
     void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
              uint32_t seed = 0, bool lobes = false);
     bool empty() const { return count_ == 0; }
+    // Cycles' SD_BSDF_HAS_TRANSMISSION: a closure that transmits (Principled Hair, Hair BSDF
+    // Transmission, hair_model closures); the light tree then ignores the side of N.
+    bool has_transmission() const;
     BsdfValue eval(Vec3 wi) const;
     BsdfScatter sample(double u0, double u1, double u2) const;
 
