@@ -140,6 +140,30 @@ def test_mean_bias_detects_one_percent_and_passes_noise():
     assert c["sigma"] == pytest.approx(math.sqrt(2 / 8) * per_render, rel=0.6)
 
 
+def test_seed_spread_flags_one_outlier_seed():
+    """Light-tailed seeds stay below the informational limit; one seed 10 % brighter (a firefly-
+    dominated render of a heavy-tailed estimator) is flagged, and evaluate reports it without gating."""
+    t = truth()
+    rng = np.random.default_rng(21)
+    calm = mc_stack(t, 16, 0.01, rng=rng)
+    s = M.seed_spread(calm)
+    assert s["n"] == 16 and s["outlier_ratio"] < 1 and s["cv"] < 0.01
+    assert 4 < s["outlier_limit"] < 6  # t(0.01 / 32, 14 df) x sqrt(16 / 15)
+    assert min(s["rel_means"]) > 0.99 and max(s["rel_means"]) < 1.01
+    wild = calm.copy()
+    wild[5] *= 1.10
+    w = M.seed_spread(wild)
+    assert w["max_dev_sigma"] > 20 and w["outlier_ratio"] > 3 and max(w["rel_means"]) > 1.05
+    limits = Thresholds({}).for_case("swatch")
+    checks, mets, _ = judge.evaluate("noisy", calm, wild, limits)
+    tails = [c for c in checks if c["name"] == "seed_tails"]
+    assert len(tails) == 1 and not tails[0]["gate"] and not tails[0]["passed"]
+    assert "heavy-tailed" in tails[0]["detail"] and mets["seed_spread"]["ours"]["n"] == 16
+    few = M.seed_spread(calm[:4])  # 4 seeds: t with 2 df, critical value ~ 20
+    assert few["outlier_limit"] > 15 and few["outlier_ratio"] < 1
+    assert M.seed_spread(calm[:2])["max_dev_sigma"] != M.seed_spread(calm[:2])["max_dev_sigma"]  # NaN with 2
+
+
 def test_mean_bias_floor_spares_float_rounding_but_not_bias():
     """Nearly noise-free renders (a furnace): a 5e-5 relative offset passes with the 1e-4 floor
     and fails without it; a 0.1 % bias still fails with it."""

@@ -75,6 +75,18 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                 100 * max((c["rel"] for c in b["channels"]), key=abs))
             checks.append(check("mean_bias_sigma", "image-mean bias in standard errors |z|", abs(b["z"]),
                                 limits["mean_bias_sigma"], "<=", True, det))
+            if n_a >= 3 and n_b >= 3:
+                spread = dict(cycles=M.seed_spread(cycles), ours=M.seed_spread(ours))
+                mets["seed_spread"] = spread
+                worst = max(s["outlier_ratio"] for s in spread.values())
+                checks.append(check(
+                    "seed_tails", "outlying seed: largest per-seed image-mean deviation / its 1 % critical value",
+                    worst, 1.0, "<=", False,
+                    "; ".join("%s: seeds %.3f-%.3f x their mean, cv %.2f%%, max deviation %.1f sd of the others "
+                              "(critical %.1f)" % (name, min(s["rel_means"]), max(s["rel_means"]), 100 * s["cv"],
+                                                   s["max_dev_sigma"], s["outlier_limit"])
+                              for name, s in (("Cycles", spread["cycles"]), ("hairbsdf", spread["ours"])))
+                    + "; above 1: heavy-tailed renders, so the z and Welch tests need more seeds"))
             lim_rel = limits["mean_bias_rel"]
             if 2.0 * b["rel_sigma"] <= lim_rel:
                 checks.append(check("mean_bias_rel", "image-mean bias |relative|", abs(b["rel"]), lim_rel, "<=", True,

@@ -294,6 +294,34 @@ def mean_bias(stack_a, stack_b, mask=None, floor_rel=0.0):
     return out
 
 
+def seed_spread(stack, mask=None):
+    """How the renders' (seeds') image means scatter: each render's mean over RGB relative to the
+    mean of all, their coefficient of variation, and the largest leave-one-out deviation
+    max_i |x_i - mean(others)| / sd(others), with its critical value for normally scattered means
+    (the deviation times sqrt((n - 1) / n) is Student-t with n - 2 degrees of freedom; two-sided,
+    Bonferroni over the n seeds at family-wise 1 %) and their ratio `outlier_ratio` (> 1: a seed
+    too far out for a normal spread). A heavy-tailed estimator (rare very bright paths) shows as
+    one seed far from the others; then few-seed z and Welch tests mislead, because the spread of
+    the seeds underestimates the noise most of the time. Needs >= 3 renders."""
+    x = _image_means(stack, mask).mean(axis=1)
+    n = int(x.shape[0])
+    m = float(x.mean())
+    out = dict(n=n, rel_means=[float(v / m) if m else float("nan") for v in x],
+               cv=float(x.std(ddof=1) / abs(m)) if n > 1 and m else float("nan"), max_dev_sigma=float("nan"),
+               outlier_limit=float("nan"), outlier_ratio=float("nan"))
+    if n >= 3:
+        devs = []
+        for i in range(n):
+            others = np.delete(x, i)
+            sd = float(others.std(ddof=1))
+            dev = abs(float(x[i]) - float(others.mean()))
+            devs.append(dev / sd if sd > 0 else (0.0 if dev == 0 else float("inf")))
+        out["max_dev_sigma"] = float(max(devs))
+        out["outlier_limit"] = t_isf(0.01 / (2 * n), n - 2) * math.sqrt(n / (n - 1))
+        out["outlier_ratio"] = out["max_dev_sigma"] / out["outlier_limit"]
+    return out
+
+
 def paired_effect(stack_base, stack_variant, mask=None):
     """Relative change of the image mean from base to variant, both rendered with the same
     seeds (so most of the noise cancels): rel = mean(variant - base) / mean(base), with the
