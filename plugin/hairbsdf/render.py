@@ -55,6 +55,12 @@ class _Checker:
         return value
 
     @staticmethod
+    def string(key, value):
+        if not isinstance(value, str):
+            raise TypeError(f"{key}: expected a string")
+        return value
+
+    @staticmethod
     def list(key, value):
         if not isinstance(value, (list, tuple)):
             raise TypeError(f"{key}: expected a list, got {type(value).__name__}")
@@ -177,9 +183,7 @@ def _check_curves(scene, out):
         for i, a in enumerate(_Checker.list(f"{key}['attributes']", c["attributes"])):
             ak = f"{key}['attributes'][{i}]"
             a = _Checker.dict(ak, a)
-            name = _Checker.required(ak, a, "name")
-            if not isinstance(name, str):
-                raise TypeError(f"{ak}['name']: expected a string")
+            name = _Checker.string(f"{ak}['name']", _Checker.required(ak, a, "name"))
             domain = _Checker.choice(f"{ak}['domain']", _Checker.required(ak, a, "domain"), ("POINT", "CURVE"))
             data = _Checker.array(f"{ak}['data']", _Checker.required(ak, a, "data"), np.float32, 4)
             want = len(points) if domain == "POINT" else n_curves
@@ -314,9 +318,7 @@ def _check_materials(scene, out):
         key = f"scene['materials'][{i}]"
         m = _Checker.dict(key, m)
         closures = _Checker.list(f"{key}['closures']", _Checker.required(key, m, "closures"))
-        name = m.get("name", "")
-        if not isinstance(name, str):
-            raise TypeError(f"{key}['name']: expected a string")
+        name = _Checker.string(f"{key}['name']", m.get("name", ""))
         mat = {"name": name,
                "closures": [_check_closure(f"{key}['closures'][{j}]", c) for j, c in enumerate(closures)]}
         if m.get("program") is not None:
@@ -424,9 +426,7 @@ def _check_images(scene, out):
     for i, im in enumerate(_Checker.list("scene['images']", scene["images"])):
         key = f"scene['images'][{i}]"
         im = _Checker.dict(key, im)
-        name = im.get("name", "")
-        if not isinstance(name, str):
-            raise TypeError(f"{key}['name']: expected a string")
+        name = _Checker.string(f"{key}['name']", im.get("name", ""))
         try:
             pixels = np.asarray(_Checker.required(key, im, "pixels"), dtype=np.float32)
         except (TypeError, ValueError) as exc:
