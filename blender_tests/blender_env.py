@@ -96,8 +96,21 @@ def register_engine():
     return hairbsdf.blender
 
 
+def render_engines(scene, prefix="", engines=("CYCLES", "HAIRBSDF")):
+    """Renders the scene with each engine to TMP/<prefix><engine>.exr; {engine: RGBA (H, W, 4)}."""
+    out = {}
+    for eng in engines:
+        scene.render.engine = eng
+        scene.render.filepath = os.path.join(_args["tmp"], prefix + eng + ".exr")
+        bpy.ops.render.render(write_still=True)
+        px, (w, h) = fg.read_exr_rgba(scene.render.filepath)
+        out[eng] = np.asarray(px).reshape(h, w, 4)
+    return out
+
+
 _ns = {"bpy": bpy, "np": np, "fg": fg, "hs": hs, "emit": emit, "ARGS": _args["args"], "TMP": _args["tmp"],
-       "register_engine": register_engine, "loaded_libraries": loaded_libraries, "__name__": "__hb_snippet__"}
+       "register_engine": register_engine, "render_engines": render_engines, "loaded_libraries": loaded_libraries,
+       "__name__": "__hb_snippet__"}
 _rc = 0
 try:
     with open(_args["snippet"]) as _f:

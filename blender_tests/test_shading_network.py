@@ -403,13 +403,7 @@ if V >= (4, 0, 0):
     n_attr = 1
 hs.make_camera(location=(0.0, -3.0, 0.15), target=(0.0, 0.0, 0.15), kind="ORTHO", ortho_scale=2.0)
 
-r = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    scene.render.filepath = os.path.join(TMP, f"emission_{eng}.exr")
-    bpy.ops.render.render(write_still=True)
-    p, _ = fg.read_exr_rgba(scene.render.filepath)
-    r[eng] = np.asarray(p).reshape(-1, 4)
+r = {eng: px.reshape(-1, 4) for eng, px in render_engines(scene, "emission_").items()}
 assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
 cy, ours = r["CYCLES"], r["HAIRBSDF"]
 covered = (cy[:, 3] > 0.999) & (ours[:, 3] > 0.999)
@@ -599,13 +593,7 @@ for k in range(2):
         ps.settings.rendered_child_count = 2
 hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
 
-r = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    scene.render.filepath = os.path.join(TMP, f"image_{eng}.exr")
-    bpy.ops.render.render(write_still=True)
-    p, _ = fg.read_exr_rgba(scene.render.filepath)
-    r[eng] = np.asarray(p).reshape(H, W, 4)
+r = render_engines(scene, "image_")
 assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
 cy, ours = r["CYCLES"], r["HAIRBSDF"]
 covered = (cy[..., 3] > 0.999) & (ours[..., 3] > 0.999)
@@ -694,13 +682,7 @@ hs.make_light("AREA", energy=20.0, location=(0.3, 2.0, 1.2), target=(0.0, 0.0, 0
 scene.world = bpy.data.worlds.new("W"); scene.world.use_nodes = False; scene.world.color = (0.05, 0.05, 0.05)
 cy = scene.cycles
 cy.max_bounces = cy.glossy_bounces = cy.transmission_bounces = cy.diffuse_bounces = 4
-out = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    scene.render.filepath = os.path.join(TMP, eng + ".exr")
-    bpy.ops.render.render(write_still=True)
-    px, _ = fg.read_exr_rgba(scene.render.filepath)
-    out[eng] = np.asarray(px).reshape(ARGS["h"], ARGS["w"], 4)
+out = render_engines(scene)
 W = ARGS["w"]
 m = (out["CYCLES"][..., 3] > 0.99) & (out["HAIRBSDF"][..., 3] > 0.99)
 res = {"version": bpy.app.version_string, "status": engine.LAST_RENDER.get("status"),
