@@ -231,16 +231,8 @@ public:
 
         const LobeDirection d = sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
-        const BsdfEval e = eval_local(vt, sin_theta_i, cos_theta_i, phi);
-        const RGB value = e.value();
-        const RGB weight = (1.0 / e.pdf) * value;
-        if (!(e.pdf > 0) || !std::isfinite(e.pdf) || !isfinite(weight)) return out;  // also a denormal pdf
-        out.wi = frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi);
-        out.value = value;
-        out.pdf = e.pdf;
-        out.weight = weight;
-        out.lobe = p;
-        return out;
+        return sample_from_eval(frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi),
+                                eval_local(vt, sin_theta_i, cos_theta_i, phi), p);
     }
 
     // A direction from lobe p's sampling density (M_p about the lobe's tilted cone, N_p's trimmed
@@ -285,16 +277,6 @@ public:
     // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o (pdf: the
     // density of sample(), the lobe mixture by lobe_weight).
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
-        return eval_local_impl(vt, sin_theta_i, cos_theta_i, phi);
-    }
-
-private:
-    static double azimuth_center(int p, const ViewTerms& vt) {
-        return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
-    }
-
-    // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o.
-    BsdfEval eval_local_impl(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
         BsdfEval out;
         for (int p = 0; p < 3; ++p) {
             double mp;
@@ -314,6 +296,11 @@ private:
         out.pdf += vt.lobe_weight[3] * m3;
         if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
         return out;
+    }
+
+private:
+    static double azimuth_center(int p, const ViewTerms& vt) {
+        return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
     }
 
     ChiangHairParams params_;
