@@ -142,3 +142,55 @@ TEST(RenderLights, IrradianceUnits) {
         }
     EXPECT_NEAR(power, 50.0, 0.5);
 }
+
+// Rectangles are sampled uniformly in solid angle (Urena et al. 2013). Seen from a point
+// above one corner at height d, an a x b rectangle subtends atan(ab / (d sqrt(a^2 + b^2 + d^2))),
+// so every sample's 1 / pdf must equal that, and the share of samples landing in a
+// sub-rectangle at the same corner must be its own solid angle over the whole.
+TEST(RenderLights, RectanglesAreSampledUniformlyInSolidAngle) {
+    auto corner_solid_angle = [](double a, double b, double d) {
+        return std::atan(a * b / (d * std::sqrt(a * a + b * b + d * d)));
+    };
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u;
+    for (double d : {0.01, 0.3, 2.0}) {
+        const double a = 1.5, b = 0.8;
+        LightDesc rect;
+        rect.type = LightType::Area;
+        rect.shape = AreaShape::Rectangle;
+        rect.size_x = a;
+        rect.size_y = b;
+        rect.matrix_world = translate(0.5 * a, 0.5 * b, d);  // corner above the origin
+        const Light light(rect);
+        const Vec3 p{0, 0, 0};
+        const double whole = corner_solid_angle(a, b, d), part = corner_solid_angle(0.4 * a, 0.7 * b, d);
+        const int n = 400000;
+        int inside = 0;
+        for (int i = 0; i < n; ++i) {
+            LightSample s;
+            ASSERT_TRUE(light.sample(p, u(rng), u(rng), s));
+            ASSERT_NEAR(1.0 / s.pdf, whole, 1e-9 * whole) << d;
+            const Vec3 q = p + s.distance * s.wi;
+            ASSERT_NEAR(q.z, d, 1e-9);
+            ASSERT_GE(q.x, -1e-9);
+            ASSERT_LE(q.x, a + 1e-9);
+            ASSERT_GE(q.y, -1e-9);
+            ASSERT_LE(q.y, b + 1e-9);
+            if (q.x < 0.4 * a && q.y < 0.7 * b) ++inside;
+        }
+        const double expected = part / whole, sigma = std::sqrt(expected * (1 - expected) / n);
+        EXPECT_NEAR(double(inside) / n, expected, 5 * sigma) << d;
+    }
+    // Far away (solid angle below Girard's precision) the light falls back to area sampling,
+    // and the irradiance stays P / (pi d^2).
+    LightDesc far;
+    far.type = LightType::Area;
+    far.shape = AreaShape::Square;
+    far.size_x = 1e-3;
+    far.strength = RGB(50.0);
+    far.matrix_world = translate(0, 0, 100);
+    const Light light(far);
+    LightSample s;
+    ASSERT_TRUE(light.sample({0, 0, 0}, 0.3, 0.6, s));
+    EXPECT_NEAR(s.radiance.r / s.pdf, 50.0 / (kPi * 1e4), 1e-3 * 50.0 / (kPi * 1e4));
+}

@@ -23,6 +23,57 @@ double smoothstep(double x) {
     return x * x * (3.0 - 2.0 * x);
 }
 
+// A rectangle seen from a point, sampled uniformly in solid angle: Urena, Fajardo and King,
+// "An Area-Preserving Parametrization for Spherical Rectangles" (EGSR 2013), §3-4. The
+// rectangle is corner + [0, len_u] axis_u + [0, len_v] axis_v (unit, orthogonal axes).
+// Below this solid angle Girard's formula loses its digits; such lights are sampled by area.
+constexpr double kMinRectangleSolidAngle = 1e-7;
+
+struct SphericalRectangle {
+    Vec3 o, x, y, z;                 // shading point and the local frame (z points away from the rectangle)
+    double x0 = 0, x1 = 0, y0 = 0, y1 = 0, z0 = 0;
+    double b0 = 0, b1 = 0, k = 0, solid_angle = 0;
+
+    SphericalRectangle(Vec3 point, Vec3 corner, Vec3 axis_u, Vec3 axis_v, double len_u, double len_v)
+        : o(point), x(axis_u), y(axis_v), z(cross(axis_u, axis_v)) {
+        const Vec3 d = corner - o;
+        x0 = dot(d, x);
+        y0 = dot(d, y);
+        z0 = dot(d, z);
+        if (z0 > 0) {
+            z0 = -z0;
+            z = -1.0 * z;
+        }
+        x1 = x0 + len_u;
+        y1 = y0 + len_v;
+        // Normals of the four planes through o and an edge (§3, Fig. 2), in the local frame.
+        const Vec3 v00{x0, y0, z0}, v01{x0, y1, z0}, v10{x1, y0, z0}, v11{x1, y1, z0};
+        const Vec3 n0 = normalize(cross(v00, v10)), n1 = normalize(cross(v10, v11));
+        const Vec3 n2 = normalize(cross(v11, v01)), n3 = normalize(cross(v01, v00));
+        auto interior = [](Vec3 a, Vec3 b) { return std::acos(std::clamp(-dot(a, b), -1.0, 1.0)); };
+        const double g0 = interior(n0, n1), g1 = interior(n1, n2), g2 = interior(n2, n3), g3 = interior(n3, n0);
+        b0 = n0.z;
+        b1 = n2.z;
+        k = kTwoPi - g2 - g3;
+        solid_angle = g0 + g1 - k;  // Girard: the sum of the angles minus 2 pi
+    }
+
+    // The point on the rectangle for (u, v) in [0, 1)^2 (§4, Algorithm 1).
+    Vec3 sample(double u, double v) const {
+        const double au = u * solid_angle + k;
+        const double fu = (std::cos(au) * b0 - b1) / std::sin(au);
+        double cu = (fu >= 0 ? 1.0 : -1.0) / std::sqrt(fu * fu + b0 * b0);
+        cu = std::clamp(cu, -1.0, 1.0);
+        double xu = -(cu * z0) / std::sqrt(std::max(1.0 - cu * cu, 1e-300));
+        xu = std::clamp(xu, x0, x1);
+        const double dist = std::sqrt(xu * xu + z0 * z0);
+        const double h0 = y0 / std::sqrt(dist * dist + y0 * y0), h1 = y1 / std::sqrt(dist * dist + y1 * y1);
+        const double hv = h0 + v * (h1 - h0), hv2 = hv * hv;
+        const double yv = hv2 < 1.0 - 1e-12 ? hv * dist / std::sqrt(1.0 - hv2) : y1;
+        return o + xu * x + yv * y + z0 * z;
+    }
+};
+
 // Nearest t in (tmin, tmax) where the ray meets the sphere.
 bool ray_sphere(Vec3 o, Vec3 d, double tmin, double tmax, Vec3 c, double r, double& t) {
     const Vec3 oc = o - c;
@@ -393,6 +444,20 @@ bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
         }
         case LightType::Area: {
             if (dot(co_ - p, normal_) > 0) return false;  // behind the one-sided light
+            if (samples_solid_angle()) {
+                const SphericalRectangle rect(p, area_corner(), axis_u_, axis_v_, len_u_, len_v_);
+                if (rect.solid_angle > kMinRectangleSolidAngle) {
+                    const Vec3 dv = rect.sample(u0, u1) - p;
+                    const double t = length(dv);
+                    if (!(t > 0)) return false;
+                    out.wi = (1.0 / t) * dv;
+                    out.distance = t;
+                    if (!(-dot(normal_, out.wi) > 0)) return false;
+                    out.pdf = 1.0 / rect.solid_angle;
+                    out.radiance = radiance_;
+                    return true;
+                }
+            }
             double x, y;
             if (ellipse_) {
                 sample_concentric_disk(u0, u1, x, y);
@@ -473,6 +538,10 @@ bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
             if (!(att > 0)) return false;
             out.t = t;
             out.pdf = t * t / (-denom * area_);
+            if (samples_solid_angle()) {
+                const SphericalRectangle rect(ray.org, area_corner(), axis_u_, axis_v_, len_u_, len_v_);
+                if (rect.solid_angle > kMinRectangleSolidAngle) out.pdf = 1.0 / rect.solid_angle;
+            }
             out.radiance = att * radiance_;
             return true;
         }

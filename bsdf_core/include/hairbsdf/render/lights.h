@@ -12,7 +12,10 @@
 //     irradiance at normal incidence equals strength; a delta light for angle 0.
 //   AREA: eval_fac = 1 / (pi * area), area = |u| |v| (x pi/4 for DISK / ELLIPSE), one-sided
 //     along the light's -Z; spread < pi attenuates by max((tan(spread/2) - tan a) N, 0)
-//     with Cycles' normalisation N.
+//     with Cycles' normalisation N. Squares and rectangles are sampled uniformly in the
+//     solid angle they subtend (Urena et al. 2013), as Cycles samples them: the light pdf
+//     enters the MIS weights, and area sampling has heavy tails near the light. Disks and
+//     ellipses (Cycles too), and rectangles with spread < pi, are sampled by area.
 //   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
@@ -78,6 +81,10 @@ public:
 private:
     double spot_attenuation(Vec3 from_light) const;
     double spread_attenuation(Vec3 to_light) const;
+    // Rectangles with the full spread are sampled uniformly in solid angle, as Cycles does;
+    // ellipses and narrowed spreads uniformly over their area.
+    bool samples_solid_angle() const { return !ellipse_ && full_spread_; }
+    Vec3 area_corner() const { return co_ - (0.5 * len_u_) * axis_u_ - (0.5 * len_v_) * axis_v_; }
 
     void make_tree_emitter(const LightDesc* desc);
 
