@@ -33,14 +33,8 @@ for frac in (0.0, 0.6, 0.9):
     for name, d in (("out", (0, 1, 0)), ("in", (0, -1, 0)), ("tangent", (1, 0, 0.3))):
         loc = (0.0, frac * 0.5, 0.0)
         hs.look_at(cam, loc, tuple(l + c for l, c in zip(loc, d)))
-        seen = []
-        for eng in ("CYCLES", "HAIRBSDF"):
-            scene.render.engine = eng
-            scene.render.filepath = TMP + "/inside.exr"
-            bpy.ops.render.render(write_still=True)
-            px, _ = fg.read_exr_rgba(scene.render.filepath)
-            px = np.asarray(px)
-            seen.append("wall" if px[..., 0].mean() > 0.5 else "world" if px[..., 1].mean() > 0.5 else "mixed")
+        seen = ["wall" if px[..., 0].mean() > 0.5 else "world" if px[..., 1].mean() > 0.5 else "mixed"
+                for px in render_engines(scene, "inside_").values()]
         out[f"{frac:.1f} {name}"] = seen
 emit({"version": bpy.app.version_string, "seen": out})
 '''
@@ -70,13 +64,7 @@ hs.curves_grid("Fat", nx=1, ny=1, n_points=6, length=4.0, radius=0.5, material=m
 world = bpy.data.worlds.new("W"); world.use_nodes = False; world.color = (0, 0, 0); scene.world = world
 hs.make_camera(location=(0.0, 0.3, -0.4), target=(0.6, -0.2, 0.5), lens=18.0)
 hs.make_light("SUN", energy=3.0, location=(0, 0, 0), target=(0.2, 0.4, -1.0))
-out = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    scene.render.filepath = os.path.join(TMP, eng + ".exr")
-    bpy.ops.render.render(write_still=True)
-    px, _ = fg.read_exr_rgba(scene.render.filepath)
-    out[eng] = np.asarray(px)[..., :3].mean(axis=2)
+out = {eng: px[..., :3].mean(axis=2) for eng, px in render_engines(scene).items()}
 emit({"version": bpy.app.version_string, "images": out, "status": engine.LAST_RENDER.get("status")})
 '''
 

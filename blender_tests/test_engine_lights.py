@@ -48,13 +48,7 @@ for name in list(lights) + ["world"]:
     for n, o in lights.items():
         o.hide_render = n != name
     world.color = (0.3, 0.3, 0.3) if name == "world" else (0.0, 0.0, 0.0)
-    r = {}
-    for eng in ("CYCLES", "HAIRBSDF"):
-        scene.render.engine = eng
-        scene.render.filepath = os.path.join(TMP, f"{name}_{eng}.exr")
-        bpy.ops.render.render(write_still=True)
-        px, _ = fg.read_exr_rgba(scene.render.filepath)
-        r[eng] = np.asarray(px)[..., :3]
+    r = {eng: px[..., :3] for eng, px in render_engines(scene, f"{name}_").items()}
     assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
     out[name] = {"cycles": float(r["CYCLES"].mean()), "ours": float(r["HAIRBSDF"].mean()),
                  # noise of the difference of the means, from 2 x 2 pixel blocks (neighbours

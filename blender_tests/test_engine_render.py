@@ -204,14 +204,7 @@ hs.add_particle_hair(plane, count=25, length=0.4, radius_scale=0.04, tip=1.0, cl
                      child_type="NONE", material_slot=1, render_step=2)
 hs.make_camera(location=(0.4, -3.0, 1.0), target=(0.2, 0.0, 0.3), lens=40.0, sensor_fit=ARGS["fit"],
                shift=(0.08, -0.05))
-out = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    p = os.path.join(TMP, eng + ".exr")
-    scene.render.filepath = p
-    bpy.ops.render.render(write_still=True)
-    px, (w, h) = fg.read_exr_rgba(p)
-    out[eng] = np.asarray(px)[..., 3]
+out = {eng: px[..., 3] for eng, px in render_engines(scene).items()}
 out["status"] = engine.LAST_RENDER.get("status")
 emit(out)
 '''
@@ -248,13 +241,7 @@ hs.make_light("POINT", energy=100.0, location=(-2, -1, 2), shadow_soft_size=0.2)
 scene.world = bpy.data.worlds.new("W"); scene.world.use_nodes = False; scene.world.color = (0.02, 0.02, 0.02)
 cy = scene.cycles
 cy.max_bounces = cy.glossy_bounces = cy.transmission_bounces = cy.diffuse_bounces = 4
-out = {}
-for eng in ("CYCLES", "HAIRBSDF"):
-    scene.render.engine = eng
-    scene.render.filepath = os.path.join(TMP, eng + ".exr")
-    bpy.ops.render.render(write_still=True)
-    px, _ = fg.read_exr_rgba(scene.render.filepath)
-    out[eng] = np.asarray(px)
+out = render_engines(scene)
 m = (out["CYCLES"][..., 3] > 0.99) & (out["HAIRBSDF"][..., 3] > 0.99)
 emit({"n": int(m.sum()), "cycles": out["CYCLES"][m][:, :3].mean(0), "hairbsdf": out["HAIRBSDF"][m][:, :3].mean(0),
       "status": engine.LAST_RENDER.get("status")})

@@ -87,13 +87,7 @@ for case in ARGS["cases"]:
     # every view for Linear, the seam and zenith view for the others (CI time)
     for view, target in VIEWS.items() if case == "linear" else [("seam_zenith", VIEWS["seam_zenith"])]:
         hs.look_at(cam, (0.0, 0.0, 0.0), target)
-        r = {}
-        for eng in ("CYCLES", "HAIRBSDF"):
-            scene.render.engine = eng
-            scene.render.filepath = os.path.join(TMP, f"{case}_{view}_{eng}.exr")
-            bpy.ops.render.render(write_still=True)
-            p, _ = fg.read_exr_rgba(scene.render.filepath)
-            r[eng] = np.asarray(p)[..., :3]
+        r = {eng: px[..., :3] for eng, px in render_engines(scene, f"{case}_{view}_").items()}
         assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
         cy, ours = r["CYCLES"].reshape(-1, 3), r["HAIRBSDF"].reshape(-1, 3)
         rel = np.abs(ours - cy) / np.maximum(np.abs(cy), 1e-3)

@@ -39,16 +39,18 @@ constexpr int kLobeCount = 6;
 constexpr int kChiangLobeCount = 4;
 enum Lobe { LobeR = 0, LobeTT = 1, LobeTRT = 2, LobeTRRT = 3, LobeTTs = 4, LobeTRTs = 5 };
 
+inline RGB sum_of_lobes(const std::array<RGB, kLobeCount>& lobes) {
+    RGB sum = lobes[0];
+    for (int p = 1; p < kLobeCount; ++p) sum += lobes[size_t(p)];
+    return sum;
+}
+
 // Value of a closure for one direction pair: per-lobe RGB values including the cosine
 // factor, and the density `sample` reports for this direction.
 struct BsdfEval {
     std::array<RGB, kLobeCount> lobes{};
     double pdf = 0;
-    RGB value() const {
-        RGB sum = lobes[0];
-        for (int p = 1; p < kLobeCount; ++p) sum += lobes[p];
-        return sum;
-    }
+    RGB value() const { return sum_of_lobes(lobes); }
 };
 
 struct BsdfSample {

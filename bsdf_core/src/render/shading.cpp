@@ -274,14 +274,6 @@ std::array<RGB, kLobeCount> Bsdf::eval_huang(int i, Vec3 wi) const {
     return lobes;
 }
 
-namespace {
-RGB lobe_sum(const std::array<RGB, kLobeCount>& lobes) {
-    RGB sum = lobes[0];
-    for (int k = 1; k < kLobeCount; ++k) sum += lobes[size_t(k)];
-    return sum;
-}
-}  // namespace
-
 BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     const Entry& e = entries_[size_t(i)];
     BsdfValue out;
@@ -289,7 +281,7 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
     if (e.kind == Entry::Kind::Model) {
         const BsdfEval r = model_points_[size_t(i)].eval(wi);
         for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-        out.value = lobe_sum(out.lobes);
+        out.value = sum_of_lobes(out.lobes);
         out.pdf = r.pdf;
         return out;
     }
@@ -298,7 +290,7 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
         out.pdf = e.huang->pdf(sp, wi);
         if (out.pdf > 0) {
             out.lobes = eval_huang(i, wi);
-            out.value = lobe_sum(out.lobes);
+            out.value = sum_of_lobes(out.lobes);
         }
         return out;
     }
@@ -306,7 +298,7 @@ BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
         const BsdfEval r = e.kind == Entry::Kind::Hair ? e.hair->eval(*points_[size_t(i)], wi)
                                                        : e.legacy->eval(*legacy_points_[size_t(i)], wi);
         for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-        out.value = lobe_sum(out.lobes);
+        out.value = sum_of_lobes(out.lobes);
         out.pdf = r.pdf;
     } else {
         // Cycles' diffuse eval tests only N; its sampler also requires Ng . wi > 0.
@@ -398,7 +390,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
             own.pdf = e.huang->pdf_local(sp, local);
             if (!(own.pdf > 0)) return out;
             own.lobes = eval_huang(picked, out.wi);
-            own.value = lobe_sum(own.lobes);
+            own.value = sum_of_lobes(own.lobes);
         }
         out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
     } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
