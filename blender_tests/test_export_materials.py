@@ -266,5 +266,6 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert it["light_sampling_threshold"] == pytest.approx(0.02) and it["filter_glossy"] == pytest.approx(0.5)
     assert it["tilt"] == ("4.2" if v >= (4, 2, 0) else "3.4")
     assert it["light_tree"] is (v >= (4, 0, 0))  # Cycles 4.x: use_light_tree on by default; 3.x has no tree
+    assert it["chiang_lcg"] is (v < (3, 6, 0))  # Cycles < 3.6: Chiang's longitudinal numbers from its LCG
     assert desc["curve_shape"] == "RIBBONS" and desc["curve_subdivisions"] == 3
     assert "Denoising" in warnings

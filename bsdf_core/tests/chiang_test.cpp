@@ -216,3 +216,38 @@ TEST(ChiangHair, FuzzNoNanNoInf) {
         }
     }
 }
+
+// Cycles < 3.6's per-hit LCG (sample/lcg.h: state = 1103515245 state + 12345; lcg_init steps once,
+// each float is state / 0xFFFFFFFF): the first numbers for seed 0, and the shift that a bounce's
+// rng_offset of 16 puts between successive hits of one path (16 a^2 and 16 a^3 mod 2^32).
+TEST(ChiangHair, CyclesLcgLongitudinalNumbers) {
+    const LongitudinalNumbers first = LongitudinalNumbers::from_cycles_lcg(0);
+    EXPECT_NEAR(first.theta, 3554416254.0 / 4294967295.0, 1e-15);
+    EXPECT_NEAR(first.azimuth, 2802067423.0 / 4294967295.0, 1e-15);
+    auto frac = [](double x) { return x - std::floor(x); };
+    for (uint32_t seed : {0u, 7u, 123456789u, 4294967290u}) {
+        const LongitudinalNumbers a = LongitudinalNumbers::from_cycles_lcg(seed);
+        const LongitudinalNumbers b = LongitudinalNumbers::from_cycles_lcg(seed + 16u);
+        EXPECT_NEAR(frac(b.theta - a.theta + 1.0), 0.1646980382502079, 1e-8) << seed;
+        EXPECT_NEAR(frac(b.azimuth - a.azimuth + 1.0), 0.030697543174028397, 1e-8) << seed;
+    }
+}
+
+// With given longitudinal numbers the sampler uses them for theta_i and the cone azimuth: the
+// sample equals the one whose u2 rescales to that theta number and whose u1 is the azimuth.
+TEST(ChiangHair, SampleTakesGivenLongitudinalNumbers) {
+    PrincipledHairInputs in;
+    in.parametrization = Parametrization::Melanin;
+    const ChiangHair hair(chiang_params_from_principled(in, Accuracy::Cycles, TiltConvention::Blender34));
+    const auto sp = hair.prepare(fibre_context(normalize(Vec3{0.3, 0.4, 0.8}), 0.2));
+    const double u2 = 0.05;  // inside the R lobe's share (R is picked first)
+    const double share = sp.view.lobe_weight[0];
+    ASSERT_GT(share, u2);
+    const LongitudinalNumbers given{u2 / share, 0.7};
+    const BsdfSample with = hair.sample(sp, {0.3, 0.1, u2}, &given);
+    const BsdfSample plain = hair.sample(sp, {0.3, 0.7, u2});
+    ASSERT_EQ(with.lobe, 0);
+    EXPECT_NEAR(length(with.wi - plain.wi), 0.0, 1e-12);
+    const BsdfSample other = hair.sample(sp, {0.3, 0.1, u2}, nullptr);
+    EXPECT_GT(length(other.wi - plain.wi), 1e-6);
+}

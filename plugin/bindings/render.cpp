@@ -528,6 +528,7 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     real("clamp_indirect", s.clamp_indirect);
     if (auto o = get_optional(in, "film_transparent")) s.film_transparent = as_bool(*o, sub(key, "film_transparent"));
     if (auto o = get_optional(in, "light_tree")) s.light_tree = as_bool(*o, sub(key, "light_tree"));
+    if (auto o = get_optional(in, "chiang_lcg")) s.chiang_lcg = as_bool(*o, sub(key, "chiang_lcg"));
     if (auto o = get_optional(in, "tilt"))
         s.tilt = as_enum<TiltConvention>(*o, sub(key, "tilt"),
                                          {{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}});

@@ -456,8 +456,9 @@ def _check_integrator(scene, out):
             d[name] = _Checker.real(f"{key}['{name}']", s[name])
     if s.get("film_transparent") is not None:
         d["film_transparent"] = _Checker.boolean(f"{key}['film_transparent']", s["film_transparent"])
-    if s.get("light_tree") is not None:
-        d["light_tree"] = _Checker.boolean(f"{key}['light_tree']", s["light_tree"])
+    for name in ("light_tree", "chiang_lcg"):
+        if s.get(name) is not None:
+            d[name] = _Checker.boolean(f"{key}['{name}']", s[name])
     if s.get("tilt") is not None:
         d["tilt"] = _Checker.choice(f"{key}['tilt']", s["tilt"], TILTS)
     if s.get("accuracy") is not None:

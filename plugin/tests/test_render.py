@@ -410,6 +410,50 @@ def test_light_tree_changes_only_the_noise_with_delta_lights():
     assert abs(d.mean()) < 4 * d.std() / math.sqrt(d.size) + 1e-6, (d.mean() / mean, d.std() / math.sqrt(d.size) / mean)
 
 
+def _curtain(n=40, layers=2, radius=0.008, spacing=0.0125):
+    """`layers` rows of n straight parallel strands along -z (x spacing `spacing`, rows 0.02 apart)."""
+    pts, off = [], [0]
+    for layer in range(layers):
+        for k in range(n):
+            x = -0.5 * n * spacing + (k + 0.5) * spacing
+            pts += [[x, 0.02 * layer, 0.35 - 0.7 * j / 13, radius] for j in range(14)]
+            off.append(len(pts))
+    c = len(off) - 1
+    return {"points": np.array(pts, np.float32), "curve_offsets": np.array(off, np.int32),
+            "curve_random": np.asarray(hairbsdf.cycles_curve_random(np.arange(c)), np.float32),
+            "curve_material": np.zeros(c, np.int32)}
+
+
+def test_chiang_lcg_changes_only_paths_with_two_or_more_scatters():
+    """integrator.chiang_lcg (Cycles < 3.6) draws Chiang's longitudinal numbers from a per-hit LCG
+    whose seed moves by 16 per bounce: each number is uniform, so light after one scatter keeps its
+    expectation, but successive scatters are correlated, which changes light after two or more (here
+    between two rows of parallel strands: about +40 % at three bounces; Blender 3.4's ribbons_vs_3d
+    +4 % at two, docs/engine.md)."""
+    camera, _ = _ortho_camera(_unit((0.1, -1.0, 0.05)), 0.5, (32, 32))
+    lights = [{"type": "SUN", "direction": tuple(_unit((-0.8, -1.0, 0.8))), "strength": (3, 3, 3)}]
+    material = _hair_material(parametrization="COLOR", color=(0.35, 0.2, 0.1), roughness=0.25,
+                              radial_roughness=0.3, coat=0.1, offset=0.0349066)
+
+    def relative_difference(bounces):
+        integ = _integrator(samples=512, film_transparent=True, tilt="3.4", max_bounces=bounces,
+                            glossy_bounces=bounces, transmission_bounces=bounces)
+        scene = {"curves": _curtain(), "curve_shape": "RIBBONS", "materials": [material], "camera": camera,
+                 "lights": lights, "world": {"color": (0, 0, 0)}, "integrator": integ}
+        imgs = [render(dict(scene, integrator=dict(integ, chiang_lcg=on)), threads=2)["combined"]
+                for on in (False, True)]
+        hair = (imgs[0][..., 3] > 0.99) & (imgs[1][..., 3] > 0.99)
+        assert hair.sum() > 500
+        d = (imgs[1][..., :3] - imgs[0][..., :3])[hair].mean(axis=1)
+        mean = imgs[0][..., :3][hair].mean()
+        return d.mean() / mean, d.std() / math.sqrt(d.size) / mean
+
+    one, one_se = relative_difference(1)
+    assert abs(one) < 4 * one_se, (one, one_se)
+    three, three_se = relative_difference(3)
+    assert three > 5 * three_se and three > 0.2, (three, three_se)
+
+
 def test_light_tree_nee_and_forward_pdfs_agree_on_a_diffuse_clump():
     """A diffuse closure's pdf is its sampling density, so with MIS the image is unbiased for any
     light pick, provided NEE and the BSDF ray's hit use the same selection pdf: lights with a

@@ -204,6 +204,8 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             for (size_t k = 0; k < shares.size(); ++k) res.lobes[k] += shares[k] * c;
         return c;
     };
+    // Cycles < 3.6 (integrator.chiang_lcg): the per-path part of its per-hit LCG seed.
+    const uint32_t lcg_path_seed = is.chiang_lcg ? uint32_t(rng.next() * 4294967296.0) : 0u;
     auto forward_mis = [&](double light_pdf) { return camera ? 1.0 : power_heuristic(mis_ray_pdf, light_pdf); };
     auto selection = [&](int light) { return camera ? 0.0 : s.lights.selection_pdf(light, mis_origin); };
 
@@ -295,7 +297,13 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
 
         // BSDF sample.
         const double u0 = rng.next(), u1 = rng.next(), u2 = rng.next();
-        const BsdfScatter sc = bsdf.sample(u0, u1, u2);
+        LongitudinalNumbers lcg_numbers;
+        if (is.chiang_lcg) {
+            // Cycles' rng_offset grows by 16 at every path_state_next: each scatter and each
+            // transparent step (lights crossed, transparent closures).
+            lcg_numbers = LongitudinalNumbers::from_cycles_lcg(lcg_path_seed + 16u * uint32_t(bounce + transparent));
+        }
+        const BsdfScatter sc = bsdf.sample(u0, u1, u2, is.chiang_lcg ? &lcg_numbers : nullptr);
         if (sc.label == LabelNone) return res;
         throughput = throughput * ((1.0 / sc.pdf) * sc.value);
         if (!isfinite(throughput)) {

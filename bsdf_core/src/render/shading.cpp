@@ -345,7 +345,7 @@ BsdfValue Bsdf::eval(Vec3 wi) const {
     return out;
 }
 
-BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
+BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal) const {
     BsdfScatter out;
     if (count_ == 0) return out;
     // Pick a closure with u2 and rescale it (Cycles' surface_shader_bsdf_bssrdf_pick).
@@ -394,7 +394,8 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2) const {
         }
         out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
     } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
-        const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2})
+        const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2},
+                                                                          chiang_longitudinal)
                                                          : e.legacy->sample(*legacy_points_[size_t(picked)], {u0, u1, u2});
         if (s.lobe < 0 || !(s.pdf > 0)) return out;
         out.wi = s.wi;

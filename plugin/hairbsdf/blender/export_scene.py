@@ -36,6 +36,7 @@ class _Cancelled(Exception):
 # Blender versions before this one cull back faces of 3D curves (their Embree 3 build; 3.6 moved
 # to Embree 4, which reports the inner wall to rays starting inside a tube).
 CURVE_CULLING_BEFORE = (3, 6, 0)
+CHIANG_LCG_BEFORE = (3, 6, 0)  # blender/cycles 598483b43, first released in 3.6
 
 
 def _get(obj, name, default):
@@ -99,6 +100,8 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "light_sampling_threshold": float(g("light_sampling_threshold", 0.01)),
         # Cycles 4.x picks NEE lights with its light tree (on by default); 3.x has none.
         "light_tree": bool(g("use_light_tree", True)) if blender_version() >= (4, 0, 0) else False,
+        # Cycles < 3.6 draws Chiang's longitudinal sample numbers from a per-hit LCG (correlated).
+        "chiang_lcg": blender_version() < CHIANG_LCG_BEFORE,
         "filter_glossy": float(g("blur_glossy", 1.0)),
         "clamp_direct": float(g("sample_clamp_direct", 0.0)),
         "clamp_indirect": float(g("sample_clamp_indirect", 10.0)),

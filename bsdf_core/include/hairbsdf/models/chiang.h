@@ -15,6 +15,27 @@ enum class Accuracy { Cycles, Exact };
 // Blender 3.4-4.1 rotated the light angle theta_i and used the older sampler (notes §4.4, §5b).
 enum class TiltConvention { Blender42, Blender34 };
 
+// The longitudinal sampler's two numbers as Cycles before 3.6 drew them: from an LCG seeded per
+// hit with (pixel hash + rng_offset + sample x scramble), where rng_offset grows by 16 at every
+// bounce, so a path's successive draws are shifted copies of each other (+0.1647 and +0.0307
+// mod 1). That correlation adds light after two or more bounces (docs/engine.md); Cycles 3.6
+// draws them independently. `from_cycles_lcg(seed)`: lcg_init, then two float steps.
+struct LongitudinalNumbers {
+    double theta = 0.5;    // picks sin(theta_i) within the lobe's cone
+    double azimuth = 0.5;  // the azimuth around the cone
+    static LongitudinalNumbers from_cycles_lcg(uint32_t seed) {
+        auto step = [](uint32_t& state) { state = 1103515245u * state + 12345u; };
+        uint32_t state = seed;
+        step(state);  // lcg_init
+        LongitudinalNumbers out;
+        step(state);
+        out.theta = double(state) * (1.0 / 4294967295.0);
+        step(state);
+        out.azimuth = double(state) * (1.0 / 4294967295.0);
+        return out;
+    }
+};
+
 // Model parameters, already mapped (roughness -> variance and logistic scale).
 struct ChiangHairParams {
     RGB sigma_a{0.0};             // absorption per unit fibre diameter
@@ -211,11 +232,13 @@ public:
     double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
 
     // u = (u0, u1, u2): u2 picks the lobe and, rescaled, theta_i; u1 the azimuth of the
-    // longitudinal sampler; u0 the azimuthal offset (docs/conventions.md).
+    // longitudinal sampler; u0 the azimuthal offset (docs/conventions.md). `longitudinal`, when
+    // given, replaces the numbers for theta_i and the azimuth (Cycles < 3.6, see above).
     BsdfSample sample(const ShadingContext& ctx, const std::array<double, 3>& u) const {
         return sample(prepare(ctx), u);
     }
-    BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u) const {
+    BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u,
+                      const LongitudinalNumbers* longitudinal = nullptr) const {
         BsdfSample out;
         const FibreFrame& frame = sp.frame;
         const ViewTerms& vt = sp.view;
@@ -229,7 +252,9 @@ public:
         }
         u_lobe = vt.lobe_weight[p] > 0 ? u_lobe / vt.lobe_weight[p] : 0.5;
 
-        const LobeDirection d = sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
+        const LobeDirection d = longitudinal
+                                    ? sample_lobe_direction(vt, p, longitudinal->theta, longitudinal->azimuth, u[0])
+                                    : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         return sample_from_eval(frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi),
                                 eval_local(vt, sin_theta_i, cos_theta_i, phi), p);

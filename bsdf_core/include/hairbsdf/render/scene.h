@@ -144,6 +144,9 @@ struct IntegratorSettings {
     double filter_glossy = 0.0;             // Cycles' blur_glossy; 0 = off
     double clamp_direct = 0.0, clamp_indirect = 0.0;  // 0 = off
     TiltConvention tilt = TiltConvention::Blender42;
+    // Blender < 3.6: Chiang's longitudinal sample numbers from Cycles' per-hit LCG, correlated
+    // along a path (LongitudinalNumbers in models/chiang.h); brightens multiple scattering.
+    bool chiang_lcg = false;
     Accuracy accuracy = Accuracy::Cycles;   // Chiang's special functions: Cycles' or exact
     // Huang's BSDF sampler: Cycles' (its energy-estimate weight, pdf 1: Cycles' estimator, so the
     // image's expected value is Cycles') or the mixture with an exact pdf (docs/huang.md §10).

@@ -138,7 +138,8 @@ public:
     // Transmission, hair_model closures); the light tree then ignores the side of N.
     bool has_transmission() const;
     BsdfValue eval(Vec3 wi) const;
-    BsdfScatter sample(double u0, double u1, double u2) const;
+    // `chiang_longitudinal`: Cycles < 3.6's LCG numbers for Principled Hair (Chiang) closures.
+    BsdfScatter sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal = nullptr) const;
 
 private:
     struct Entry {
