@@ -88,31 +88,34 @@ def compare(roughness, offset, aspect, theta_o_deg, rays, bins=(12, 24), trt_poi
 
 
 def test_bruteforce_cylinder_small():
-    """One circular configuration without tilt, each lobe traced with 1e6 rays forced onto its path
-    (Fresnel factors as weights). Measured: TT 0.6 %, R 1.8 % (energy -0.6 %: the model's h
-    interval ends at +-0.999 like Cycles', where grazing Fresnel reflection is largest), TRT 3.7 %
-    (3.3 % with 16 384 TRT points: the model's TRT quadrature, docs/huang.md §4 and §8)."""
-    r = compare(0.3, 0.0, 1.0, 25.0, rays=1_000_000, bins=(12, 24), trt_points=1024, forced=True)
+    """One circular configuration without tilt, each lobe traced with 4e6 rays forced onto its path
+    (Fresnel factors as weights), the model's TRT with 1024 points per node (CI cost). Measured:
+    R 1.2 %, TT 0.4 %, TRT 2.4 %; the brute force's own noise is about 0.6 %, 0.3 % and 1.6 % of that
+    (l1_noise), and 1024 TRT points add about 1.4 % to TRT (docs/huang.md §8). The converged
+    comparison (3.2e7 rays, 8192 TRT points: R 0.9 %, TT 0.2 %, TRT 0.7 %) is the slow grid below."""
+    r = compare(0.3, 0.0, 1.0, 25.0, rays=4_000_000, bins=(12, 24), trt_points=1024, forced=True, chunks=4)
     print(r)
     assert r["TT"]["l1"] <= 0.02, r
-    assert r["R"]["l1"] <= 0.025, r
-    assert r["TRT"]["l1"] <= 0.05, r
+    assert r["R"]["l1"] <= 0.02, r
+    assert r["TRT"]["l1"] <= 0.03, r
     for name in LOBES:
         assert abs(r[name]["energy_model"] / r[name]["energy_traced"] - 1) <= 0.02, (name, r)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("roughness,offset,aspect", [(0.1, 0.0, 1.0), (0.3, 0.0, 1.0), (0.5, 0.0, 1.0),
-                                                      (0.3, -0.0349, 1.0), (0.3, 0.0, 0.8), (0.3, -0.0349, 0.8)])
+                                                      (0.3, 0.0, 0.8), (0.3, -0.0349, 1.0), (0.3, -0.0349, 0.8)])
 def test_bruteforce_cylinder_grid(roughness, offset, aspect):
-    """TT <= 2 %. R and TRT are reported (docs/huang.md §8): without tilt R is within about 2 % and
-    TRT within 2-4 % (the model's TRT quadrature); with a cuticle tilt the model's projected-area
-    factor 1/(wo . n) (geometric normal) differs from the traced 1/(wo . m) (mesonormal) by
-    cos t + tan theta tan t / cos gamma, a few % in R. Narrow lobes need more Gauss points per bin."""
-    gauss = 6 if roughness < 0.2 else 2
-    r = compare(roughness, offset, aspect, 25.0, rays=2_000_000, bins=(12, 24), trt_points=4096, forced=True,
-                gauss=gauss)
+    """Issue 6's bound, per lobe L1 <= 2 % for R, TT and TRT, without tilt (circular and elliptical,
+    alpha 0.1-0.5), at 3.2e7 rays per lobe and 8192 TRT points (the brute force's own noise then
+    stays below 0.6 %). With a cuticle tilt the model keeps Cycles' projected-area factor 1/(wo . n)
+    (geometric normal) where the traced fibre gives 1/(wo . m) (mesonormal), a ratio
+    cos t + tan theta tan t / cos gamma: a few % in R and TRT, reported and bounded at 8 %. Narrow
+    lobes need more Gauss points per bin. About 10 minutes per case on 2 cores."""
+    gauss = 4 if roughness < 0.2 else 2
+    r = compare(roughness, offset, aspect, 25.0, rays=32_000_000, bins=(12, 24), trt_points=8192, forced=True,
+                gauss=gauss, chunks=16)
     print(roughness, offset, aspect, r)
     assert r["TT"]["l1"] <= 0.02, r
     for name in ("R", "TRT"):
-        assert r[name]["l1"] <= 0.08, (name, r)
+        assert r[name]["l1"] <= (0.02 if offset == 0 else 0.08), (name, r)
