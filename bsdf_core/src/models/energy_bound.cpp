@@ -62,7 +62,7 @@ QuadratureRule graded_gauss_legendre_rule(double lo, double hi, int panels, bool
     auto graded = [&](double a, double b, bool towards_a) {
         double len = b - a;
         double edge = towards_a ? a : b;
-        for (int level = 0; level < 6; ++level) {
+        for (int level = 0; level < 4; ++level) {
             const double inner = 0.75 * len;  // the part kept at this level
             if (towards_a) {
                 append_gauss_legendre(r, edge + len - inner, edge + len, 1);

@@ -67,7 +67,7 @@ struct QuadratureRule {
 QuadratureRule gauss_legendre_rule(double lo, double hi, int panels);
 // The same rule appended to `rule` (piecewise rules with breakpoints).
 void append_gauss_legendre(QuadratureRule& rule, double lo, double hi, int panels);
-// `panels` equal panels, the first / last one replaced by panels shrinking geometrically (4x, 6
+// `panels` equal panels, the first / last one replaced by panels shrinking geometrically (4x, 4
 // levels) towards lo / hi where fine_lo / fine_hi: for integrands steep at a clipped end.
 QuadratureRule graded_gauss_legendre_rule(double lo, double hi, int panels, bool fine_lo, bool fine_hi);
 

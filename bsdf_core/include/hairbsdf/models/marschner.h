@@ -20,7 +20,7 @@
 //
 // Energy (docs/models.md §4): energy = Bounded (the default) divides eval per channel by
 // max(1, E_c), E_c the published model's directional albedo at this view and cross-section
-// orientation, from a table over theta_o x cos(2 phi_major) (src/models/marschner_energy.cpp).
+// orientation, from a table over theta_o x phi_major (src/models/marschner_energy.cpp).
 // Published: the paper's model (with the deviations above). Sampler and pdf are the same for both.
 #pragma once
 
@@ -44,7 +44,7 @@ struct MarschnerHairParams {
     EnergyMode energy = EnergyMode::Bounded;
 };
 
-// The table of the published albedo over theta_o x cos(2 phi_major) for these parameters (energy
+// The table of the published albedo over theta_o x phi_major for these parameters (energy
 // ignored), from the process-wide cache.
 std::shared_ptr<const EnergyBoundTable> marschner_energy_table(const MarschnerHairParams& params);
 
@@ -65,21 +65,23 @@ public:
     const MarschnerHairParams& params() const { return params_; }
     const std::shared_ptr<const EnergyBoundTable>& energy_table() const { return energy_table_; }
 
-    // The table's orientation nodes: u = cos(2 phi_major) = 1, 0, -1 (phi_major = 0, pi/4, pi/2).
-    // E depends on phi_major only through TRT's eta*(phi_h), is pi-periodic and even in it, so
-    // its Fourier series is in cos(2 k phi_major); quadratic interpolation in u is exact for the
-    // first two harmonics.
-    static constexpr int kOrientations = 3;
-    static double orientation_phi_major(int j) { return 0.25 * kPi * j; }
+    // The table's orientation nodes: E depends on the major axis phi_major only through TRT's
+    // eta*(phi_h); it is pi-periodic and even in phi_major, so phi_major in [0, pi/2] suffices.
+    // Nodes uniform there (linear in between): 1 for a circular fibre, else 9 (11.25 deg apart; with
+    // glints E has features about 20 deg wide in phi_major).
+    static int orientation_nodes(double eccentricity) { return eccentricity >= 1.0 ? 1 : 9; }
+    static double orientation_phi_major(int j, int nodes) { return nodes > 1 ? 0.5 * kPi * j / (nodes - 1) : 0.0; }
     // E_c at theta_o for the cross-section's axis at phi_major (energy = Bounded only).
     RGB bound_albedo(double theta_o, double phi_major) const {
-        const double u = std::cos(2.0 * phi_major);
-        const RGB e1 = energy_table_->albedo(theta_o, 0), e0 = energy_table_->albedo(theta_o, 1),
-                  em = energy_table_->albedo(theta_o, 2);
-        // Lagrange through u = 1, 0, -1.
-        const double l1 = 0.5 * u * (u + 1.0), l0 = 1.0 - u * u, lm = 0.5 * u * (u - 1.0);
-        return l1 * e1 + l0 * e0 + lm * em;
+        const int n = energy_table_->orientations();
+        if (n == 1) return energy_table_->albedo(theta_o, 0);
+        double a = std::fabs(std::remainder(phi_major, kPi));  // fold into [0, pi/2]
+        const double x = clamp(a / (0.5 * kPi) * (n - 1), 0.0, n - 1.0);
+        const int lo = std::min(int(x), n - 2);
+        const double f = x - lo;
+        return (1.0 - f) * energy_table_->albedo(theta_o, lo) + f * energy_table_->albedo(theta_o, lo + 1);
     }
+
     std::array<double, 2> angular_scales() const {
         return {std::max(beta_[1], 2e-3), std::max(std::min(0.2, 0.5 * params_.caustic_width), 2e-3)};
     }
@@ -195,6 +197,18 @@ public:
         return (m * g.geometry) * n;
     }
 
+    // A(p, h) for the incidence gamma_i (public: the energy table integrates it over h) (the h = sin gamma_i) with indices (e1, e2) of the 2D problem.
+    RGB attenuation(int p, double e1, double e2, double gamma_i, double cos_theta_t) const {
+        if (p == 0) return RGB(fresnel2(e1, e2, gamma_i));
+        const double gamma_t = safe_asin(std::sin(gamma_i) / e1);
+        const double f_in = fresnel2(e1, e2, gamma_i);
+        const double f_back = fresnel2(1.0 / e1, 1.0 / e2, gamma_t);
+        const RGB T = exp((-2.0 * std::cos(gamma_t) / cos_theta_t) * params_.sigma_a);
+        RGB a = sqr(1.0 - f_in) * T;
+        if (p == 2) a = (f_back * a) * T;
+        return a;
+    }
+
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         BsdfEval out;
         const double sin_theta_i = sp.frame.sin_theta(wi);
@@ -247,18 +261,6 @@ public:
 private:
     static double gaussian(double beta, double x) {
         return std::exp(-0.5 * sqr(x / beta)) / (beta * 2.5066282746310002);
-    }
-
-    // A(p, h) for the incidence gamma_i (the h = sin gamma_i) with indices (e1, e2) of the 2D problem.
-    RGB attenuation(int p, double e1, double e2, double gamma_i, double cos_theta_t) const {
-        if (p == 0) return RGB(fresnel2(e1, e2, gamma_i));
-        const double gamma_t = safe_asin(std::sin(gamma_i) / e1);
-        const double f_in = fresnel2(e1, e2, gamma_i);
-        const double f_back = fresnel2(1.0 / e1, 1.0 / e2, gamma_t);
-        const RGB T = exp((-2.0 * std::cos(gamma_t) / cos_theta_t) * params_.sigma_a);
-        RGB a = sqr(1.0 - f_in) * T;
-        if (p == 2) a = (f_back * a) * T;
-        return a;
     }
 
     // N_p(phi) for relative index eta (eta* for TRT): roots of the cubic phi(gamma_i), with the TRT
