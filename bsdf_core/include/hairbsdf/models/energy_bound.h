@@ -6,10 +6,11 @@
 //
 // E is tabulated at construction: 65 to 1025 nodes in theta_o (more for narrower lobes; dense near
 // grazing, where Marschner's 1 / cos^2 theta_d makes it steep), linear in between, times a few
-// "orientation" nodes for a
-// model whose albedo also depends on something else (Marschner: the cross-section's axis). Each
-// node is a deterministic quadrature of each lobe around its own peak (the models' .cpp files).
-// Tables are cached process-wide, keyed by the model name and its parameter values.
+// "orientation" nodes for a model whose albedo also depends on something else (Marschner: the
+// cross-section's axis). Each node is a deterministic quadrature of each lobe around its own peak
+// (src/models/epic_energy.cpp, marschner_energy.cpp). Tables are cached process-wide, keyed by the
+// model name and its parameter values. The scale depends on the view, so a bounded model is not
+// reciprocal where it scales.
 #pragma once
 
 #include <array>
@@ -37,6 +38,7 @@ public:
     // at theta_o = 0, denser towards grazing, where Marschner's 1 / cos^2 theta_d makes E steep).
     static double view_theta(int k, int views);
 
+    // E per [orientation][view] node, RGB; build_seconds is set by the cache.
     explicit EnergyBoundTable(int views = kMinViews, int orientations = 1)
         : views_(views), orientations_(orientations), albedo_(size_t(orientations) * size_t(views)) {}
     int views() const { return views_; }

@@ -197,7 +197,8 @@ public:
         return (m * g.geometry) * n;
     }
 
-    // A(p, h) for the incidence gamma_i (public: the energy table integrates it over h) (the h = sin gamma_i) with indices (e1, e2) of the 2D problem.
+    // A(p, h) for the incidence gamma_i (h = sin gamma_i) with indices (e1, e2) of the 2D problem.
+    // Public: the energy table integrates it over h.
     RGB attenuation(int p, double e1, double e2, double gamma_i, double cos_theta_t) const {
         if (p == 0) return RGB(fresnel2(e1, e2, gamma_i));
         const double gamma_t = safe_asin(std::sin(gamma_i) / e1);
