@@ -43,6 +43,8 @@ const std::vector<ModelParamSpec>& epic_schema() {
         real("roughness", 0.35, 0, 1, "r: beta_R = r^2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R"),
         real("shift", 0.035, -0.25, 0.25, "alpha_R = -2 shift, alpha_TT = shift, alpha_TRT = 4 shift (sin theta)"),
         choice("variant", {"direct", "environment"}, "direct lights, or the environment-light variant"),
+        choice("energy", {"bounded", "published"},
+               "bounded: eval / max(1, albedo) per channel, so no view creates energy; published: as in the notes"),
     };
     return s;
 }
@@ -72,6 +74,8 @@ const std::vector<ModelParamSpec>& marschner_schema() {
         real("caustic_width", 0.2618, 0.01, 0.7, "w_c (rad)"),
         real("caustic_fade", 0.3, 0, 1, "Delta eta*"),
         real("caustic_limit", 0.5, 0, 1, "Delta h_M"),
+        choice("energy", {"bounded", "published"},
+               "bounded: eval / max(1, albedo) per channel, so no view creates energy; published: as in the paper"),
     };
     return s;
 }
@@ -245,6 +249,7 @@ HairModel build_epic(const ModelParams& given) {
     p.roughness = v.number("roughness");
     p.shift = v.number("shift");
     p.variant = v.choice("variant") == "direct" ? EpicVariant::Direct : EpicVariant::Environment;
+    p.energy = v.choice("energy") == "bounded" ? EnergyMode::Bounded : EnergyMode::Published;
     return EpicHair(p);
 }
 
@@ -275,6 +280,7 @@ HairModel build_marschner(const ModelParams& given) {
     p.caustic_width = v.number("caustic_width");
     p.caustic_fade = v.number("caustic_fade");
     p.caustic_limit = v.number("caustic_limit");
+    p.energy = v.choice("energy") == "bounded" ? EnergyMode::Bounded : EnergyMode::Published;
     return MarschnerHair(p);
 }
 

@@ -58,9 +58,16 @@ TEST(ModelFactory, NamesAndSchemas) {
     }
     EXPECT_FALSE(is_zoo_model("plugin"));
     const std::vector<ModelParamSpec>& epic = zoo_model_schema("epic");
-    ASSERT_EQ(epic.back().name, "variant");
+    ASSERT_EQ(epic.back().name, "energy");
     EXPECT_EQ(epic.back().kind, ParamKind::Choice);
-    EXPECT_EQ(epic.back().choices, (std::vector<std::string>{"direct", "environment"}));
+    EXPECT_EQ(epic.back().choices, (std::vector<std::string>{"bounded", "published"}));
+    EXPECT_EQ(epic.back().default_value[0], 0.0);  // "bounded"
+    ASSERT_EQ(epic[epic.size() - 2].name, "variant");
+    EXPECT_EQ(epic[epic.size() - 2].choices, (std::vector<std::string>{"direct", "environment"}));
+    EXPECT_EQ(zoo_model_schema("marschner").back().name, "energy");
+    EXPECT_NE(model_error([] { make_zoo_model("marschner", {{"energy", std::string("clamped")}}); })
+                  .find("parameter energy='clamped' is not allowed; choose one of: bounded, published"),
+              std::string::npos);
     EXPECT_NE(model_error([] { zoo_model_schema("kajiya"); }).find("unknown model 'kajiya'; allowed: kajiya_kay, epic"),
               std::string::npos);
 }

@@ -73,7 +73,8 @@ EPIC_DEFAULTS = _defaults("epic")
 
 def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_DEFAULTS["specular"],
               scatter: float = EPIC_DEFAULTS["scatter"], roughness: float = EPIC_DEFAULTS["roughness"],
-              shift: float = EPIC_DEFAULTS["shift"], variant: str = EPIC_DEFAULTS["variant"]) -> Closure:
+              shift: float = EPIC_DEFAULTS["shift"], variant: str = EPIC_DEFAULTS["variant"],
+              energy: str = EPIC_DEFAULTS["energy"]) -> Closure:
     """Epic / Unreal 2016 real-time hair (Karis's SIGGRAPH 2016 course notes; docs/models.md §2).
 
     base_color: C, RGB in [0, 1] (default: Blender's Principled Hair colour, a dark brown);
@@ -82,7 +83,9 @@ def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_
     roughness: [0, 1], beta_R = roughness^2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R (default 0.35);
     shift: [-0.25, 0.25], alpha_R = -2 shift, alpha_TT = shift, alpha_TRT = 4 shift, in sin theta
            (default 0.035, about Marschner's / Blender's 2 degree cuticle tilt);
-    variant: "direct" (default) or "environment" (R x saturate(wi.wr + 1), no TT, every beta + 0.2).
+    variant: "direct" (default) or "environment" (R x saturate(wi.wr + 1), no TT, every beta + 0.2);
+    energy: "bounded" (default: eval divided per channel by max(1, the model's albedo at this view and
+            shadow), so no view creates energy) or "published" (the notes' model exactly).
     The multiple-scattering term reads the per-sample `shadow=` input of eval / pdf / sample
     (the light's visibility through the hair volume, default 1).
     Lobes: R, TT, TRT, and the multiple-scattering term in slot 3.
@@ -91,10 +94,12 @@ def epic_hair(*, base_color=EPIC_DEFAULTS["base_color"], specular: float = EPIC_
     rough, sh = check.real("roughness", roughness), check.real("shift", shift)
     if not isinstance(variant, str):
         raise TypeError(f"variant: expected a string, got {variant!r}")
+    if not isinstance(energy, str):
+        raise TypeError(f"energy: expected a string, got {energy!r}")
     core = _core.make_model("epic", {"base_color": c, "specular": spec, "scatter": scat, "roughness": rough,
-                                     "shift": sh, "variant": variant})
+                                     "shift": sh, "variant": variant, "energy": energy})
     return Closure(core, f"epic_hair(base_color={c}, specular={spec:g}, scatter={scat:g}, roughness={rough:g}, "
-                         f"shift={sh:g}, variant={variant!r})")
+                         f"shift={sh:g}, variant={variant!r}, energy={energy!r})")
 
 
 # --- Scheuermann (ATI) 2004 ---------------------------------------------------------------------
@@ -141,7 +146,8 @@ def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCH
                    glint_scale: float = MARSCHNER_DEFAULTS["glint_scale"],
                    caustic_width: float = MARSCHNER_DEFAULTS["caustic_width"],
                    caustic_fade: float = MARSCHNER_DEFAULTS["caustic_fade"],
-                   caustic_limit: float = MARSCHNER_DEFAULTS["caustic_limit"]) -> Closure:
+                   caustic_limit: float = MARSCHNER_DEFAULTS["caustic_limit"],
+                   energy: str = MARSCHNER_DEFAULTS["energy"]) -> Closure:
     """Marschner et al. 2003 (docs/models.md §4); angles in radians, defaults from Table 1.
 
     sigma_a: absorption, RGB >= 0 (<= 1e4; default Blender's Principled Hair absorption);
@@ -149,16 +155,21 @@ def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCH
     (-7.5 deg; alpha_TT = -alpha_r/2, alpha_TRT = -3 alpha_r/2); beta_r: R width in [0.005, 0.7]
     (7.5 deg; beta_TT = beta_r/2, beta_TRT = 2 beta_r); glint_scale: k_G in [0, 5] (0.5);
     caustic_width: w_c in [0.01, 0.7] (15 deg); caustic_fade: Delta eta* in [0, 1] (0.3);
-    caustic_limit: Delta h_M in [0, 1] (0.5).
+    caustic_limit: Delta h_M in [0, 1] (0.5);
+    energy: "bounded" (default: eval divided per channel by max(1, the model's albedo at this view
+    and cross-section orientation), so no view creates energy) or "published" (the paper's model).
     The cross-section's major axis is the per-sample `normal=` (zero: the view-dependent frame).
     """
     s = check.color("sigma_a", sigma_a)
     reals = {"eta": eta, "eccentricity": eccentricity, "alpha_r": alpha_r, "beta_r": beta_r, "glint_scale": glint_scale,
              "caustic_width": caustic_width, "caustic_fade": caustic_fade, "caustic_limit": caustic_limit}
-    core = _core.make_model("marschner", {"sigma_a": s, **{k: check.real(k, v) for k, v in reals.items()}})
+    if not isinstance(energy, str):
+        raise TypeError(f"energy: expected a string, got {energy!r}")
+    core = _core.make_model("marschner", {"sigma_a": s, **{k: check.real(k, v) for k, v in reals.items()},
+                                          "energy": energy})
     return Closure(core, f"marschner_hair(sigma_a={s}, eta={eta:g}, eccentricity={eccentricity:g}, alpha_r={alpha_r:g}, "
                          f"beta_r={beta_r:g}, glint_scale={glint_scale:g}, caustic_width={caustic_width:g}, "
-                         f"caustic_fade={caustic_fade:g}, caustic_limit={caustic_limit:g})")
+                         f"caustic_fade={caustic_fade:g}, caustic_limit={caustic_limit:g}, energy={energy!r})")
 
 
 # --- d'Eon 2011 ---------------------------------------------------------------------------------

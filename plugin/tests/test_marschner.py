@@ -40,17 +40,18 @@ def azimuthal_lobe(c, p, phi):
 
 def test_defaults_and_errors():
     (d,) = hairbsdf.marschner_hair().model_params
-    assert d["model"] == "marschner" and d["eta"] == 1.55 and d["eccentricity"] == 0.9
+    assert d["model"] == "marschner" and d["eta"] == 1.55 and d["eccentricity"] == 0.9 and d["energy"] == "bounded"
     for kw, msg in [({"eta": 0.9}, r"eta.*\[1.1, 3\]"), ({"beta_r": 0}, r"beta_r.*\[0.005, 0.7\]"),
                     ({"glint_scale": 6}, r"glint_scale.*\[0, 5\]"), ({"sigma_a": -1}, r"sigma_a.*\[0, 10000\]"),
-                    ({"eccentricity": 1.2}, r"eccentricity.*\[0.5, 1\]")]:
+                    ({"eccentricity": 1.2}, r"eccentricity.*\[0.5, 1\]"),
+                    ({"energy": "clamped"}, r"energy='clamped'.*bounded, published")]:
         with pytest.raises(ValueError, match=msg):
             hairbsdf.marschner_hair(**kw)
 
 
 def test_r_lobe_closed_form():
     """p = 0: gamma_i = -phi/2, so N_R = F(eta, phi/2) cos(phi/2) / 4 (Marschner §4.1)."""
-    c = hairbsdf.marschner_hair(sigma_a=0.0)
+    c = hairbsdf.marschner_hair(sigma_a=0.0, energy="published")
     phi = np.linspace(-3.1, 3.1, 301)
     np.testing.assert_allclose(azimuthal_lobe(c, 0, phi)[:, 0], fresnel2(ETA, ETA, phi / 2) * np.cos(phi / 2) / 4,
                                rtol=1e-9)
@@ -59,7 +60,7 @@ def test_r_lobe_closed_form():
 @pytest.mark.parametrize("sigma", [0.0, 0.7])
 def test_tt_root_solve_conserves_the_h_integral(sigma):
     """int N_TT dphi = 1/2 int A(1, h) dh: every root of the cubic phi(gamma) is found once."""
-    c = hairbsdf.marschner_hair(sigma_a=sigma)
+    c = hairbsdf.marschner_hair(sigma_a=sigma, energy="published")
     phi = np.linspace(-np.pi, np.pi, 200_001)
     n = azimuthal_lobe(c, 1, phi)[:, 0]
     lhs = _trapezoid(n, phi)
@@ -76,13 +77,14 @@ def test_trt_caustic_and_eccentricity():
     """Glints: N_TRT near the caustic grows with k_G; eccentricity makes TRT depend on the
     cross-section's orientation (the per-sample normal), a circular fibre does not."""
     phi = np.linspace(-np.pi, np.pi, 721)
-    low = azimuthal_lobe(hairbsdf.marschner_hair(sigma_a=0.0, eccentricity=1.0, glint_scale=0.5), 2, phi)[:, 0]
-    high = azimuthal_lobe(hairbsdf.marschner_hair(sigma_a=0.0, eccentricity=1.0, glint_scale=5.0), 2, phi)[:, 0]
+    pub = dict(sigma_a=0.0, eccentricity=1.0, energy="published")
+    low = azimuthal_lobe(hairbsdf.marschner_hair(glint_scale=0.5, **pub), 2, phi)[:, 0]
+    high = azimuthal_lobe(hairbsdf.marschner_hair(glint_scale=5.0, **pub), 2, phi)[:, 0]
     assert high.max() > 3 * low.max()
     assert np.all(np.isfinite(high))
     wo, wi = unit(10, 0), unit(-5, 25)
-    ecc = hairbsdf.marschner_hair(eccentricity=0.85)
-    circ = hairbsdf.marschner_hair(eccentricity=1.0)
+    ecc = hairbsdf.marschner_hair(eccentricity=0.85, energy="published")
+    circ = hairbsdf.marschner_hair(eccentricity=1.0, energy="published")
     n1, n2 = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
     t1, t2 = ecc.eval_lobes(wo, wi, 0.0, normal=n1)[0, 2, 0], ecc.eval_lobes(wo, wi, 0.0, normal=n2)[0, 2, 0]
     assert min(t1, t2) > 1e-3 and abs(t1 - t2) > 0.05 * max(t1, t2), (t1, t2)
@@ -91,17 +93,108 @@ def test_trt_caustic_and_eccentricity():
 
 
 def test_energy_is_pinned():
-    """Not energy conserving as published (d'Eon 2011): with sigma_a = 0 the albedo is about 0.9-1.05
-    away from grazing views and reaches about 2 at a grazing view on the side the shifts push
-    the lobes towards (1/cos^2 theta_d). Pinned so that changes are seen (docs/models.md §4)."""
-    white = hairbsdf.marschner_hair(sigma_a=0.0)
+    """energy="published": not energy conserving (d'Eon 2011): with sigma_a = 0 the albedo is about
+    0.9-1.05 away from grazing views and reaches about 2 at a grazing view on the side the shifts
+    push the lobes towards (1/cos^2 theta_d). Pinned so that changes are seen (docs/models.md §4)."""
+    white = hairbsdf.marschner_hair(sigma_a=0.0, energy="published")
     mid = [unit(t, 0) for t in (0, 30, 45, -60)]
     a_mid = max_albedo(white, mid, hs=(0.0,), max_nodes=1_000_000)
     assert 1.0 < a_mid < 1.07, a_mid
     a_grazing = max_albedo(white, [unit(-89.5, 33)], hs=(0.0,), max_nodes=1_000_000)
     assert 1.9 < a_grazing < 2.2, a_grazing
-    glints = max_albedo(hairbsdf.marschner_hair(sigma_a=0.0, glint_scale=5.0), mid, hs=(0.0,), max_nodes=1_000_000)
+    glints = max_albedo(hairbsdf.marschner_hair(sigma_a=0.0, glint_scale=5.0, energy="published"), mid, hs=(0.0,),
+                        max_nodes=1_000_000)
     assert glints < 1.15, glints
+
+
+# A theta_o sweep (between the table's nodes too) and the grazing views of the pinned test.
+BOUNDED_VIEWS = [unit(t, 20) for t in np.linspace(-88, 88, 23)] + [unit(-89.5, 33), unit(89.5, 0), unit(-86, 0)]
+# sigma_a = 0 with every gain at its maximum and the width / shift extremes, with the lowest bounded
+# albedo allowed where the published one exceeds 1: 0.99 as a rule; the narrow-glint and the
+# narrow, strongly shifted cases are within 2 % and 4 % (the table's quadrature and interpolation
+# error there, docs/models.md §4). The floor (<= 1.01) holds for all.
+WHITE_CASES = [(dict(), 0.99), (dict(glint_scale=5.0), 0.99), (dict(beta_r=0.7), 0.99), (dict(eta=1.3), 0.99),
+               (dict(eccentricity=0.85, glint_scale=5.0), 0.99), (dict(eccentricity=1.0), 0.99),
+               (dict(beta_r=0.02, alpha_r=-0.35), 0.96), (dict(beta_r=0.02, alpha_r=0.35), 0.96),
+               (dict(glint_scale=5.0, caustic_width=0.05, caustic_fade=0.0), 0.98)]
+
+
+@pytest.mark.parametrize("kw, lowest", WHITE_CASES, ids=[str(k) for k, _ in WHITE_CASES])
+def test_bounded_furnace_white(kw, lowest):
+    """energy="bounded" (the default), sigma_a = 0: <= 1.01 everywhere (peer-tests §5 D); where the
+    published albedo exceeds 1 the bounded one is about 1 (>= `lowest`: the table matches the
+    quadrature); elsewhere it is the published one, or (where the table's E is just above 1 by its
+    error) a little below it. (eta < 1.155 gives TT its own caustics, whose spikes make the
+    published albedo depend on the quadrature grid: albedo() reads 1.41 at theta_o = 0 for eta 1.1
+    where a finer grid gives 0.90; the table integrates TT over h, free of them.)"""
+    b = hairbsdf.marschner_hair(sigma_a=0.0, **kw)
+    p = hairbsdf.marschner_hair(sigma_a=0.0, energy="published", **kw)
+    for wo in BOUNDED_VIEWS:
+        ap, ab = p.albedo(wo, 0.0, max_nodes=400_000)[0], b.albedo(wo, 0.0, max_nodes=400_000)[0]
+        assert ab.max() <= 1.01, (wo, ap, ab)
+        if ap.max() > 1.0:
+            assert ab.max() >= lowest, (wo, ap, ab)
+        else:
+            assert np.all(ab <= ap * (1 + 1e-12)) and np.all(ab >= 0.97 * ap), (wo, ap, ab)
+
+
+def test_bounded_is_published_for_absorbing_fibres(rng):
+    """The defaults (Principled Hair's absorption) and other coloured fibres do not reach albedo 1
+    away from grazing views (|theta_o| <= 80 deg; nearer the axis 1 / cos^2 theta_d can push the
+    red channel past 1, docs/models.md §4): there bounded == published (to 1e-6)."""
+    wo = fibre_dirs(np.sin(np.radians(rng.uniform(-80, 80, 4000))), rng.uniform(-np.pi, np.pi, 4000))
+    wi = rng.normal(size=(4000, 3))
+    normal = rng.normal(size=(4000, 3))
+    for kw in (dict(), dict(sigma_a=(0.3, 0.6, 1.2), glint_scale=5.0), dict(sigma_a=0.5, beta_r=0.3)):
+        b = hairbsdf.marschner_hair(**kw).eval_lobes(wo, wi, 0.0, normal=normal)
+        p = hairbsdf.marschner_hair(energy="published", **kw).eval_lobes(wo, wi, 0.0, normal=normal)
+        np.testing.assert_allclose(b, p, rtol=1e-6, atol=0)
+
+
+def sphere_albedo(c, wo, normal, n_theta=400, n_phi=720):
+    """Dense brute-force albedo with a per-sample normal (the closure's albedo() has none)."""
+    x, w = np.polynomial.legendre.leggauss(n_theta)
+    t = 0.5 * np.pi * x
+    ph = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi - np.pi
+    T, P = np.meshgrid(t, ph, indexing="ij")
+    wi = np.stack([np.sin(T), np.cos(T) * np.cos(P), np.cos(T) * np.sin(P)], -1).reshape(-1, 3)
+    ev = c.eval(wo, wi, 0.0, normal=normal).reshape(n_theta, n_phi, 3)
+    return np.einsum("i,ijc->c", 0.5 * np.pi * w * np.cos(t), ev) * 2 * np.pi / n_phi
+
+
+@pytest.mark.parametrize("eccentricity, tol", [(0.85, 0.01), (0.5, 0.02)])
+def test_bounded_follows_the_cross_section_orientation(eccentricity, tol):
+    """E depends on the major axis through TRT's eta*(phi_h) (eccentricity); the table has 9 nodes in
+    phi_major over [0, pi/2], linear in between. Between the nodes too, a white fibre with
+    glint_scale 5 stays <= 1 + tol and reaches >= 1 - tol where the published one exceeds 1
+    (brute-force quadrature): within 1 % for Table 1's range (0.85-1); the schema's extreme 0.5 has
+    sharper features in phi_major and is within 2 %."""
+    kw = dict(sigma_a=0.0, eccentricity=eccentricity, glint_scale=5.0)
+    b, p = hairbsdf.marschner_hair(**kw), hairbsdf.marschner_hair(energy="published", **kw)
+    seen_over = 0
+    for theta in (45.0, -87.0, 10.0):
+        wo = unit(theta, 0)
+        for angle in (0.0, 15.0, 35.0, 60.0, 80.0):  # the major axis from the frame's y towards z
+            a = np.radians(angle)
+            # the frame of wo = unit(theta, 0): y = x cross wo = (0, 0, cos theta) / |.|, z = x cross y
+            normal = np.array([0.0, -np.sin(a), np.cos(a)])
+            ap, ab = sphere_albedo(p, wo, normal), sphere_albedo(b, wo, normal)
+            assert ab.max() <= 1 + tol, (theta, angle, ap, ab)
+            if ap.max() > 1.0:
+                seen_over += 1
+                assert ab.max() >= 1 - tol, (theta, angle, ap, ab)
+    assert seen_over >= 3
+
+
+def test_make_model_and_schema_accept_energy():
+    (spec,) = [q for q in hairbsdf.model_schema("marschner") if q["name"] == "energy"]
+    assert spec["type"] == "choice" and spec["default"] == "bounded" and list(spec["choices"]) == ["bounded", "published"]
+    wo, wi = unit(-85, 0), unit(80, 170)
+    a = hairbsdf.make_model("marschner", {"sigma_a": 0.0, "energy": "published"}).eval(wo, wi, 0.0)
+    b = hairbsdf.marschner_hair(sigma_a=0.0, energy="published").eval(wo, wi, 0.0)
+    np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match="energy"):
+        hairbsdf.make_model("marschner", {"energy": 1.0})
 
 
 def test_sampling_consistency(rng):

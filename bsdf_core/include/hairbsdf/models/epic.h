@@ -25,9 +25,18 @@
 // truncated to [-1, 1] and phi from a density close to its N: R 1/4 cos(phi/2) (inverse CDF),
 // TT and TRT the trimmed logistics D(phi, 0.35, pi) and D(phi, 0.15, 0) that the notes' exp fits
 // approximate; the multiple-scattering term samples (n.wi + 1) / (4 pi) exactly.
+//
+// Energy (docs/models.md §2): energy = Bounded (the default) divides eval per channel by
+// max(1, E_c), E_c the published model's directional albedo at this view: R + TT + TRT from a table
+// over theta_o (src/models/epic_energy.cpp) plus the multiple-scattering term's closed form
+// Scatter sqrt(C) (C / Luma)^(1 - Shadow). Published: the notes' model exactly. Sampler and pdf are
+// the same for both.
 #pragma once
 
+#include <memory>
+
 #include "hairbsdf/closure.h"
+#include "hairbsdf/models/energy_bound.h"
 
 namespace hairbsdf {
 
@@ -40,7 +49,12 @@ struct EpicHairParams {
     double roughness = 0.35;  // r: beta_R = r^2
     double shift = 0.035;     // radians-like shift of the Gaussians in sin theta (alpha_R = -2 shift)
     EpicVariant variant = EpicVariant::Direct;
+    EnergyMode energy = EnergyMode::Bounded;
 };
+
+// The table of the published R + TT + TRT albedo over theta_o for these parameters (scatter and
+// energy ignored), from the process-wide cache.
+std::shared_ptr<const EnergyBoundTable> epic_energy_table(const EpicHairParams& params);
 
 class EpicHair {
 public:
@@ -63,8 +77,11 @@ public:
             sqrt_c_[c] = std::sqrt(std::max(v, 0.0));
             c_over_luma_[c] = l > 0 ? std::max(v, 0.0) / l : 0.0;
         }
+        if (params.energy == EnergyMode::Bounded) energy_table_ = epic_energy_table(params);
     }
     const EpicHairParams& params() const { return params_; }
+    // The R + TT + TRT albedo table of energy = Bounded (null for Published).
+    const std::shared_ptr<const EnergyBoundTable>& energy_table() const { return energy_table_; }
     const std::array<double, 3>& betas() const { return beta_; }
 
     std::array<double, 2> angular_scales() const {
@@ -85,6 +102,8 @@ public:
         RGB ms_color;  // Scatter sqrt(C) (C / Luma)^(1 - Shadow)
         std::array<TruncatedNormal, 3> longitudinal;  // sampling densities of sin theta_i
         std::array<double, 4> lobe_weight{};          // R, TT, TRT, MS selection probabilities
+        bool bounded = false;
+        RGB energy_scale{1.0};  // 1 / max(1, E_c) (energy = Bounded)
     };
     ShadingPoint prepare(const ShadingContext& ctx) const {
         ShadingPoint sp(FibreFrame(ctx.tangent, ctx.wo), ctx.wo);
@@ -96,6 +115,10 @@ public:
         for (int c = 0; c < 3; ++c) {
             const double ratio = std::pow(c_over_luma_[c], 1.0 - sp.shadow);
             (c == 0 ? sp.ms_color.r : c == 1 ? sp.ms_color.g : sp.ms_color.b) = params_.scatter * sqrt_c_[c] * ratio;
+        }
+        if (energy_table_) {
+            sp.bounded = true;
+            sp.energy_scale = EnergyBoundTable::bound_scale(energy_table_->albedo(sp.theta_o) + sp.ms_color);
         }
         for (int p = 0; p < 3; ++p)
             sp.longitudinal[p] = TruncatedNormal(-sp.sin_theta_o + alpha_[p], beta_[p], -1.0, 1.0);
@@ -121,6 +144,8 @@ public:
         const double sin_theta_i = sp.frame.sin_theta(wi);
         const double phi = sp.frame.phi(wi) + 0.5 * kPi;  // phi_i - phi_o
         out.lobes = lobes(sp, wi, sin_theta_i, phi);
+        if (sp.bounded)
+            for (RGB& l : out.lobes) l = l * sp.energy_scale;
         out.pdf = pdf_local(sp, wi, sin_theta_i, phi);
         if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
         return out;
@@ -129,6 +154,10 @@ public:
     double pdf(const ShadingContext& ctx, Vec3 wi) const { return pdf(prepare(ctx), wi); }
     double pdf(const ShadingPoint& sp, Vec3 wi) const {
         return pdf_local(sp, wi, sp.frame.sin_theta(wi), sp.frame.phi(wi) + 0.5 * kPi);
+    }
+    // Lobe p's published value (without the energy bound); the energy table integrates lobes one by one.
+    RGB published_lobe(const ShadingPoint& sp, Vec3 wi, int p) const {
+        return lobes(sp, wi, sp.frame.sin_theta(wi), sp.frame.phi(wi) + 0.5 * kPi, p)[size_t(p)];
     }
 
     // u2 picks the lobe and, rescaled, sin theta_i (MS: the cosine to the fake normal);
@@ -174,7 +203,9 @@ private:
         return std::exp(-0.5 * sqr(x / beta)) / (beta * 2.5066282746310002);
     }
 
-    std::array<RGB, kLobeCount> lobes(const ShadingPoint& sp, Vec3 wi, double sin_theta_i, double phi) const {
+    // The published lobes; only >= 0: that lobe alone (the others 0).
+    std::array<RGB, kLobeCount> lobes(const ShadingPoint& sp, Vec3 wi, double sin_theta_i, double phi,
+                                      int only = -1) const {
         std::array<RGB, kLobeCount> out{};
         const RGB& C = params_.base_color;
         auto cpow = [&](double e) { return RGB(std::pow(C.r, e), std::pow(C.g, e), std::pow(C.b, e)); };
@@ -187,7 +218,7 @@ private:
         const bool environment = params_.variant == EpicVariant::Environment;
 
         // R: M_R N_R, N_R = 1/4 cos(phi/2) F(eta, sqrt(1/2 + 1/2 wi.wr)); Specular scales it.
-        {
+        if (only < 0 || only == LobeR) {
             double r = gaussian(beta_[0], x - alpha_[0]) * 0.25 * cos_half_phi *
                        fresnel(std::sqrt(clamp(0.5 + 0.5 * wi_dot_wr, 0.0, 1.0))) * params_.r_scale;
             if (environment) r *= clamp(wi_dot_wr + 1.0, 0.0, 1.0);
@@ -196,7 +227,7 @@ private:
         const double eta_prime = 1.19 / cos_theta_d + 0.36 * cos_theta_d;
         const double a = 1.0 / eta_prime;
         // TT (removed in the environment variant).
-        if (!environment) {
+        if (!environment && (only < 0 || only == LobeTT)) {
             const double h = (1.0 + a * (0.6 - 0.8 * cos_phi)) * cos_half_phi;
             const double f = fresnel(cos_theta_d * safe_sqrt(1.0 - h * h));
             const RGB T = cpow(safe_sqrt(1.0 - sqr(h * a)) / (2.0 * cos_theta_d));
@@ -205,7 +236,7 @@ private:
             out[LobeTT] = (m * n * sqr(1.0 - f)) * T;
         }
         // TRT: h = sqrt(3)/2.
-        {
+        if (only < 0 || only == LobeTRT) {
             const double f = fresnel(0.5 * cos_theta_d);
             const RGB T = cpow(0.8 / cos_theta_d);
             const double m = gaussian(beta_[2], x - alpha_[2]);
@@ -213,7 +244,7 @@ private:
             out[LobeTRT] = (m * n * sqr(1.0 - f) * f) * T;
         }
         // Multiple scattering around the fake normal.
-        out[LobeTRRT] = ((dot(sp.fake_normal, wi) + 1.0) / (4.0 * kPi)) * sp.ms_color;
+        if (only < 0 || only == LobeTRRT) out[LobeTRRT] = ((dot(sp.fake_normal, wi) + 1.0) / (4.0 * kPi)) * sp.ms_color;
         return out;
     }
 
@@ -240,6 +271,7 @@ private:
     double f0_ = 0.04;
     double tt_norm_ = 1, trt_norm_ = 1;
     std::array<double, 3> sqrt_c_{}, c_over_luma_{};
+    std::shared_ptr<const EnergyBoundTable> energy_table_;
 };
 
 }  // namespace hairbsdf

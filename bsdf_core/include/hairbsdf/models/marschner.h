@@ -17,9 +17,17 @@
 // Lobes: R, TT, TRT. Sampler (the paper has none): a lobe mixture; sin theta_i from a normal
 // truncated to [-1, 1] around the lobe's cone, phi from 1/4 cos(phi/2) (R), a trimmed logistic
 // around pi (TT) or uniform (TRT), plus 10% uniform directions. Exact pdf.
+//
+// Energy (docs/models.md §4): energy = Bounded (the default) divides eval per channel by
+// max(1, E_c), E_c the published model's directional albedo at this view and cross-section
+// orientation, from a table over theta_o x phi_major (src/models/marschner_energy.cpp).
+// Published: the paper's model (with the deviations above). Sampler and pdf are the same for both.
 #pragma once
 
+#include <memory>
+
 #include "hairbsdf/closure.h"
+#include "hairbsdf/models/energy_bound.h"
 
 namespace hairbsdf {
 
@@ -33,7 +41,12 @@ struct MarschnerHairParams {
     double caustic_width = 0.2618;        // w_c = 15 deg (Table 1: 10..25 deg)
     double caustic_fade = 0.3;            // Delta eta*, Table 1: 0.2-0.4
     double caustic_limit = 0.5;           // Delta h_M, Table 1: 0.5
+    EnergyMode energy = EnergyMode::Bounded;
 };
+
+// The table of the published albedo over theta_o x phi_major for these parameters (energy
+// ignored), from the process-wide cache.
+std::shared_ptr<const EnergyBoundTable> marschner_energy_table(const MarschnerHairParams& params);
 
 class MarschnerHair {
 public:
@@ -47,8 +60,28 @@ public:
         eta_star1_ = 2.0 * (p.eta - 1.0) * a2 - p.eta + 2.0;  // §4.2
         eta_star2_ = 2.0 * (p.eta - 1.0) / a2 - p.eta + 2.0;
         tt_norm_ = 1.0 / (logistic_cdf(kPi, kTTLogisticScale) - logistic_cdf(-kPi, kTTLogisticScale));
+        if (p.energy == EnergyMode::Bounded) energy_table_ = marschner_energy_table(p);
     }
     const MarschnerHairParams& params() const { return params_; }
+    const std::shared_ptr<const EnergyBoundTable>& energy_table() const { return energy_table_; }
+
+    // The table's orientation nodes: E depends on the major axis phi_major only through TRT's
+    // eta*(phi_h); it is pi-periodic and even in phi_major, so phi_major in [0, pi/2] suffices.
+    // Nodes uniform there (linear in between): 1 for a circular fibre, else 9 (11.25 deg apart; with
+    // glints E has features about 20 deg wide in phi_major).
+    static int orientation_nodes(double eccentricity) { return eccentricity >= 1.0 ? 1 : 9; }
+    static double orientation_phi_major(int j, int nodes) { return nodes > 1 ? 0.5 * kPi * j / (nodes - 1) : 0.0; }
+    // E_c at theta_o for the cross-section's axis at phi_major (energy = Bounded only).
+    RGB bound_albedo(double theta_o, double phi_major) const {
+        const int n = energy_table_->orientations();
+        if (n == 1) return energy_table_->albedo(theta_o, 0);
+        double a = std::fabs(std::remainder(phi_major, kPi));  // fold into [0, pi/2]
+        const double x = clamp(a / (0.5 * kPi) * (n - 1), 0.0, n - 1.0);
+        const int lo = std::min(int(x), n - 2);
+        const double f = x - lo;
+        return (1.0 - f) * energy_table_->albedo(theta_o, lo) + f * energy_table_->albedo(theta_o, lo + 1);
+    }
+
     std::array<double, 2> angular_scales() const {
         return {std::max(beta_[1], 2e-3), std::max(std::min(0.2, 0.5 * params_.caustic_width), 2e-3)};
     }
@@ -108,6 +141,7 @@ public:
         double phi_major = 0;  // azimuth of the cross-section's major axis in the frame
         std::array<TruncatedNormal, 3> longitudinal{};
         std::array<double, 4> lobe_weight{};  // R, TT, TRT, uniform
+        RGB energy_scale{1.0};                // 1 / max(1, E_c) (energy = Bounded), else 1
     };
     ShadingPoint prepare(const ShadingContext& ctx) const {
         ShadingPoint sp(FibreFrame(ctx.tangent, ctx.wo));
@@ -115,6 +149,7 @@ public:
         sp.theta_o = std::asin(sp.sin_theta_o);
         const Vec3 n = ctx.normal - dot(ctx.normal, sp.frame.x) * sp.frame.x;
         sp.phi_major = length(n) > 1e-9 ? sp.frame.phi(n) : 0.0;  // no normal: the frame's y
+        if (energy_table_) sp.energy_scale = EnergyBoundTable::bound_scale(bound_albedo(sp.theta_o, sp.phi_major));
         for (int p = 0; p < 3; ++p) {
             // Peak of M_p: theta_i = 2 alpha_p - theta_o; width 2 beta_p in theta_i.
             const double center = clamp(2.0 * alpha_[size_t(p)] - sp.theta_o, -0.5 * kPi, 0.5 * kPi);
@@ -134,30 +169,54 @@ public:
         return sp;
     }
 
+    // What the lobes share for one sin theta_i (theta_h and the Bravais inputs).
+    struct LobeGeometry {
+        double theta_h = 0, geometry = 0, sin_theta_d = 0, cos_theta_d = 1, cos_theta_t = 1;
+    };
+    LobeGeometry lobe_geometry(const ShadingPoint& sp, double sin_theta_i) const {
+        LobeGeometry g;
+        const double theta_i = std::asin(sin_theta_i);
+        const double theta_d = 0.5 * (sp.theta_o - theta_i);
+        g.theta_h = 0.5 * (sp.theta_o + theta_i);
+        g.cos_theta_d = std::max(std::cos(theta_d), 1e-6);
+        g.geometry = cos_from_sin(sin_theta_i) / sqr(g.cos_theta_d);  // cos theta_i / cos^2 theta_d
+        g.sin_theta_d = std::sin(theta_d);
+        g.cos_theta_t = cos_from_sin(sp.sin_theta_o / params_.eta);
+        return g;
+    }
+    // Lobe p's eval (as published, without the energy bound) at azimuth phi_i in the frame.
+    RGB lobe(int p, const ShadingPoint& sp, const LobeGeometry& g, double phi_i) const {
+        // M_p with unit area in theta_i: g(beta; theta_h - alpha) / 2.
+        const double m = 0.5 * gaussian(beta_[size_t(p)], g.theta_h - alpha_[size_t(p)]);
+        double eta = params_.eta;
+        if (p == 2) {  // eccentricity: eta*(phi_h), phi_h relative to the major axis (§4.2)
+            const double phi_h = 0.5 * (phi_i + (-0.5 * kPi)) - sp.phi_major;
+            eta = 0.5 * ((eta_star1_ + eta_star2_) + std::cos(2.0 * phi_h) * (eta_star1_ - eta_star2_));
+        }
+        const RGB n = azimuthal(p, eta, g.sin_theta_d, g.cos_theta_d, g.cos_theta_t, phi_i + 0.5 * kPi);
+        return (m * g.geometry) * n;
+    }
+
+    // A(p, h) for the incidence gamma_i (h = sin gamma_i) with indices (e1, e2) of the 2D problem.
+    // Public: the energy table integrates it over h.
+    RGB attenuation(int p, double e1, double e2, double gamma_i, double cos_theta_t) const {
+        if (p == 0) return RGB(fresnel2(e1, e2, gamma_i));
+        const double gamma_t = safe_asin(std::sin(gamma_i) / e1);
+        const double f_in = fresnel2(e1, e2, gamma_i);
+        const double f_back = fresnel2(1.0 / e1, 1.0 / e2, gamma_t);
+        const RGB T = exp((-2.0 * std::cos(gamma_t) / cos_theta_t) * params_.sigma_a);
+        RGB a = sqr(1.0 - f_in) * T;
+        if (p == 2) a = (f_back * a) * T;
+        return a;
+    }
+
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         BsdfEval out;
         const double sin_theta_i = sp.frame.sin_theta(wi);
         const double phi_i = sp.frame.phi(wi);
-        const double phi = phi_i + 0.5 * kPi;  // phi_i - phi_o
-        const double theta_i = std::asin(sin_theta_i);
-        const double cos_theta_i = cos_from_sin(sin_theta_i);
-        const double theta_d = 0.5 * (sp.theta_o - theta_i), theta_h = 0.5 * (sp.theta_o + theta_i);
-        const double cos_theta_d = std::max(std::cos(theta_d), 1e-6);
-        const double geometry = cos_theta_i / sqr(cos_theta_d);  // cos theta_i / cos^2 theta_d
-        const double sin_theta_d = std::sin(theta_d);
-        const double cos_theta_t = cos_from_sin(sp.sin_theta_o / params_.eta);
-        for (int p = 0; p < 3; ++p) {
-            // M_p with unit area in theta_i: g(beta; theta_h - alpha) / 2.
-            const double m = 0.5 * gaussian(beta_[size_t(p)], theta_h - alpha_[size_t(p)]);
-            double eta = params_.eta;
-            if (p == 2) {  // eccentricity: eta*(phi_h), phi_h relative to the major axis (§4.2)
-                const double phi_h = 0.5 * (phi_i + (-0.5 * kPi)) - sp.phi_major;
-                eta = 0.5 * ((eta_star1_ + eta_star2_) + std::cos(2.0 * phi_h) * (eta_star1_ - eta_star2_));
-            }
-            const RGB n = azimuthal(p, eta, sin_theta_d, cos_theta_d, cos_theta_t, phi);
-            out.lobes[size_t(p)] = (m * geometry) * n;
-        }
-        out.pdf = pdf_local(sp, sin_theta_i, phi);
+        const LobeGeometry g = lobe_geometry(sp, sin_theta_i);
+        for (int p = 0; p < 3; ++p) out.lobes[size_t(p)] = sp.energy_scale * lobe(p, sp, g, phi_i);
+        out.pdf = pdf_local(sp, sin_theta_i, phi_i + 0.5 * kPi);
         if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
         return out;
     }
@@ -203,18 +262,6 @@ public:
 private:
     static double gaussian(double beta, double x) {
         return std::exp(-0.5 * sqr(x / beta)) / (beta * 2.5066282746310002);
-    }
-
-    // A(p, h) for the incidence gamma_i (the h = sin gamma_i) with indices (e1, e2) of the 2D problem.
-    RGB attenuation(int p, double e1, double e2, double gamma_i, double cos_theta_t) const {
-        if (p == 0) return RGB(fresnel2(e1, e2, gamma_i));
-        const double gamma_t = safe_asin(std::sin(gamma_i) / e1);
-        const double f_in = fresnel2(e1, e2, gamma_i);
-        const double f_back = fresnel2(1.0 / e1, 1.0 / e2, gamma_t);
-        const RGB T = exp((-2.0 * std::cos(gamma_t) / cos_theta_t) * params_.sigma_a);
-        RGB a = sqr(1.0 - f_in) * T;
-        if (p == 2) a = (f_back * a) * T;
-        return a;
     }
 
     // N_p(phi) for relative index eta (eta* for TRT): roots of the cubic phi(gamma_i), with the TRT
@@ -272,6 +319,7 @@ private:
     std::array<double, 3> alpha_{}, beta_{};
     double eta_star1_ = 1.55, eta_star2_ = 1.55;
     double tt_norm_ = 1;
+    std::shared_ptr<const EnergyBoundTable> energy_table_;
 };
 
 }  // namespace hairbsdf
