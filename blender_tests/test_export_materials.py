@@ -109,6 +109,16 @@ for i, (name, mat) in enumerate(mats.items()):
     hs.add_slot(pl, mat)
 empty_slot = hs.make_plane(size=0.5, location=(0, 3, 0), name="EmptySlot")
 empty_slot.data.materials.append(None)
+# a smooth-shaded "tent" (two triangles folded along x = 0), scaled non-uniformly
+tent_mesh = bpy.data.meshes.new("Tent")
+tent_mesh.from_pydata([(-1, -1, 0), (0, -1, 0.5), (0, 1, 0.5), (-1, 1, 0), (1, -1, 0), (1, 1, 0)], [],
+                      [(0, 1, 2, 3), (1, 4, 5, 2)])
+for poly in tent_mesh.polygons:
+    poly.use_smooth = True
+tent = bpy.data.objects.new("Tent", tent_mesh)
+scene.collection.objects.link(tent)
+tent.location = (0, 6, 0)
+tent.scale = (1.0, 1.0, 3.0)
 
 # world: Background colour x strength mixed with an Environment texture background
 w = bpy.data.worlds.new("W"); scene.world = w; w.use_nodes = True
@@ -220,6 +230,26 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert _closures(desc, "__default__")[0]["color"] == pytest.approx((0.8,) * 3)
     tri_mats = {desc["materials"][k]["name"] for k in desc["meshes"]["triangle_material"]}
     assert {"Melanin", "Mixed", "NoNodes", "__default__"} <= tri_mats
+    # 7. corner normals: unit; flat faces = the face normal of the exported triangle; the smooth tent's
+    # ridge corners share one normal between its two faces (Cycles' smooth shading N)
+    m = desc["meshes"]
+    verts, tris = np.asarray(m["vertices"], float), np.asarray(m["triangles"])
+    cn = np.asarray(m["triangle_normals"], float).reshape(-1, 3, 3)
+    assert cn.shape[0] == tris.shape[0]
+    np.testing.assert_allclose(np.linalg.norm(cn, axis=-1), 1.0, atol=1e-5)
+    face = np.cross(verts[tris[:, 1]] - verts[tris[:, 0]], verts[tris[:, 2]] - verts[tris[:, 0]])
+    face /= np.linalg.norm(face, axis=1, keepdims=True)
+    tent = verts[tris].mean(axis=1)[:, 1] > 4.0  # the tent's triangles (y around 6)
+    assert tent.sum() == 4
+    flat = ~tent
+    np.testing.assert_allclose(cn[flat], np.repeat(face[flat][:, None, :], 3, axis=1), atol=1e-5)
+    ridge = np.abs(verts[tris[tent]][..., 0]) < 1e-6  # corners on x = 0, (T, 3)
+    ridge_normals = cn[tent][ridge]
+    assert len(ridge_normals) >= 4  # 2 ridge vertices x 2 faces, more where the diagonal ends on the ridge
+    np.testing.assert_allclose(ridge_normals, np.repeat(ridge_normals[:1], len(ridge_normals), axis=0), atol=1e-5)
+    # on the ridge the smooth normal is vertical (the two faces mirror each other); faces tilt
+    np.testing.assert_allclose(ridge_normals[0], (0, 0, 1), atol=1e-5)
+    assert np.all(np.abs(face[tent][:, 0]) > 0.5)
 
     # world: 0.5 * (0.2,0.4,0.6)*1.5 + 0.5 * (sky: unsupported -> socket value white)
     assert desc["world"]["color"] == pytest.approx(tuple(0.5 * 1.5 * c + 0.5 for c in (0.2, 0.4, 0.6)))

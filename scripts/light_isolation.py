@@ -8,7 +8,8 @@ area-light deficit). Runs inside Blender (Debian's 3.4 or the .venv's bpy):
 Options (key=value): light=NAME (keep only this light; 'world' keeps only the world), bounces=0,1,4
 (max_bounces values; the other budgets are raised to match), seeds=8, spp=32, engines=CYCLES,HAIRBSDF,
 work=/tmp/light_isolation, hair.SOCKET=VALUE (a Principled Hair input in every material, e.g.
-hair.Offset=0), cycles.NAME=VALUE (a scene.cycles setting, e.g. cycles.min_light_bounces=64). The world is set to black unless light=world. 128 x 96 unless res=WxH."""
+hair.Offset=0), cycles.NAME=VALUE (a scene.cycles setting, e.g. cycles.min_light_bounces=64), no_hair=1 (particle hair
+and Curves objects off, to see the rest of the scene alone). The world is set to black unless light=world. 128 x 96 unless res=WxH."""
 import json
 import os
 import sys
@@ -61,6 +62,13 @@ for engine in engines:
                 for node in scene.world.node_tree.nodes:
                     if node.type == "BACKGROUND":
                         node.inputs["Strength"].default_value = 0.0
+            if opts.get("no_hair") == "1":
+                for obj in list(scene.objects):
+                    if obj.type == "CURVES":
+                        obj.hide_render = True
+                    for mod in obj.modifiers:
+                        if mod.type == "PARTICLE_SYSTEM":
+                            mod.show_render = False
             for key, value in opts.items():
                 if key.startswith("hair."):
                     for mat in bpy.data.materials:

@@ -272,6 +272,12 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
     md.triangles.resize(size_t(t.shape(0)));
     std::memcpy(md.triangles.data(), t.data(), md.triangles.size() * sizeof(int32_t) * 3);
     md.material.assign(tm.data(), tm.data() + tm.shape(0));
+    if (m.contains("triangle_normals") && !m["triangle_normals"].is_none()) {
+        auto n = array_shape<float>(m["triangle_normals"], sub(key, "triangle_normals"), 9);
+        if (n.shape(0) != t.shape(0)) fail(sub(key, "triangle_normals"), "expected one row of 3 corner normals per triangle");
+        md.normals.resize(size_t(n.shape(0)));
+        std::memcpy(md.normals.data(), n.data(), md.normals.size() * sizeof(float) * 9);
+    }
 }
 
 PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key, bool& random_from_curve,

@@ -218,6 +218,12 @@ def _check_meshes(scene, out):
     if len(material) != len(triangles):
         raise ValueError(f"{key}['triangle_material']: expected one value per triangle ({len(triangles)})")
     out["meshes"] = {"vertices": vertices, "triangles": triangles, "triangle_material": material}
+    if m.get("triangle_normals") is not None:
+        normals = _Checker.array(f"{key}['triangle_normals']", m["triangle_normals"], np.float32, 9)
+        if len(normals) != len(triangles):
+            raise ValueError(f"{key}['triangle_normals']: expected one row of 3 corner normals per triangle "
+                             f"({len(triangles)})")
+        out["meshes"]["triangle_normals"] = normals
 
 
 def _check_model_param(key, value):

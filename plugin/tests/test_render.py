@@ -346,6 +346,32 @@ def test_spot_cosine_is_cycles_3x_attenuation():
     np.testing.assert_allclose(b[lit], a[lit] * cos_axis[lit], rtol=2e-5)
 
 
+def test_smooth_mesh_normals_are_interpolated():
+    """meshes.triangle_normals: the diffuse shading normal is the barycentric interpolation of the
+    corner normals (Cycles' smooth shading), per pixel for a delta sun; flat without them."""
+    sun = {"type": "SUN", "direction": (0.5, 0.2, 1.0), "strength": (1, 1, 1)}
+    scene = _plane_scene(sun)
+    corner = np.array([[0.3, 0.0, 1.0], [-0.2, 0.4, 1.0], [0.0, -0.3, 1.0], [0.4, 0.4, 1.0]])  # per vertex
+    tris = scene["meshes"]["triangles"]
+    scene["meshes"]["triangle_normals"] = corner[tris].reshape(-1, 9).astype(np.float32)
+    flat = render(_plane_scene(sun))["combined"][..., 0].astype(np.float64)
+    smooth = render(scene)["combined"][..., 0].astype(np.float64)
+    n = 16
+    xy = (np.arange(n) + 0.5) / n * 4.0 - 2.0  # pixel centres; image row 0 = +y
+    px, py = np.meshgrid(xy, xy[::-1])
+    # Barycentrics on the quad (-5,-5) (5,-5) (5,5) (-5,5): triangle 0 1 2 below the diagonal y = x.
+    s_, t_ = (px + 5) / 10, (py + 5) / 10
+    lower = t_ <= s_
+    w = np.where(lower[..., None], np.stack([1 - s_, s_ - t_, t_], -1), np.stack([1 - t_, s_, t_ - s_], -1))
+    v = np.where(lower[..., None, None], corner[[0, 1, 2]][None, None], corner[[0, 2, 3]][None, None])
+    normal = (w[..., None] * v).sum(axis=2)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    light = np.array(sun["direction"]) / np.linalg.norm(sun["direction"])
+    expected = 0.5 / np.pi * np.maximum(normal @ light, 0.0)
+    np.testing.assert_allclose(smooth, expected, rtol=2e-5, atol=1e-7)
+    np.testing.assert_allclose(flat, 0.5 / np.pi * light[2], rtol=2e-5)
+
+
 @pytest.mark.parametrize("visible", [True, False])
 def test_lights_visible_to_camera_only_when_set(visible):
     """An area light between the camera and the plane: seen by camera rays only with

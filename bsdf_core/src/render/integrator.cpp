@@ -92,8 +92,20 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         sp.self = {PrimKind::Triangle, hit.prim};
         sp.p = (1.0 - hit.u - hit.v) * v0 + hit.u * v1 + hit.v * v2;
         Vec3 ng = normalize(cross(v1 - v0, v2 - v0));
-        if (dot(ng, sp.g.wo) < 0) ng = -1.0 * ng;  // back face: Cycles flips N and Ng
-        sp.g.n = ng;
+        Vec3 n = ng;
+        if (!md.normals.empty()) {
+            // Smooth shading: N interpolated from the corner normals (Cycles' triangle_smooth_normal).
+            const auto& c = md.normals[size_t(hit.prim)];
+            const double w = 1.0 - hit.u - hit.v;
+            const Vec3 ns = w * Vec3{c[0], c[1], c[2]} + hit.u * Vec3{c[3], c[4], c[5]} + hit.v * Vec3{c[6], c[7], c[8]};
+            const double len = length(ns);
+            if (len > 0 && std::isfinite(len)) n = (1.0 / len) * ns;
+        }
+        if (dot(ng, sp.g.wo) < 0) {  // back face: Cycles flips N and Ng
+            ng = -1.0 * ng;
+            n = -1.0 * n;
+        }
+        sp.g.n = n;
         sp.g.ng = ng;
         sp.ng_triangle = ng;
         // A hair closure on a mesh: Cycles' frame from dP/du of the triangle.

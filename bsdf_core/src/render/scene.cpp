@@ -267,7 +267,9 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
                 mat = fallback_material();
             }
             out.material.push_back(mat);
+            if (t < md.normals.size()) out.normals.push_back(md.normals[t]);
         }
+        if (out.normals.size() != out.triangles.size()) out.normals.clear();  // all or none
         if (dropped) warnings.push_back("meshes: dropped " + plural(dropped, "triangle") + " with bad indices, NaN/Inf vertices or no area");
         if (bad_material) warnings.push_back("meshes: " + plural(bad_material, "triangle") + " with a material index outside materials use the default surface");
         md = std::move(out);

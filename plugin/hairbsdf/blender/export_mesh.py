@@ -1,5 +1,7 @@
 """Mesh export: evaluated triangles (loop_triangles, foreach_get) in world space with a
-scene material index per triangle (the object's slot of the polygon's material_index)."""
+scene material index per triangle (the object's slot of the polygon's material_index) and the
+corner normals Cycles shades with (split normals: the face normal on flat faces, smooth
+vertex normals on smooth ones)."""
 
 from __future__ import annotations
 
@@ -17,23 +19,26 @@ class MeshBuffer:
         self.vertices: list[np.ndarray] = []
         self.triangles: list[np.ndarray] = []
         self.material: list[np.ndarray] = []
+        self.normals: list[np.ndarray] = []
         self._nverts = 0
 
-    def add(self, verts, tris, mat):
+    def add(self, verts, tris, mat, normals):
         if tris.shape[0] == 0:
             return
         self.vertices.append(verts)
         self.triangles.append(tris + self._nverts)
         self.material.append(mat)
+        self.normals.append(normals)
         self._nverts += verts.shape[0]
 
     def finish(self) -> dict:
         if not self.triangles:
             return {"vertices": np.zeros((0, 3), np.float32), "triangles": np.zeros((0, 3), np.int32),
-                    "triangle_material": np.zeros(0, np.int32)}
+                    "triangle_material": np.zeros(0, np.int32), "triangle_normals": np.zeros((0, 9), np.float32)}
         return {"vertices": np.ascontiguousarray(np.concatenate(self.vertices), np.float32),
                 "triangles": np.ascontiguousarray(np.concatenate(self.triangles), np.int32),
-                "triangle_material": np.concatenate(self.material).astype(np.int32)}
+                "triangle_material": np.concatenate(self.material).astype(np.int32),
+                "triangle_normals": np.ascontiguousarray(np.concatenate(self.normals), np.float32)}
 
 
 class MeshCache:
@@ -54,14 +59,15 @@ class MeshCache:
 
 
 def mesh_local_arrays(obj):
-    """(vertices (V,3) float32, triangles (T,3) int32, material_index (T,) int32) of an
-    evaluated object, object space.  Uses to_mesh() so the evaluated data is not touched."""
+    """(vertices (V,3) float32, triangles (T,3) int32, material_index (T,) int32, corner normals
+    (T,9) float32) of an evaluated object, object space.  Uses to_mesh() so the evaluated data is
+    not touched."""
     try:
         mesh = obj.to_mesh()
     except RuntimeError:
         mesh = None
     if mesh is None:
-        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.int32)
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros(0, np.int32), np.zeros((0, 9), np.float32)
     try:
         if hasattr(mesh, "calc_loop_triangles"):  # 3.x; 4.x computes them on access
             mesh.calc_loop_triangles()
@@ -73,14 +79,18 @@ def mesh_local_arrays(obj):
         mesh.loop_triangles.foreach_get("vertices", tris)
         mat = np.empty(nt, np.int32)
         mesh.loop_triangles.foreach_get("material_index", mat)
-        return verts.reshape(nv, 3), tris.reshape(nt, 3), mat
+        if hasattr(mesh, "calc_normals_split"):  # before 4.1 split normals are computed on request
+            mesh.calc_normals_split()
+        normals = np.empty(nt * 9, np.float32)
+        mesh.loop_triangles.foreach_get("split_normals", normals)
+        return verts.reshape(nv, 3), tris.reshape(nt, 3), mat, normals.reshape(nt, 9)
     finally:
         obj.to_mesh_clear()
 
 
 def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache: MeshCache):
     t0 = time.perf_counter()
-    verts, tris, mat_idx = cache.get(obj)
+    verts, tris, mat_idx, normals = cache.get(obj)
     if tris.shape[0] == 0:
         return 0
     slots = materials.slot_indices(obj)
@@ -91,9 +101,18 @@ def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache
     if not finite.all():
         bad = ~finite[tris].all(axis=1)
         report.warn(f"Mesh '{obj.name}': {int(bad.sum())} triangles have NaN or infinite vertices; skipped")
-        tris, mat = tris[~bad], mat[~bad]
+        tris, mat, normals = tris[~bad], mat[~bad], normals[~bad]
         world = np.where(finite[:, None], world, 0.0).astype(np.float32)
-    buffer.add(world, tris, mat)
+    # Normals transform with the inverse transpose of the object matrix (non-uniform scale).
+    m3 = np.asarray([tuple(row) for row in matrix], np.float64)[:3, :3]
+    try:
+        normal_matrix = np.linalg.inv(m3).T
+    except np.linalg.LinAlgError:
+        normal_matrix = np.eye(3)
+    n = normals.reshape(-1, 3).astype(np.float64) @ normal_matrix.T
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where(length > 0, n / np.where(length > 0, length, 1.0), 0.0)
+    buffer.add(world, tris, mat, n.reshape(-1, 9).astype(np.float32))
     report.add_count("mesh_objects", 1)
     report.add_count("triangles", tris.shape[0])
     report.timings["meshes"] = report.timings.get("meshes", 0.0) + time.perf_counter() - t0

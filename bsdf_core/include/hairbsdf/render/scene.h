@@ -44,6 +44,9 @@ struct MeshData {
     std::vector<std::array<float, 3>> vertices;
     std::vector<std::array<int32_t, 3>> triangles;
     std::vector<int32_t> material;  // per triangle
+    // Optional corner normals per triangle (x, y, z of corners 0, 1, 2): Cycles' smooth shading
+    // normal N is their barycentric interpolation. Empty: N = the face normal.
+    std::vector<std::array<float, 9>> normals;
 };
 
 // One entry of a material's flat weighted closure sum.
