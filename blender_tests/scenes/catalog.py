@@ -57,7 +57,7 @@ SCENES = {
                     "(redness 0, 0.5, 1), lit by a soft sun and a dim world."),
     "fur_ball": dict(
         module="fur_ball", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
-        ci=dict(res=(96, 96), spp=8, seeds=4), full=dict(res=(256, 256), spp=32, seeds=8),
+        ci=dict(res=(96, 96), spp=8, seeds=4), full=dict(res=(256, 256), spp=32, seeds=16),
         title="Fur ball",
         description="Particle hair on a diffuse sphere; Random Color, Random Roughness and a Coat driven by "
                     "Hair Info > Random; a point light and a dim world."),
