@@ -21,6 +21,13 @@ ModelParamSpec rgb(const char* name, std::array<double, 3> def, double lo, doubl
 ModelParamSpec choice(const char* name, std::vector<std::string> choices, const char* description) {
     return {name, ParamKind::Choice, {0, 0, 0}, 0, double(choices.size() - 1), std::move(choices), false, description};
 }
+// Epic's and Marschner's `energy` (models/energy_bound.h); `source` names where "published" comes from.
+ModelParamSpec energy_choice(const std::string& source) {
+    ModelParamSpec spec = choice("energy", {energy_mode_name(EnergyMode::Bounded), energy_mode_name(EnergyMode::Published)},
+                                 "");
+    spec.description = "bounded: eval / max(1, albedo) per channel, so no view creates energy; published: as in " + source;
+    return spec;
+}
 ModelParamSpec flag(const char* name, bool def, const char* description) {
     const double v = def ? 1.0 : 0.0;
     return {name, ParamKind::Bool, {v, v, v}, 0, 1, {}, false, description};
@@ -43,8 +50,7 @@ const std::vector<ModelParamSpec>& epic_schema() {
         real("roughness", 0.35, 0, 1, "r: beta_R = r^2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R"),
         real("shift", 0.035, -0.25, 0.25, "alpha_R = -2 shift, alpha_TT = shift, alpha_TRT = 4 shift (sin theta)"),
         choice("variant", {"direct", "environment"}, "direct lights, or the environment-light variant"),
-        choice("energy", {"bounded", "published"},
-               "bounded: eval / max(1, albedo) per channel, so no view creates energy; published: as in the notes"),
+        energy_choice("the notes"),
     };
     return s;
 }
@@ -74,8 +80,7 @@ const std::vector<ModelParamSpec>& marschner_schema() {
         real("caustic_width", 0.2618, 0.01, 0.7, "w_c (rad)"),
         real("caustic_fade", 0.3, 0, 1, "Delta eta*"),
         real("caustic_limit", 0.5, 0, 1, "Delta h_M"),
-        choice("energy", {"bounded", "published"},
-               "bounded: eval / max(1, albedo) per channel, so no view creates energy; published: as in the paper"),
+        energy_choice("the paper"),
     };
     return s;
 }
@@ -230,6 +235,10 @@ private:
 
 std::string owner(const std::string& model) { return "model '" + model + "'"; }
 
+EnergyMode energy_mode(const Values& v) {
+    return v.choice("energy") == energy_mode_name(EnergyMode::Bounded) ? EnergyMode::Bounded : EnergyMode::Published;
+}
+
 HairModel build_kajiya_kay(const ModelParams& given) {
     const Values v(owner("kajiya_kay"), kajiya_kay_schema(), given);
     v.check_sum_at_most_one("diffuse", "specular");
@@ -249,7 +258,7 @@ HairModel build_epic(const ModelParams& given) {
     p.roughness = v.number("roughness");
     p.shift = v.number("shift");
     p.variant = v.choice("variant") == "direct" ? EpicVariant::Direct : EpicVariant::Environment;
-    p.energy = v.choice("energy") == "bounded" ? EnergyMode::Bounded : EnergyMode::Published;
+    p.energy = energy_mode(v);
     return EpicHair(p);
 }
 
@@ -280,7 +289,7 @@ HairModel build_marschner(const ModelParams& given) {
     p.caustic_width = v.number("caustic_width");
     p.caustic_fade = v.number("caustic_fade");
     p.caustic_limit = v.number("caustic_limit");
-    p.energy = v.choice("energy") == "bounded" ? EnergyMode::Bounded : EnergyMode::Published;
+    p.energy = energy_mode(v);
     return MarschnerHair(p);
 }
 

@@ -433,7 +433,7 @@ py::dict model_dict(const EpicHair& m) {
     d["roughness"] = p.roughness;
     d["shift"] = p.shift;
     d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
-    d["energy"] = p.energy == EnergyMode::Bounded ? "bounded" : "published";
+    d["energy"] = energy_mode_name(p.energy);
     d["betas"] = m.betas();
     return zoo_scales(d, m.angular_scales());
 }
@@ -466,7 +466,7 @@ py::dict model_dict(const MarschnerHair& m) {
     d["caustic_width"] = p.caustic_width;
     d["caustic_fade"] = p.caustic_fade;
     d["caustic_limit"] = p.caustic_limit;
-    d["energy"] = p.energy == EnergyMode::Bounded ? "bounded" : "published";
+    d["energy"] = energy_mode_name(p.energy);
     return zoo_scales(d, m.angular_scales());
 }
 

@@ -37,9 +37,10 @@ def compare(roughness, offset, aspect, theta_o_deg, rays, bins=(12, 24), trt_poi
     normal = np.array([0.0, 0.6, 0.8]) if aspect != 1.0 else None
     x, y, z = local_frame(wo, normal)
     I = np.array([wo @ x, wo @ y, wo @ z])
-    c = hairbsdf.principled_hair(model="huang", parametrization="absorption", absorption_coefficient=sigma,
-                                 roughness=roughness, offset=offset, ior=ior, aspect_ratio=aspect,
-                                 accuracy="converged", tolerance=1e-2, trt_points=trt_points)
+    def model_closure(points):
+        return hairbsdf.principled_hair(model="huang", parametrization="absorption", absorption_coefficient=sigma,
+                                        roughness=roughness, offset=offset, ior=ior, aspect_ratio=aspect,
+                                        accuracy="converged", tolerance=1e-2, trt_points=points)
     tables = tuple(hairbsdf._core.huang_table())
     b = min(aspect, 1.0 / aspect)
     nt, npb = bins
@@ -78,12 +79,9 @@ def compare(roughness, offset, aspect, theta_o_deg, rays, bins=(12, 24), trt_poi
         weights = np.outer(gw, gw) / 4.0  # sums to 1 over a bin's points
         return np.einsum("aibjc,ij->abc", values.reshape(nt, points, npb, points, 3), weights) * cell
 
-    model = binned_model(c, gauss)
+    model = binned_model(model_closure(trt_points), gauss)
     if gauss_r_tt:
-        cheap = hairbsdf.principled_hair(model="huang", parametrization="absorption", absorption_coefficient=sigma,
-                                         roughness=roughness, offset=offset, ior=ior, aspect_ratio=aspect,
-                                         accuracy="converged", tolerance=1e-2, trt_points=64)
-        model[:, :, :2] = binned_model(cheap, gauss_r_tt)[:, :, :2]
+        model[:, :, :2] = binned_model(model_closure(64), gauss_r_tt)[:, :, :2]
     out = {}
     for name, k in LOBES.items():
         stack = np.array(hists[name])

@@ -22,11 +22,8 @@ EnergyBoundTable build_epic_energy_table(const EpicHairParams& params) {
     append_gauss_legendre(phi_rule[2], -kPi, -1.0, 1);
     append_gauss_legendre(phi_rule[2], -1.0, 1.0, 4);
     append_gauss_legendre(phi_rule[2], 1.0, kPi, 1);
-    const double r2 = sqr(params.roughness), extra = params.variant == EpicVariant::Environment ? 0.2 : 0.0;
-    const std::array<double, 3> beta = {std::max(r2 + extra, EpicHair::kMinBeta),
-                                        std::max(0.5 * r2 + extra, EpicHair::kMinBeta),
-                                        std::max(2.0 * r2 + extra, EpicHair::kMinBeta)};
-    const std::array<double, 3> alpha = {-2.0 * params.shift, params.shift, 4.0 * params.shift};
+    const std::array<double, 3>& beta = model.betas();
+    const std::array<double, 3>& alpha = model.alphas();
     // E changes over about beta_p in sin theta_o (where a lobe's Gaussian leaves [-1, 1]).
     EnergyBoundTable table(EnergyBoundTable::views_for_scale(std::min({beta[0], beta[1], beta[2]})));
     for_each_view(table.views(), [&](int k) {

@@ -20,9 +20,8 @@ EnergyBoundTable build_marschner_energy_table(const MarschnerHairParams& params)
     MarschnerHairParams published = params;
     published.energy = EnergyMode::Published;
     const MarschnerHair model(published);
-    const std::array<double, 3> alpha = {params.alpha_r, -0.5 * params.alpha_r, -1.5 * params.alpha_r};
-    const std::array<double, 3> beta = {std::max(params.beta_r, 1e-3), std::max(0.5 * params.beta_r, 1e-3),
-                                        std::max(2.0 * params.beta_r, 1e-3)};
+    const std::array<double, 3>& alpha = model.alphas();
+    const std::array<double, 3>& beta = model.betas();
     const QuadratureRule gamma_rule = gauss_legendre_rule(-0.5 * kPi, 0.5 * kPi, 4);
     const int trt_panels = int(std::clamp(std::ceil(kTwoPi / (2.0 * std::max(params.caustic_width, 1e-3))), 12.0, 64.0));
     const QuadratureRule trt_rule = gauss_legendre_rule(-kPi, kPi, trt_panels);
@@ -52,14 +51,13 @@ EnergyBoundTable build_marschner_energy_table(const MarschnerHairParams& params)
                 if (p < 2) {
                     // int N_p dphi = 1/2 int A(p, h) dh (every root of phi(gamma) once; exact through
                     // TT's own caustics at eta' < 1.155), h = sin gamma.
-                    const double root = std::sqrt(std::max(sqr(params.eta) - sqr(g.sin_theta_d), 1e-12));
-                    const double e1 = root / g.cos_theta_d, e2 = sqr(params.eta) * g.cos_theta_d / root;
-                    const double m = 0.5 * std::exp(-0.5 * sqr((g.theta_h - alpha[size_t(p)]) / beta[size_t(p)])) /
-                                     (beta[size_t(p)] * 2.5066282746310002);
+                    const auto indices = MarschnerHair::bravais(params.eta, g.sin_theta_d, g.cos_theta_d);
+                    const double m = model.longitudinal(p, g.theta_h);
                     RGB row;
                     for (size_t j = 0; j < gamma_rule.x.size(); ++j)
                         row += (0.5 * gamma_rule.w[j] * std::cos(gamma_rule.x[j])) *
-                               model.attenuation(p, e1, e2, gamma_rule.x[j], g.cos_theta_t);
+                               model.attenuation(p, indices.perpendicular, indices.parallel, gamma_rule.x[j],
+                                                 g.cos_theta_t);
                     r_and_tt += (w * m * g.geometry) * row;
                 } else {
                     for (int o = 0; o < orientations; ++o) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <limits>
+#include <optional>
 
 namespace hairbsdf::render {
 
@@ -23,12 +24,40 @@ double smoothstep(double x) {
     return x * x * (3.0 - 2.0 * x);
 }
 
+// Nearest t in (tmin, tmax) where the ray meets the sphere.
+bool ray_sphere(Vec3 o, Vec3 d, double tmin, double tmax, Vec3 c, double r, double& t) {
+    const Vec3 oc = o - c;
+    const double b = dot(oc, d);
+    const double cc = dot(oc, oc) - r * r;
+    const double disc = b * b - cc;
+    if (disc < 0) return false;
+    const double s = std::sqrt(disc);
+    const double t0 = -b - s, t1 = -b + s;
+    if (t0 > tmin && t0 < tmax) {
+        t = t0;
+        return true;
+    }
+    if (t1 > tmin && t1 < tmax) {
+        t = t1;
+        return true;
+    }
+    return false;
+}
+
+void invert3(const std::array<double, 9>& m, std::array<double, 9>& inv) {
+    const double a = m[0], b = m[1], c = m[2], d = m[3], e = m[4], f = m[5], g = m[6], h = m[7], i = m[8];
+    const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+    const double det = a * A + b * B + c * C;
+    const double s = det != 0 ? 1.0 / det : 0.0;
+    inv = {A * s, -(b * i - c * h) * s, (b * f - c * e) * s, B * s, (a * i - c * g) * s, -(a * f - c * d) * s,
+           C * s, -(a * h - b * g) * s, (a * e - b * d) * s};
+}
+
+}  // namespace
+
 // A rectangle seen from a point, sampled uniformly in solid angle: Urena, Fajardo and King,
 // "An Area-Preserving Parametrization for Spherical Rectangles" (EGSR 2013), §3-4. The
 // rectangle is corner + [0, len_u] axis_u + [0, len_v] axis_v (unit, orthogonal axes).
-// Below this solid angle Girard's formula loses its digits; such lights are sampled by area.
-constexpr double kMinRectangleSolidAngle = 1e-7;
-
 struct SphericalRectangle {
     Vec3 o, x, y, z;                 // shading point and the local frame (z points away from the rectangle)
     double x0 = 0, x1 = 0, y0 = 0, y1 = 0, z0 = 0;
@@ -74,36 +103,16 @@ struct SphericalRectangle {
     }
 };
 
-// Nearest t in (tmin, tmax) where the ray meets the sphere.
-bool ray_sphere(Vec3 o, Vec3 d, double tmin, double tmax, Vec3 c, double r, double& t) {
-    const Vec3 oc = o - c;
-    const double b = dot(oc, d);
-    const double cc = dot(oc, oc) - r * r;
-    const double disc = b * b - cc;
-    if (disc < 0) return false;
-    const double s = std::sqrt(disc);
-    const double t0 = -b - s, t1 = -b + s;
-    if (t0 > tmin && t0 < tmax) {
-        t = t0;
-        return true;
-    }
-    if (t1 > tmin && t1 < tmax) {
-        t = t1;
-        return true;
-    }
-    return false;
-}
+// Below this solid angle Girard's formula loses its digits; such lights are sampled by area.
+constexpr double kMinRectangleSolidAngle = 1e-7;
 
-void invert3(const std::array<double, 9>& m, std::array<double, 9>& inv) {
-    const double a = m[0], b = m[1], c = m[2], d = m[3], e = m[4], f = m[5], g = m[6], h = m[7], i = m[8];
-    const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
-    const double det = a * A + b * B + c * C;
-    const double s = det != 0 ? 1.0 / det : 0.0;
-    inv = {A * s, -(b * i - c * h) * s, (b * f - c * e) * s, B * s, (a * i - c * g) * s, -(a * f - c * d) * s,
-           C * s, -(a * h - b * g) * s, (a * e - b * d) * s};
+std::optional<SphericalRectangle> Light::solid_angle_rectangle(Vec3 p) const {
+    if (ellipse_ || !full_spread_) return std::nullopt;
+    const Vec3 corner = co_ - (0.5 * len_u_) * axis_u_ - (0.5 * len_v_) * axis_v_;
+    SphericalRectangle rect(p, corner, axis_u_, axis_v_, len_u_, len_v_);
+    if (!(rect.solid_angle > kMinRectangleSolidAngle)) return std::nullopt;
+    return rect;
 }
-
-}  // namespace
 
 void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
     if (n.x != n.y || n.x != n.z) {
@@ -444,19 +453,16 @@ bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
         }
         case LightType::Area: {
             if (dot(co_ - p, normal_) > 0) return false;  // behind the one-sided light
-            if (samples_solid_angle()) {
-                const SphericalRectangle rect(p, area_corner(), axis_u_, axis_v_, len_u_, len_v_);
-                if (rect.solid_angle > kMinRectangleSolidAngle) {
-                    const Vec3 dv = rect.sample(u0, u1) - p;
-                    const double t = length(dv);
-                    if (!(t > 0)) return false;
-                    out.wi = (1.0 / t) * dv;
-                    out.distance = t;
-                    if (!(-dot(normal_, out.wi) > 0)) return false;
-                    out.pdf = 1.0 / rect.solid_angle;
-                    out.radiance = radiance_;
-                    return true;
-                }
+            if (const auto rect = solid_angle_rectangle(p)) {
+                const Vec3 dv = rect->sample(u0, u1) - p;
+                const double t = length(dv);
+                if (!(t > 0)) return false;
+                out.wi = (1.0 / t) * dv;
+                out.distance = t;
+                if (!(-dot(normal_, out.wi) > 0)) return false;
+                out.pdf = 1.0 / rect->solid_angle;
+                out.radiance = radiance_;
+                return true;
             }
             double x, y;
             if (ellipse_) {
@@ -538,10 +544,7 @@ bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
             if (!(att > 0)) return false;
             out.t = t;
             out.pdf = t * t / (-denom * area_);
-            if (samples_solid_angle()) {
-                const SphericalRectangle rect(ray.org, area_corner(), axis_u_, axis_v_, len_u_, len_v_);
-                if (rect.solid_angle > kMinRectangleSolidAngle) out.pdf = 1.0 / rect.solid_angle;
-            }
+            if (const auto rect = solid_angle_rectangle(ray.org)) out.pdf = 1.0 / rect->solid_angle;
             out.radiance = att * radiance_;
             return true;
         }

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from ._common import transform_points
+from ._common import matrix_to_numpy, transform_points
 
 MESH_LIKE = ("MESH", "CURVE", "SURFACE", "META", "FONT")
 
@@ -104,7 +104,7 @@ def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache
         tris, mat, normals = tris[~bad], mat[~bad], normals[~bad]
         world = np.where(finite[:, None], world, 0.0).astype(np.float32)
     # Normals transform with the inverse transpose of the object matrix (non-uniform scale).
-    m3 = np.asarray([tuple(row) for row in matrix], np.float64)[:3, :3]
+    m3 = matrix_to_numpy(matrix)[:3, :3]
     try:
         normal_matrix = np.linalg.inv(m3).T
     except np.linalg.LinAlgError:

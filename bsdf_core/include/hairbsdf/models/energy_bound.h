@@ -25,6 +25,7 @@ namespace hairbsdf {
 
 // The `energy` parameter of Epic and Marschner: "bounded" (the default) or "published".
 enum class EnergyMode { Bounded, Published };
+inline const char* energy_mode_name(EnergyMode mode) { return mode == EnergyMode::Bounded ? "bounded" : "published"; }
 
 class EnergyBoundTable {
 public:

@@ -83,6 +83,7 @@ public:
     // The R + TT + TRT albedo table of energy = Bounded (null for Published).
     const std::shared_ptr<const EnergyBoundTable>& energy_table() const { return energy_table_; }
     const std::array<double, 3>& betas() const { return beta_; }
+    const std::array<double, 3>& alphas() const { return alpha_; }
 
     std::array<double, 2> angular_scales() const {
         // The narrowest Gaussian (sd beta in sin theta) and the narrowest azimuthal fit (TRT's).

@@ -64,6 +64,21 @@ public:
     }
     const MarschnerHairParams& params() const { return params_; }
     const std::shared_ptr<const EnergyBoundTable>& energy_table() const { return energy_table_; }
+    // Shift and width of each lobe's longitudinal Gaussian in theta_h (R, TT, TRT).
+    const std::array<double, 3>& alphas() const { return alpha_; }
+    const std::array<double, 3>& betas() const { return beta_; }
+    // M_p with unit area in theta_i: g(beta_p; theta_h - alpha_p) / 2.
+    double longitudinal(int p, double theta_h) const {
+        return 0.5 * gaussian(beta_[size_t(p)], theta_h - alpha_[size_t(p)]);
+    }
+    // Bravais indices of the 2D problem for relative index eta: eta' (perpendicular) and eta'' (parallel).
+    struct BravaisIndices {
+        double perpendicular, parallel;
+    };
+    static BravaisIndices bravais(double eta, double sin_theta_d, double cos_theta_d) {
+        const double root = std::sqrt(std::max(eta * eta - sqr(sin_theta_d), 1e-12));
+        return {root / cos_theta_d, eta * eta * cos_theta_d / root};
+    }
 
     // The table's orientation nodes: E depends on the major axis phi_major only through TRT's
     // eta*(phi_h); it is pi-periodic and even in phi_major, so phi_major in [0, pi/2] suffices.
@@ -186,8 +201,7 @@ public:
     }
     // Lobe p's eval (as published, without the energy bound) at azimuth phi_i in the frame.
     RGB lobe(int p, const ShadingPoint& sp, const LobeGeometry& g, double phi_i) const {
-        // M_p with unit area in theta_i: g(beta; theta_h - alpha) / 2.
-        const double m = 0.5 * gaussian(beta_[size_t(p)], g.theta_h - alpha_[size_t(p)]);
+        const double m = longitudinal(p, g.theta_h);
         double eta = params_.eta;
         if (p == 2) {  // eccentricity: eta*(phi_h), phi_h relative to the major axis (§4.2)
             const double phi_h = 0.5 * (phi_i + (-0.5 * kPi)) - sp.phi_major;
@@ -267,9 +281,8 @@ private:
     // N_p(phi) for relative index eta (eta* for TRT): roots of the cubic phi(gamma_i), with the TRT
     // caustic replaced by Gaussians of width w_c near eta' < 2 (§4.3).
     RGB azimuthal(int p, double eta, double sin_theta_d, double cos_theta_d, double cos_theta_t, double phi) const {
-        const double root = std::sqrt(std::max(eta * eta - sqr(sin_theta_d), 1e-12));
-        const double e1 = root / cos_theta_d;              // eta'
-        const double e2 = eta * eta * cos_theta_d / root;  // eta''
+        const BravaisIndices indices = bravais(eta, sin_theta_d, cos_theta_d);
+        const double e1 = indices.perpendicular, e2 = indices.parallel;  // eta', eta''
         const double c = std::asin(clamp(1.0 / e1, -1.0, 1.0));
         std::array<double, 6> g{};
         const int n = solve_gamma(p, c, phi, g);

@@ -34,6 +34,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "hairbsdf/render/environment.h"
@@ -59,6 +60,8 @@ struct LightHit {
     int light = -1;
 };
 
+struct SphericalRectangle;  // lights.cpp
+
 class Light {
 public:
     Light(const LightDesc& desc);       // scene light
@@ -81,10 +84,10 @@ public:
 private:
     double spot_attenuation(Vec3 from_light) const;
     double spread_attenuation(Vec3 to_light) const;
-    // Rectangles with the full spread are sampled uniformly in solid angle, as Cycles does;
-    // ellipses and narrowed spreads uniformly over their area.
-    bool samples_solid_angle() const { return !ellipse_ && full_spread_; }
-    Vec3 area_corner() const { return co_ - (0.5 * len_u_) * axis_u_ - (0.5 * len_v_) * axis_v_; }
+    // Rectangles with the full spread are sampled uniformly in solid angle, as Cycles does: the
+    // rectangle as seen from p. None for ellipses, narrowed spreads and rectangles too small to
+    // measure from p, which are sampled uniformly over their area.
+    std::optional<SphericalRectangle> solid_angle_rectangle(Vec3 p) const;
 
     void make_tree_emitter(const LightDesc* desc);
 
