@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from hairbsdf.compare import judge, metrics as M
-from hairbsdf.compare.runner import Target, expand_cases, shard
+from hairbsdf.compare.runner import Target, blender_seed, expand_cases, shard
 from hairbsdf.compare.thresholds import FLOORS, ThresholdError, Thresholds
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -385,3 +385,35 @@ def test_pending_by_blender_version():
     assert t.for_case("s", "V", (4, 5, 15))["pending"] is None
     assert t.for_case("s", "V", (3, 40, 0))["pending"] is None
     assert t.for_case("s", "V")["pending"] is None
+
+
+def _cycles34_second_lcg_number(rng_hash, seed, sample):
+    """The second number Cycles < 3.6 draws from its per-hit LCG (Chiang's longitudinal sampler)
+    at the first bounce: state = (hash(x, y) ^ seed) + rng_offset + sample * 0xb4bc3953, then
+    lcg_init (one step) and two lcg_step_float calls. All arithmetic mod 2^32."""
+    a, c, m = 1103515245, 12345, 1 << 32
+    state = (np.bitwise_xor(rng_hash, np.uint64(seed)) + np.uint64(sample) * np.uint64(0xB4BC3953)) % m
+    for _ in range(3):
+        state = (np.uint64(a) * state + np.uint64(c)) % m
+    return state.astype(np.float64) / m
+
+
+def test_seeds_of_old_blenders_do_not_share_the_lcg_pattern():
+    """With seeds 0..7, Cycles < 3.6 gives every pixel nearly the same second LCG number on every
+    seed (steps of about 0.502 per sample and per seed), so per-pixel means of two groups of seeds
+    correlate: the seeds are not independent renders and the Welch test fails on noise
+    (hdri_swatch in Blender 3.4). blender_seed's seeds make the groups independent."""
+    rng = np.random.default_rng(3)
+    rng_hash = rng.integers(0, 1 << 32, size=20000, dtype=np.uint64)
+
+    def half_correlation(seeds):
+        # A pixel's estimate: the mean over 32 samples of a smooth function of the number.
+        est = np.array([np.mean([np.cos(2 * np.pi * _cycles34_second_lcg_number(rng_hash, s, k)) for k in range(32)],
+                                axis=0) for s in seeds])
+        return float(np.corrcoef(est[:4].mean(axis=0), est[4:].mean(axis=0))[0, 1])
+
+    assert half_correlation(range(8)) > 0.5
+    old = [blender_seed((3, 4, 1), k) for k in range(8)]
+    assert abs(half_correlation(old)) < 0.05
+    assert len(set(old)) == 8 and all(0 <= s <= 2**31 - 1 for s in old)
+    assert [blender_seed((4, 5, 0), k) for k in range(8)] == list(range(8))  # 3.6+: no LCG, seeds as given

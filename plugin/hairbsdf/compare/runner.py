@@ -85,6 +85,24 @@ def _sha(*parts):
     return h.hexdigest()[:16]
 
 
+# Cycles before 3.6 seeds Chiang's per-hit LCG with hash(x, y) ^ seed, and an LCG is linear in its
+# state: seeds 0..7 differ in the three low bits only, which shifts the LCG's second number by
+# multiples of about 0.502 (mod 1), so every pixel gets nearly the same number on every seed. Such
+# renders share a per-pixel error that their spread does not show, and the Welch test fails on
+# noise. Those Blenders get seeds that differ in all bits (blender_seed).
+LCG_SEEDS_BEFORE = (3, 6, 0)
+
+
+def blender_seed(version, index):
+    """The scene seed of render number `index` for a Blender of `version`."""
+    if tuple(version) >= LCG_SEEDS_BEFORE:
+        return int(index)
+    x = (int(index) + 0x9E3779B9) & 0xFFFFFFFF  # a 32-bit integer mix (splitmix-style finaliser)
+    x = ((x ^ (x >> 16)) * 0x85EBCA6B) & 0xFFFFFFFF
+    x = ((x ^ (x >> 13)) * 0xC2B2AE35) & 0xFFFFFFFF
+    return (x ^ (x >> 16)) & 0x7FFFFFFF  # Blender's seed property stops at 2^31 - 1
+
+
 def file_hash(path):
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -399,10 +417,11 @@ class Runner:
         spp = case.spp
         res = list(case.res) if case.res else None
         osl = self.o.osl if engine == "CYCLES" else None
+        bseed = blender_seed(case.target.version, seed)
         if cycles:
             d = self.o.cache / "cycles"
             d.mkdir(parents=True, exist_ok=True)
-            key = _sha(blend_key, "CYCLES", seed, spp, res, osl, case.target.label, JOB_SCRIPT.read_bytes())
+            key = _sha(blend_key, "CYCLES", bseed, spp, res, osl, case.target.label, JOB_SCRIPT.read_bytes())
             base = d / ("%s-s%d-%s" % (safe(case.id.split("@")[0]), seed, key))
         else:
             rd = case_dir / "renders"
@@ -410,7 +429,7 @@ class Runner:
             tag = {"CYCLES": "cycles_self", "HAIRBSDF": "hairbsdf"}.get(engine, safe(engine.lower()))
             base = rd / ("%s%s_s%d" % (tag, "_exact" if accuracy == "EXACT" else "", seed))
         exr, meta_path = str(base) + ".exr", str(base) + ".json"
-        job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=int(seed), spp=spp, res=res,
+        job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=bseed, spp=spp, res=res,
                    threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
                    meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites,
                    hair_model=None if engine == "CYCLES" else self.o.hair_model)
