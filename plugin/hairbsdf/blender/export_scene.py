@@ -191,8 +191,8 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
     curves_cache = mesh_cache = None  # object-space copies are not needed any more (memory)
     curves = hair.finish(materials.attributes.names)
     n_curves = curves["curve_random"].size
-    # Back faces of 3D curves: Blender 3.x's Embree 3 (built with BACKFACE_CULLING_CURVES) culls
-    # them, the Embree 4 of Blender 3.6+ does not (measured with 3.4.1 and 4.5.15; docs/engine.md).
+    # Back faces of 3D curves: Cycles 3.4 never reports them, Cycles 4.5 does (measured with 3.4.1 and
+    # 4.5.15; docs/engine.md, which also says why the cause in 3.x is not the Embree build option).
     cull_curves = blender_version() < CURVE_CULLING_BEFORE
     if n_curves == 0:
         report.warn("the scene has no hair to render (no visible Curves objects or particle hair)")
