@@ -162,13 +162,13 @@ def sphere_albedo(c, wo, normal, n_theta=400, n_phi=720):
     return np.einsum("i,ijc->c", 0.5 * np.pi * w * np.cos(t), ev) * 2 * np.pi / n_phi
 
 
-@pytest.mark.parametrize("eccentricity, tol", [(0.85, 0.01), (0.5, 0.02)])
+@pytest.mark.parametrize("eccentricity, tol", [(0.85, 0.01), (0.5, 0.015)])
 def test_bounded_follows_the_cross_section_orientation(eccentricity, tol):
     """E depends on the major axis through TRT's eta*(phi_h) (eccentricity); the table has 9 nodes in
-    phi_major over [0, pi/2], linear in between. Between the nodes too, a white fibre with
-    glint_scale 5 stays <= 1 + tol and reaches >= 1 - tol where the published one exceeds 1
-    (brute-force quadrature): within 1 % for Table 1's range (0.85-1); the schema's extreme 0.5 has
-    sharper features in phi_major and is within 2 %."""
+    phi_major over [0, pi/2] for Table 1's range (0.85-1) and 25 at the schema's extreme 0.5, linear
+    in between. Between the nodes too, a white fibre with glint_scale 5 stays <= 1 + tol and reaches
+    >= 1 - tol where the published one exceeds 1 (brute-force quadrature): within 1 % for 0.85; 0.5
+    reaches 1.012 (1.02 with 9 nodes; 49 nodes do not lower it: the rest is the table's quadrature)."""
     kw = dict(sigma_a=0.0, eccentricity=eccentricity, glint_scale=5.0)
     b, p = hairbsdf.marschner_hair(**kw), hairbsdf.marschner_hair(energy="published", **kw)
     seen_over = 0

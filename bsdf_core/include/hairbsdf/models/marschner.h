@@ -82,9 +82,14 @@ public:
 
     // The table's orientation nodes: E depends on the major axis phi_major only through TRT's
     // eta*(phi_h); it is pi-periodic and even in phi_major, so phi_major in [0, pi/2] suffices.
-    // Nodes uniform there (linear in between): 1 for a circular fibre, else 9 (11.25 deg apart; with
-    // glints E has features about 20 deg wide in phi_major).
-    static int orientation_nodes(double eccentricity) { return eccentricity >= 1.0 ? 1 : 9; }
+    // Nodes uniform there (linear in between): 1 for a circular fibre, 9 (11.25 deg apart) over
+    // Table 1's range 0.85-1, where with glints E has features about 20 deg wide in phi_major, and up
+    // to 25 (3.75 deg) at the schema's 0.5, where they are sharper.
+    static int orientation_nodes(double eccentricity) {
+        if (eccentricity >= 1.0) return 1;
+        if (eccentricity >= 0.85) return 9;
+        return 9 + int(std::ceil(16.0 * (0.85 - eccentricity) / 0.35));
+    }
     static double orientation_phi_major(int j, int nodes) { return nodes > 1 ? 0.5 * kPi * j / (nodes - 1) : 0.0; }
     // E_c at theta_o for the cross-section's axis at phi_major (energy = Bounded only).
     RGB bound_albedo(double theta_o, double phi_major) const {
