@@ -1,12 +1,14 @@
-// Single-thread cost per call of eval, sample and pdf for the Chiang closure, in thread
-// CPU time (robust to other processes on the machine). Run by scripts/bench; results go in
-// docs/benchmarks.md.
+// Single-thread cost per call of eval, sample and pdf for the Chiang closure, and of
+// prepare + eval / sample for every zoo model at its defaults, in thread CPU time (robust to
+// other processes on the machine). Run by scripts/bench; results go in docs/benchmarks.md
+// and docs/models.md.
 #include <ctime>
 #include <cstdio>
 #include <random>
 #include <vector>
 
 #include "hairbsdf/closures.h"
+#include "hairbsdf/models/model_factory.h"
 #include "hairbsdf/params/principled_hair.h"
 
 using namespace hairbsdf;
@@ -70,6 +72,25 @@ int main(int argc, char** argv) {
             std::printf("%-8.2f %-8s %10.1f %10.1f %10.1f %14.1f %16.1f\n", beta,
                         acc == Accuracy::Cycles ? "cycles" : "exact", e, s, p, prep, prepared);
         }
+    }
+    // Zoo models at their defaults, Chiang (cycles accuracy, beta_m 0.3) for scale. A model's first
+    // construction builds its tables (energy bound, scattered lobes); that is outside the timing.
+    std::printf("\n%-12s %18s %20s\n", "model", "prepare+eval ns", "prepare+sample ns");
+    {
+        PrincipledHairInputs in;
+        in.parametrization = Parametrization::Melanin;
+        in.roughness = 0.3;
+        const ClosureSum bsdf({Closure{RGB(1.0), ChiangHair(chiang_params_from_principled(in, Accuracy::Cycles))}});
+        const double e = ns_per_call(calls, [&](size_t i) { return bsdf.eval(ctx[i % n], wi[i % n]).lobes[0].r; });
+        const double s = ns_per_call(calls, [&](size_t i) { return bsdf.sample(ctx[i % n], u[i % n]).pdf; });
+        std::printf("%-12s %18.1f %20.1f\n", "chiang", e, s);
+    }
+    for (const std::string& name : zoo_model_names()) {
+        const ClosureSum bsdf({Closure{RGB(1.0), make_zoo_model(name, {})}});
+        const size_t k = name == "deon" || name == "yan_fur" ? calls / 4 : calls;
+        const double e = ns_per_call(k, [&](size_t i) { return bsdf.eval(ctx[i % n], wi[i % n]).pdf; });
+        const double s = ns_per_call(k, [&](size_t i) { return bsdf.sample(ctx[i % n], u[i % n]).pdf; });
+        std::printf("%-12s %18.1f %20.1f\n", name.c_str(), e, s);
     }
     return 0;
 }
