@@ -1,6 +1,6 @@
 """Render the Huang fibre-goniometer cases with Cycles (bpy 4.5) and write an .npz file.
 
-    .venv/bin/python render_huang.py --out f.npz --cases near|far
+    .venv/bin/python render_huang.py --out f.npz --cases near|far [--seed N]
 
 The scene is fiber_gonio.py's (one straight Catmull-Rom strand along world +x, orthographic
 camera, delta sun, direct light only) with the Huang model, a Set Curve Normal node (mode Free)
@@ -68,8 +68,10 @@ def frame_coords(v, wo):
     return [fg._dot(v, X), fg._dot(v, Y), fg._dot(v, Z)]
 
 
-def render_to_npz(out_path, which, threads=2, verbose=True):
+def render_to_npz(out_path, which, threads=2, verbose=True, seed=None):
     cfg = dict(huang_cases.NEAR if which == "near" else huang_cases.FAR)
+    if seed is not None:  # independent renders of the same set, averaged by test_huang_check.py
+        cfg["seed"] = int(seed)
     cases = huang_cases.get_cases(which)
     t0 = time.time()
     fg.reset_scene()
@@ -161,8 +163,9 @@ def main(argv=None):
     ap.add_argument("--out", required=True)
     ap.add_argument("--cases", default="near", choices=sorted(huang_cases.CASE_SETS))
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--seed", type=int, help="Cycles seed (default: the case set's, 0)")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
-    render_to_npz(os.path.abspath(a.out), a.cases, threads=a.threads)
+    render_to_npz(os.path.abspath(a.out), a.cases, threads=a.threads, seed=a.seed)
 
 
 if __name__ == "__main__":
