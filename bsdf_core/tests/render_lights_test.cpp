@@ -55,7 +55,7 @@ TEST(RenderLights, SamplingDensitiesIntegrateToOne) {
     std::uniform_real_distribution<double> u;
     for (const LightDesc& d : finite_lights()) {
         const Light light(d);
-        if (d.type == LightType::Area && d.spread < kPi) continue;  // density of the full area: checked below
+        if (d.type == LightType::Area && d.spread < kPi) continue;  // zero where it cannot light p: below
         const int n = 2000000;
         double integral = 0;
         for (int i = 0; i < n; ++i) {
@@ -193,4 +193,62 @@ TEST(RenderLights, RectanglesAreSampledUniformlyInSolidAngle) {
     LightSample s;
     ASSERT_TRUE(light.sample({0, 0, 0}, 0.3, 0.6, s));
     EXPECT_NEAR(s.radiance.r / s.pdf, 50.0 / (kPi * 1e4), 1e-3 * 50.0 / (kPi * 1e4));
+}
+
+// A rectangle with spread < 180 deg is sampled by solid angle over the part that can light p
+// (clipped to the square around the disk of radius distance x tan(spread / 2)), as Cycles does.
+// Its irradiance by light sampling equals a brute-force integral over directions, sample() and
+// intersect() agree on the pdf, the samples stay in the clipped square, and a point the spread
+// cannot reach gets no sample.
+TEST(RenderLights, NarrowSpreadRectanglesAreClippedAndUnbiased) {
+    LightDesc d;
+    d.type = LightType::Area;
+    d.shape = AreaShape::Rectangle;
+    d.size_x = 2.0;
+    d.size_y = 1.2;
+    d.spread = 0.8;  // tan(0.4) = 0.42: a 0.5 unit light-to-point distance reaches 0.21 on the plane
+    d.strength = RGB(10.0);
+    d.matrix_world = translate(0, 0, 0.5);
+    const Light light(d);
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u;
+    const Vec3 n{0, 0, 1};
+    for (const Vec3 p : {Vec3{0.3, -0.2, 0.0}, Vec3{0.95, 0.55, 0.0}}) {  // inside; near a corner (partly outside)
+        const double reach = 0.5 * std::tan(0.4);
+        double by_light = 0;
+        const int m = 400000;
+        for (int i = 0; i < m; ++i) {
+            LightSample s;
+            if (!light.sample(p, u(rng), u(rng), s)) continue;
+            const Vec3 q = p + s.distance * s.wi;
+            ASSERT_LE(std::fabs(q.x - p.x), reach + 1e-9);
+            ASSERT_LE(std::fabs(q.y - p.y), reach + 1e-9);
+            by_light += s.radiance.r * std::max(0.0, dot(s.wi, n)) / s.pdf;
+            if (i % 100 == 0) {
+                Ray r;
+                r.org = p;
+                r.dir = s.wi;
+                LightHit h;
+                ASSERT_TRUE(light.intersect(r, 1e30, h));
+                ASSERT_NEAR(h.pdf, s.pdf, 1e-6 * s.pdf);
+            }
+        }
+        by_light /= m;
+        // Brute force: cosine-weighted hemisphere directions, radiance from intersect().
+        double brute = 0;
+        const int k = 4000000;
+        for (int i = 0; i < k; ++i) {
+            const double r1 = u(rng), r2 = u(rng);
+            const double sr = std::sqrt(r1);
+            Ray r;
+            r.org = p;
+            r.dir = Vec3{sr * std::cos(kTwoPi * r2), sr * std::sin(kTwoPi * r2), std::sqrt(1.0 - r1)};
+            LightHit h;
+            if (light.intersect(r, 1e30, h)) brute += h.radiance.r * kPi;  // cos / (cos / pi)
+        }
+        brute /= k;
+        EXPECT_NEAR(by_light, brute, 0.01 * brute) << p.x;
+    }
+    LightSample s;
+    EXPECT_FALSE(light.sample({3.0, 0.0, 0.0}, 0.5, 0.5, s));  // 2 units beyond the edge, reach 0.21
 }

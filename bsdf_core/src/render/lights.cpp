@@ -106,12 +106,30 @@ struct SphericalRectangle {
 // Below this solid angle Girard's formula loses its digits; such lights are sampled by area.
 constexpr double kMinRectangleSolidAngle = 1e-7;
 
-std::optional<SphericalRectangle> Light::solid_angle_rectangle(Vec3 p) const {
-    if (ellipse_ || !full_spread_) return std::nullopt;
-    const Vec3 corner = co_ - (0.5 * len_u_) * axis_u_ - (0.5 * len_v_) * axis_v_;
-    SphericalRectangle rect(p, corner, axis_u_, axis_v_, len_u_, len_v_);
-    if (!(rect.solid_angle > kMinRectangleSolidAngle)) return std::nullopt;
-    return rect;
+struct RectangleView {
+    std::optional<SphericalRectangle> rectangle;
+    bool unreachable = false;  // a narrowed spread: no part of the light reaches p
+};
+
+RectangleView Light::solid_angle_rectangle(Vec3 p) const {
+    if (ellipse_) return {};
+    double u0 = -0.5 * len_u_, u1 = 0.5 * len_u_, v0 = -0.5 * len_v_, v1 = 0.5 * len_v_;
+    if (!full_spread_) {
+        // Only points within distance x tan(spread / 2) of p's foot on the plane emit towards p:
+        // clip the rectangle to the square around that disk, as Cycles does.
+        const Vec3 d = p - co_;
+        const double reach = dot(d, normal_) * tan_half_spread_;
+        const double pu = dot(d, axis_u_), pv = dot(d, axis_v_);
+        u0 = std::max(u0, pu - reach);
+        u1 = std::min(u1, pu + reach);
+        v0 = std::max(v0, pv - reach);
+        v1 = std::min(v1, pv + reach);
+        if (!(u1 > u0 && v1 > v0)) return {std::nullopt, true};
+    }
+    const Vec3 corner = co_ + u0 * axis_u_ + v0 * axis_v_;
+    SphericalRectangle rect(p, corner, axis_u_, axis_v_, u1 - u0, v1 - v0);
+    if (!(rect.solid_angle > kMinRectangleSolidAngle)) return {};
+    return {rect, false};
 }
 
 void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
@@ -453,15 +471,19 @@ bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
         }
         case LightType::Area: {
             if (dot(co_ - p, normal_) > 0) return false;  // behind the one-sided light
-            if (const auto rect = solid_angle_rectangle(p)) {
+            const RectangleView view = solid_angle_rectangle(p);
+            if (view.unreachable) return false;
+            if (const auto& rect = view.rectangle) {
                 const Vec3 dv = rect->sample(u0, u1) - p;
                 const double t = length(dv);
                 if (!(t > 0)) return false;
                 out.wi = (1.0 / t) * dv;
                 out.distance = t;
                 if (!(-dot(normal_, out.wi) > 0)) return false;
+                const double att = spread_attenuation(out.wi);
+                if (!(att > 0)) return false;
                 out.pdf = 1.0 / rect->solid_angle;
-                out.radiance = radiance_;
+                out.radiance = att * radiance_;
                 return true;
             }
             double x, y;
@@ -544,7 +566,7 @@ bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
             if (!(att > 0)) return false;
             out.t = t;
             out.pdf = t * t / (-denom * area_);
-            if (const auto rect = solid_angle_rectangle(ray.org)) out.pdf = 1.0 / rect->solid_angle;
+            if (const auto& rect = solid_angle_rectangle(ray.org).rectangle) out.pdf = 1.0 / rect->solid_angle;
             out.radiance = att * radiance_;
             return true;
         }

@@ -14,8 +14,9 @@
 //     along the light's -Z; spread < pi attenuates by max((tan(spread/2) - tan a) N, 0)
 //     with Cycles' normalisation N. Squares and rectangles are sampled uniformly in the
 //     solid angle they subtend (Urena et al. 2013), as Cycles samples them: the light pdf
-//     enters the MIS weights, and area sampling has heavy tails near the light. Disks and
-//     ellipses (Cycles too), and rectangles with spread < pi, are sampled by area.
+//     enters the MIS weights, and area sampling has heavy tails near the light. With spread
+//     < pi the rectangle is first clipped to the square around the disk that can light the
+//     point (Cycles too). Disks and ellipses are sampled by area (Cycles too).
 //   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
@@ -34,7 +35,6 @@
 #pragma once
 
 #include <memory>
-#include <optional>
 #include <vector>
 
 #include "hairbsdf/render/environment.h"
@@ -61,6 +61,7 @@ struct LightHit {
 };
 
 struct SphericalRectangle;  // lights.cpp
+struct RectangleView;       // lights.cpp: an optional SphericalRectangle and `unreachable`
 
 class Light {
 public:
@@ -84,10 +85,11 @@ public:
 private:
     double spot_attenuation(Vec3 from_light) const;
     double spread_attenuation(Vec3 to_light) const;
-    // Rectangles with the full spread are sampled uniformly in solid angle, as Cycles does: the
-    // rectangle as seen from p. None for ellipses, narrowed spreads and rectangles too small to
-    // measure from p, which are sampled uniformly over their area.
-    std::optional<SphericalRectangle> solid_angle_rectangle(Vec3 p) const;
+    // Rectangles are sampled uniformly in solid angle, as Cycles does: the rectangle as seen from
+    // p, clipped for a spread < 180 deg to the square around the disk that can light p. No
+    // rectangle for ellipses and rectangles too small to measure from p, which are sampled
+    // uniformly over their area; `unreachable` when no part of a narrowed spread reaches p.
+    RectangleView solid_angle_rectangle(Vec3 p) const;
 
     void make_tree_emitter(const LightDesc* desc);
 
