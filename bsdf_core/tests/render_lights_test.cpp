@@ -45,6 +45,20 @@ std::vector<LightDesc> finite_lights() {
     return out;
 }
 
+// The light seen along a sample's direction from p: hit at the sample's distance, with its pdf.
+::testing::AssertionResult hit_matches_sample(const Light& light, Vec3 p, const LightSample& s) {
+    Ray r;
+    r.org = p;
+    r.dir = s.wi;
+    LightHit h;
+    if (!light.intersect(r, 1e30, h)) return ::testing::AssertionFailure() << "no hit along the sample";
+    if (!(std::fabs(h.pdf - s.pdf) <= 1e-6 * s.pdf))
+        return ::testing::AssertionFailure() << "pdf " << h.pdf << ", sampled " << s.pdf;
+    if (!(std::fabs(h.t - s.distance) <= 1e-6 * s.distance))
+        return ::testing::AssertionFailure() << "distance " << h.t << ", sampled " << s.distance;
+    return ::testing::AssertionSuccess();
+}
+
 }  // namespace
 
 // Over directions, each finite light's hit density integrates to 1 (it is a density on
@@ -70,13 +84,7 @@ TEST(RenderLights, SamplingDensitiesIntegrateToOne) {
         for (int i = 0; i < 2000; ++i) {
             LightSample s;
             if (!light.sample(p, u(rng), u(rng), s)) continue;
-            Ray r;
-            r.org = p;
-            r.dir = s.wi;
-            LightHit h;
-            ASSERT_TRUE(light.intersect(r, 1e30, h));
-            EXPECT_NEAR(h.pdf, s.pdf, 1e-6 * s.pdf);
-            EXPECT_NEAR(h.t, s.distance, 1e-6 * s.distance);
+            ASSERT_TRUE(hit_matches_sample(light, p, s));
         }
     }
 }
@@ -225,12 +233,7 @@ TEST(RenderLights, NarrowSpreadRectanglesAreClippedAndUnbiased) {
             ASSERT_LE(std::fabs(q.y - p.y), reach + 1e-9);
             by_light += s.radiance.r * std::max(0.0, dot(s.wi, n)) / s.pdf;
             if (i % 100 == 0) {
-                Ray r;
-                r.org = p;
-                r.dir = s.wi;
-                LightHit h;
-                ASSERT_TRUE(light.intersect(r, 1e30, h));
-                ASSERT_NEAR(h.pdf, s.pdf, 1e-6 * s.pdf);
+                ASSERT_TRUE(hit_matches_sample(light, p, s));
             }
         }
         by_light /= m;
