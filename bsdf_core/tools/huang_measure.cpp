@@ -1,13 +1,17 @@
 // Measurements of the Huang model for docs/huang.md (run by hand, not a test):
-//   1. how far Cycles' Simpson rule over h (steps 0.7 alpha / 0.8 alpha) is from the converged
-//      integral, per lobe, far and near field;
-//   2. speed at equal error against a converged reference: Cycles' rule (R: its deterministic
-//      Simpson sum; TT / TRT+: its one-random-normal-per-node estimator, averaged as often as
-//      needed) versus our deterministic rules at the same error.
-// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/bsdf_core/huang_measure
+//   simpson    how far Cycles' Simpson rule over h (steps 0.7 alpha / 0.8 alpha) is from the
+//              converged integral, per lobe, far and near field;
+//   speed      R and TT at equal error against a converged reference: Cycles' rule (R: its
+//              deterministic Simpson sum; TT: its one-random-normal-per-node estimator, averaged as
+//              often as needed) versus our deterministic rules at the same error;
+//   speed_trt [M [alpha]]  the same for TRT + TRRT+, against the mean of M Cycles evaluations
+//              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration.
+// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/bsdf_core/huang_measure [mode]
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "hairbsdf/models/huang.h"
@@ -202,21 +206,6 @@ void speed() {
         pt.max_evaluations = 5'000'000;
         const auto cst = configs(HuangHair(base(alpha, 0, 1, 0)), n, false, 13);
         const auto reft = values(HuangHair(pt), cst, nullptr);
-        const HuangHair cyc(base(alpha, 0, 1, 0));
-        // One Cycles eval: time and rms error (noise + Simpson bias).
-        double t_one = 0;
-        std::vector<std::array<double, 4>> one;
-        {
-            uint32_t rng = 1;
-            const auto t0 = std::chrono::steady_clock::now();
-            for (const Config& c : cst) {
-                const auto sp = prep(cyc, c);
-                const auto l = cyc.eval_cycles_stochastic(sp, cyc.to_local(sp, c.wi), rng);
-                one.push_back({0, lum(l[1]), 0, 0});
-            }
-            t_one = seconds_since(t0) / double(cst.size());
-        }
-        const double e_one = rms_error(one, reft, {false, true, false, false});
         HuangHairParams pq = base(alpha, 0, 1, 0);
         pq.quadrature = HuangQuadrature::Converged;
         double t_ours = 0, e_ours = 0, tol_ours = 0;
@@ -228,45 +217,134 @@ void speed() {
             t_ours = t, e_ours = e, tol_ours = tol;
             if (e <= 1e-2) break;
         }
-        // Cycles evaluations needed for the same error: (e_one / e_ours)^2 averaged evals.
-        const double k = sqr(e_one / std::max(e_ours, 1e-12));
-        std::printf("alpha %.2f TT lobe: one Cycles eval %.2e s, rms error %.2e | ours %.2e s, rms error %.2e "
-                    "(tolerance %.0e); Cycles needs %.0f evals for that error: ratio ours/Cycles %.4f\n",
-                    alpha, t_one, e_one, t_ours, e_ours, tol_ours, k, t_ours / (k * t_one));
-        // TRT + TRRT+: reference = the mean of 20000 Cycles evaluations (same Simpson nodes, so only
-        // the inner microfacet integration is compared); ours with trt_points N.
-        if (alpha < 0.05) continue;
-        const HuangHair cyc3(base(alpha, 0, 0, 1));
-        const auto cs3 = configs(HuangHair(base(alpha, 0, 0, 1)), 12, false, 17);
-        std::vector<std::array<double, 4>> ref3, one3;
-        double t_one3 = 0;
-        for (const Config& c : cs3) {
-            const auto sp = prep(cyc3, c);
-            const Vec3 O = cyc3.to_local(sp, c.wi);
-            uint32_t rng = 77;
-            std::array<double, 4> acc{};
-            const int m = 20000;
-            const auto t0 = std::chrono::steady_clock::now();
-            for (int k = 0; k < m; ++k) {
-                const auto l = cyc3.eval_cycles_stochastic(sp, O, rng);
-                if (k == 0) one3.push_back({0, 0, lum(l[2]), lum(l[3])});
-                for (int q = 2; q < 4; ++q) acc[size_t(q)] += lum(l[size_t(q)]) / m;
+        // Cycles' estimator with its Simpson steps divided by r: one eval's squared error is
+        // bias_r^2 + var_r, the mean of k evals' bias_r^2 + var_r / k. bias_r is deterministic: our
+        // eval on the same nodes with the inner integral converged (the estimator's expectation);
+        // var_r and the time per eval come from M random evaluations per configuration (a single
+        // draw would misjudge a heavy-tailed estimator). Cost at our error: min over r of k t_r.
+        std::printf("alpha %.2f TT lobe: ours %.2e s/eval, rms error %.2e (tolerance %.0e)\n", alpha, t_ours, e_ours,
+                    tol_ours);
+        double best_cost = 0;
+        int best_r = 0;
+        for (int r = 1; r <= 64; r *= 2) {
+            HuangHairParams pe = base(alpha, 0, 1, 0);
+            pe.simpson_refinement = r;
+            pe.tolerance = 1e-5;
+            pe.max_evaluations = 5'000'000;
+            const auto expect = values(HuangHair(pe), cst, nullptr);
+            const double b2 = sqr(rms_error(expect, reft, {false, true, false, false}));
+            HuangHairParams ps = base(alpha, 0, 1, 0);
+            ps.simpson_refinement = r;
+            const HuangHair cyc(ps);
+            const long m = 2000;
+            double v2 = 0, t_one = 0;
+            for (size_t i = 0; i < cst.size(); ++i) {
+                const auto sp = prep(cyc, cst[i]);
+                const Vec3 O = cyc.to_local(sp, cst[i].wi);
+                uint32_t rng = 1 + uint32_t(i);
+                double s = 0, s2 = 0;
+                const auto t0 = std::chrono::steady_clock::now();
+                for (long k = 0; k < m; ++k) {
+                    const double v = lum(cyc.eval_cycles_stochastic(sp, O, rng)[1]);
+                    s += v, s2 += v * v;
+                }
+                t_one += seconds_since(t0) / double(m);
+                const double mean = s / double(m), ref = reft[i][1] > 0 ? reft[i][1] : 1.0;
+                v2 += std::max(s2 / double(m) - mean * mean, 0.0) / (ref * ref);
             }
-            t_one3 += seconds_since(t0) / m;
-            ref3.push_back(acc);
+            t_one /= double(cst.size()), v2 /= double(cst.size());
+            if (b2 >= sqr(e_ours)) {
+                std::printf("  Cycles' rule, steps / %2d: %.2e s/eval, one eval's rms error %.2e, Simpson bias %.2e >= "
+                            "ours: never reaches our error\n", r, t_one, std::sqrt(b2 + v2), std::sqrt(b2));
+                continue;
+            }
+            const double k = v2 / (sqr(e_ours) - b2), cost = k * t_one;
+            std::printf("  Cycles' rule, steps / %2d: %.2e s/eval, one eval's rms error %.2e, Simpson bias %.2e: needs "
+                        "%.0f evals (%.2e s) for our error\n", r, t_one, std::sqrt(b2 + v2), std::sqrt(b2), k, cost);
+            if (best_r == 0 || cost < best_cost) best_cost = cost, best_r = r;
+            if (b2 < 0.25 * sqr(e_ours)) break;  // finer steps cannot lower the cost much more
         }
-        t_one3 /= double(cs3.size());
-        const double e_one3 = rms_error(one3, ref3, {false, false, true, true});
-        for (long npts : {1024L, 4096L, 16384L}) {
-            HuangHairParams pq3 = base(alpha, 0, 0, 1);
-            pq3.trt_points = npts;
+        if (best_r)
+            std::printf("  ratio ours / Cycles' rule at equal error: %.4f (steps / %d)\n", t_ours / best_cost, best_r);
+        else
+            std::printf("  Cycles' rule does not reach our error with steps down to / 64\n");
+    }
+}
+
+// TRT + TRRT+ at equal error, with the noise handled explicitly. Per configuration the reference
+// is the mean of M Cycles evaluations (same Simpson nodes, so only the inner microfacet
+// integration is compared); one Cycles eval's rms error is the estimator's own standard deviation
+// (from the same M evaluations, not from a single draw: the integrand is heavy-tailed), and the
+// reference's variance (var / M) is subtracted from our squared error before comparing.
+void speed_trt(long m_cycles, double only_alpha) {
+    const bool verbose = std::getenv("HUANG_MEASURE_VERBOSE") != nullptr;
+    std::printf("\n## 3. TRT + TRRT+ speed at equal error (far field, 12 sampled configurations, "
+                "reference: %ld Cycles evals per configuration)\n", m_cycles);
+    for (double alpha : {0.3, 0.1, 0.02}) {
+        if (only_alpha > 0 && std::fabs(alpha - only_alpha) > 1e-9) continue;
+        const HuangHair cyc(base(alpha, 0, 0, 1));
+        const auto cs = configs(cyc, 12, false, 17);
+        std::vector<double> ref(cs.size()), var(cs.size()), secs(cs.size());
+        const long m = alpha < 0.05 ? m_cycles / 4 : m_cycles;
+        auto reference = [&](size_t first) {  // two threads, alternate configurations
+            for (size_t i = first; i < cs.size(); i += 2) {
+                const auto sp = prep(cyc, cs[i]);
+                const Vec3 O = cyc.to_local(sp, cs[i].wi);
+                uint32_t rng = 77 + uint32_t(i);
+                double s = 0, s2 = 0;
+                const auto t0 = std::chrono::steady_clock::now();
+                for (long k = 0; k < m; ++k) {
+                    const auto l = cyc.eval_cycles_stochastic(sp, O, rng);
+                    const double v = lum(l[2]) + lum(l[3]);
+                    s += v, s2 += v * v;
+                }
+                secs[i] = seconds_since(t0) / double(m);
+                ref[i] = s / double(m);
+                var[i] = std::max(s2 / double(m) - sqr(ref[i]), 0.0);
+            }
+        };
+        std::thread second(reference, size_t(1));
+        reference(0);
+        second.join();
+        double t_one = 0;
+        for (double t : secs) t_one += t;
+        t_one /= double(cs.size());
+        double one_mse = 0, ref_mse = 0;
+        int used = 0;
+        for (size_t i = 0; i < cs.size(); ++i) {
+            if (!(ref[i] > 0)) continue;
+            one_mse += var[i] / sqr(ref[i]);
+            ref_mse += var[i] / double(m) / sqr(ref[i]);
+            ++used;
+        }
+        one_mse /= std::max(used, 1), ref_mse /= std::max(used, 1);
+        std::printf("alpha %.2f: one Cycles eval %.2e s, rms error %.2e; reference: %ld evals, its own rms error %.1e\n",
+                    alpha, t_one, std::sqrt(one_mse), m, std::sqrt(ref_mse));
+        for (long npts : {1024L, 4096L, 16384L, 65536L}) {
+            HuangHairParams p = base(alpha, 0, 0, 1);
+            p.trt_points = npts;
             double t;
-            const auto v = values(HuangHair(pq3), cs3, &t);
-            const double e = rms_error(v, ref3, {false, false, true, true});
-            const double k = sqr(e_one3 / std::max(e, 1e-12));
-            std::printf("alpha %.2f TRT+TRRT: one Cycles eval %.2e s, rms error %.2e | ours (%5ld points/node) %.2e s, "
-                        "rms error %.2e (incl. the reference's own ~%.0e); Cycles needs %.0f evals: ratio %.3f\n",
-                        alpha, t_one3, e_one3, npts, t, e, e_one3 / std::sqrt(20000.0), k, t / (k * t_one3));
+            const auto v = values(HuangHair(p), cs, &t);
+            double mse = 0;
+            for (size_t i = 0; i < cs.size(); ++i)
+                if (ref[i] > 0) mse += sqr((v[i][2] + v[i][3] - ref[i]) / ref[i]);
+            mse /= std::max(used, 1);
+            if (verbose)
+                for (size_t i = 0; i < cs.size(); ++i)
+                    std::printf("    config %2zu: reference %.4e +- %.1e (relative), ours %+.2e (relative)\n", i, ref[i],
+                                std::sqrt(var[i] / double(m)) / ref[i], (v[i][2] + v[i][3] - ref[i]) / ref[i]);
+            const double e_raw = std::sqrt(mse);
+            if (mse < 2.0 * ref_mse) {  // indistinguishable from the reference's noise: a bound only
+                const double k = one_mse / (2.0 * ref_mse);
+                std::printf("  ours %6ld points/node: %.2e s/eval, rms error %.2e, within 2x the reference's noise; "
+                            "Cycles needs more than %.0f evals: ratio ours/Cycles < %.3f\n",
+                            npts, t, e_raw, k, t / (k * t_one));
+                continue;
+            }
+            const double e = std::sqrt(mse - ref_mse), k = one_mse / sqr(e);
+            std::printf("  ours %6ld points/node: %.2e s/eval, rms error %.2e (%.2e before removing the reference's "
+                        "noise); Cycles needs %.0f evals (%.2e s): ratio ours/Cycles %.3f\n",
+                        npts, t, e, e_raw, k, k * t_one, t / (k * t_one));
         }
     }
 }
@@ -277,5 +355,6 @@ int main(int argc, char** argv) {
     const std::string what = argc > 1 ? argv[1] : "all";
     if (what == "all" || what == "simpson") simpson_vs_converged();
     if (what == "all" || what == "speed") speed();
+    if (what == "all" || what == "speed_trt") speed_trt(argc > 2 ? std::atol(argv[2]) : 2000000, argc > 3 ? std::atof(argv[3]) : 0.0);
     return 0;
 }

@@ -741,7 +741,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint
     auto simpson = [&](double step) {
         std::vector<Node> nodes;
         const double range = sp.h_hi - sp.h_lo;
-        const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5));
+        const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * std::max(params_.simpson_refinement, 1);
         const double res = range / double(n);
         for (long i = 0; i <= n; ++i)
             nodes.push_back({sp.h_lo + i * res, ((i == 0 || i == n) ? 0.5 : double(i % 2 + 1)) * (2.0 / 3.0) * res});
