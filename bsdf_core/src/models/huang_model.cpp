@@ -256,21 +256,23 @@ HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
     if (!sp.valid) return sp;
 
     if (params_.quadrature == HuangQuadrature::Cycles) {
-        auto simpson = [&](double step, std::vector<Node>& nodes) {
-            const double range = hi - lo;
-            const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * std::max(params_.simpson_refinement, 1);
-            const double res = range / double(n);
-            nodes.resize(size_t(n + 1));
-            for (long i = 0; i <= n; ++i) {
-                const double w = (i == 0 || i == n) ? 0.5 : double(i % 2 + 1);
-                nodes[size_t(i)] = {lo + double(i) * res, w * (2.0 / 3.0) * res};
-            }
-        };
-        simpson(kRStep, sp.r_nodes);
-        simpson(kResidualStep, sp.residual_nodes);
+        sp.r_nodes = simpson_nodes(lo, hi, kRStep);
+        sp.residual_nodes = simpson_nodes(lo, hi, kResidualStep);
     }
     if (params_.mixture_detail != HuangHairParams::MixtureDetail::None) build_sampler(sp);
     return sp;
+}
+
+std::vector<HuangHair::Node> HuangHair::simpson_nodes(double lo, double hi, double step) const {
+    const double range = hi - lo;
+    const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * std::max(params_.simpson_refinement, 1);
+    const double res = range / double(n);
+    std::vector<Node> nodes(size_t(n + 1));
+    for (long i = 0; i <= n; ++i) {
+        const double w = (i == 0 || i == n) ? 0.5 : double(i % 2 + 1);
+        nodes[size_t(i)] = {lo + double(i) * res, w * (2.0 / 3.0) * res};
+    }
+    return nodes;
 }
 
 // --- R lobe (notes §5.3) ------------------------------------------------------------------------
@@ -738,26 +740,17 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint
     const Vec3 I = sp.I;
     const double cto = cos_theta(O);
     if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
-    auto simpson = [&](double step) {
-        std::vector<Node> nodes;
-        const double range = sp.h_hi - sp.h_lo;
-        const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * std::max(params_.simpson_refinement, 1);
-        const double res = range / double(n);
-        for (long i = 0; i <= n; ++i)
-            nodes.push_back({sp.h_lo + i * res, ((i == 0 || i == n) ? 0.5 : double(i % 2 + 1)) * (2.0 / 3.0) * res});
-        return nodes;
-    };
     const Vec3 wh = normalize(I + O);
     if (factors_[0] > 0.0) {
         double integral = 0.0;
-        for (const Node& n : simpson(kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
         lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
     const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
     std::array<double, 9> f{}, acc{};
-    for (const Node& n : simpson(kResidualStep)) {
+    for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep)) {
         const double gamma = h_to_gamma(n.h, I);
         const double w = n.weight * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
         const double a = lcg_float(rng), b = lcg_float(rng);

@@ -160,6 +160,9 @@ private:
                         double angle2, int kind, double weight, double final_scale, double trrt_scale,
                         std::array<double, 9>& f) const;
     RGB trrt_series(double t, double r, RGB a) const;
+    // Cycles' composite Simpson nodes over [lo, hi]: an even count of steps of at most step x alpha
+    // (the steps divided by params_.simpson_refinement).
+    std::vector<Node> simpson_nodes(double lo, double hi, double step) const;
     // The path up to the second interface for the entry visible normal at disk point (r1, angle1).
     struct EntryState {
         double gamma, cos_mi1, t1, scale1, phi_t_b, gmt, cos_mo1, cos_mi2, g1o, scale2;
