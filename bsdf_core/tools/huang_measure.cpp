@@ -353,8 +353,23 @@ void speed_trt(long m_cycles, double only_alpha) {
 
 int main(int argc, char** argv) {
     const std::string what = argc > 1 ? argv[1] : "all";
+    const long m = argc > 2 ? std::atol(argv[2]) : 2000000;
+    const double only_alpha = argc > 3 ? std::atof(argv[3]) : 0.0;
+    const bool known = what == "all" || what == "simpson" || what == "speed" || what == "speed_trt";
+    const bool alpha_ok = only_alpha == 0.0 || only_alpha == 0.3 || only_alpha == 0.1 || only_alpha == 0.02;
+    const bool help = what == "-h" || what == "--help";
+    if (!known || m < 100 || !alpha_ok) {
+        std::fprintf(help ? stdout : stderr,
+                     "usage: huang_measure [all|simpson|speed|speed_trt [M [alpha]]]\n"
+                     "  simpson    Cycles' Simpson rule over h vs the converged integral, per lobe\n"
+                     "  speed      R and TT: cost at equal error, ours vs Cycles' rule (~4 min)\n"
+                     "  speed_trt  TRT + TRRT+: the same against the mean of M Cycles evals per configuration\n"
+                     "             (M >= 100, default 2000000; M / 4 at alpha 0.02; alpha: only 0.3, 0.1 or 0.02)\n"
+                     "  HUANG_MEASURE_VERBOSE=1 prints speed_trt's configurations. docs/huang.md sections 5 and 9.\n");
+        return help ? 0 : 2;
+    }
     if (what == "all" || what == "simpson") simpson_vs_converged();
     if (what == "all" || what == "speed") speed();
-    if (what == "all" || what == "speed_trt") speed_trt(argc > 2 ? std::atol(argv[2]) : 2000000, argc > 3 ? std::atof(argv[3]) : 0.0);
+    if (what == "all" || what == "speed_trt") speed_trt(m, only_alpha);
     return 0;
 }
