@@ -99,6 +99,29 @@ std::vector<std::array<double, 4>> values(const HuangHair& m, const std::vector<
     return out;
 }
 
+// Cycles' estimator at one configuration over n random evaluations of the given lobes' luminance:
+// mean, variance of one eval, and seconds per eval.
+struct EstimatorStats {
+    double mean, var, secs;
+};
+EstimatorStats cycles_estimator(const HuangHair& m, const Config& c, std::array<bool, 4> lobes, long n,
+                                uint32_t seed) {
+    const auto sp = prep(m, c);
+    const Vec3 O = m.to_local(sp, c.wi);
+    uint32_t rng = seed;
+    double s = 0, s2 = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (long k = 0; k < n; ++k) {
+        const auto l = m.eval_cycles_stochastic(sp, O, rng);
+        double v = 0;
+        for (int j = 0; j < 4; ++j)
+            if (lobes[size_t(j)]) v += lum(l[size_t(j)]);
+        s += v, s2 += v * v;
+    }
+    const double secs = seconds_since(t0) / double(n), mean = s / double(n);
+    return {mean, std::max(s2 / double(n) - mean * mean, 0.0), secs};
+}
+
 // RMS over configs of |a - ref| / ref_total for a lobe subset.
 double rms_error(const std::vector<std::array<double, 4>>& a, const std::vector<std::array<double, 4>>& ref,
                  std::array<bool, 4> lobes) {
@@ -239,18 +262,10 @@ void speed() {
             const long m = 2000;
             double v2 = 0, t_one = 0;
             for (size_t i = 0; i < cst.size(); ++i) {
-                const auto sp = prep(cyc, cst[i]);
-                const Vec3 O = cyc.to_local(sp, cst[i].wi);
-                uint32_t rng = 1 + uint32_t(i);
-                double s = 0, s2 = 0;
-                const auto t0 = std::chrono::steady_clock::now();
-                for (long k = 0; k < m; ++k) {
-                    const double v = lum(cyc.eval_cycles_stochastic(sp, O, rng)[1]);
-                    s += v, s2 += v * v;
-                }
-                t_one += seconds_since(t0) / double(m);
-                const double mean = s / double(m), ref = reft[i][1] > 0 ? reft[i][1] : 1.0;
-                v2 += std::max(s2 / double(m) - mean * mean, 0.0) / (ref * ref);
+                const auto e = cycles_estimator(cyc, cst[i], {false, true, false, false}, m, 1 + uint32_t(i));
+                const double ref = reft[i][1] > 0 ? reft[i][1] : 1.0;
+                t_one += e.secs;
+                v2 += e.var / (ref * ref);
             }
             t_one /= double(cst.size()), v2 /= double(cst.size());
             if (b2 >= sqr(e_ours)) {
@@ -288,19 +303,8 @@ void speed_trt(long m_cycles, double only_alpha) {
         const long m = alpha < 0.05 ? m_cycles / 4 : m_cycles;
         auto reference = [&](size_t first) {  // two threads, alternate configurations
             for (size_t i = first; i < cs.size(); i += 2) {
-                const auto sp = prep(cyc, cs[i]);
-                const Vec3 O = cyc.to_local(sp, cs[i].wi);
-                uint32_t rng = 77 + uint32_t(i);
-                double s = 0, s2 = 0;
-                const auto t0 = std::chrono::steady_clock::now();
-                for (long k = 0; k < m; ++k) {
-                    const auto l = cyc.eval_cycles_stochastic(sp, O, rng);
-                    const double v = lum(l[2]) + lum(l[3]);
-                    s += v, s2 += v * v;
-                }
-                secs[i] = seconds_since(t0) / double(m);
-                ref[i] = s / double(m);
-                var[i] = std::max(s2 / double(m) - sqr(ref[i]), 0.0);
+                const auto e = cycles_estimator(cyc, cs[i], {false, false, true, true}, m, 77 + uint32_t(i));
+                secs[i] = e.secs, ref[i] = e.mean, var[i] = e.var;
             }
         };
         std::thread second(reference, size_t(1));
