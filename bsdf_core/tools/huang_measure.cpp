@@ -5,7 +5,8 @@
 //              deterministic Simpson sum; TT: its one-random-normal-per-node estimator, averaged as
 //              often as needed) versus our deterministic rules at the same error;
 //   speed_trt [M [alpha]]  the same for TRT + TRRT+, against the mean of M Cycles evaluations
-//              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration.
+//              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration;
+//   trt_lobes alpha index M max_points  TRT and TRRT+ separately at one of speed_trt's configurations.
 // Build: cmake --build build/cpp --target huang_measure; run: build/cpp/bsdf_core/huang_measure [mode]
 #include <chrono>
 #include <cstdio>
@@ -100,9 +101,10 @@ std::vector<std::array<double, 4>> values(const HuangHair& m, const std::vector<
 }
 
 // Cycles' estimator at one configuration over n random evaluations of the given lobes' luminance:
-// mean, variance of one eval, and seconds per eval.
+// mean, variance of one eval, and seconds per eval; also each lobe's mean and variance.
 struct EstimatorStats {
     double mean, var, secs;
+    std::array<double, 4> lobe_mean, lobe_var;
 };
 EstimatorStats cycles_estimator(const HuangHair& m, const Config& c, std::array<bool, 4> lobes, long n,
                                 uint32_t seed) {
@@ -110,16 +112,25 @@ EstimatorStats cycles_estimator(const HuangHair& m, const Config& c, std::array<
     const Vec3 O = m.to_local(sp, c.wi);
     uint32_t rng = seed;
     double s = 0, s2 = 0;
+    std::array<double, 4> ls{}, ls2{};
     const auto t0 = std::chrono::steady_clock::now();
     for (long k = 0; k < n; ++k) {
         const auto l = m.eval_cycles_stochastic(sp, O, rng);
         double v = 0;
-        for (int j = 0; j < 4; ++j)
-            if (lobes[size_t(j)]) v += lum(l[size_t(j)]);
+        for (size_t j = 0; j < 4; ++j) {
+            const double lj = lum(l[j]);
+            if (lobes[j]) v += lj;
+            ls[j] += lj, ls2[j] += lj * lj;
+        }
         s += v, s2 += v * v;
     }
     const double secs = seconds_since(t0) / double(n), mean = s / double(n);
-    return {mean, std::max(s2 / double(n) - mean * mean, 0.0), secs};
+    EstimatorStats e{mean, std::max(s2 / double(n) - mean * mean, 0.0), secs, {}, {}};
+    for (size_t j = 0; j < 4; ++j) {
+        e.lobe_mean[j] = ls[j] / double(n);
+        e.lobe_var[j] = std::max(ls2[j] / double(n) - sqr(e.lobe_mean[j]), 0.0);
+    }
+    return e;
 }
 
 // RMS over configs of |a - ref| / ref_total for a lobe subset.
@@ -353,25 +364,56 @@ void speed_trt(long m_cycles, double only_alpha) {
     }
 }
 
+
+// TRT and TRRT+ separately at one of speed_trt's configurations: Cycles' mean over m evals with
+// its standard error, and ours at 1024, 4096, ... up to max_points points per node.
+void trt_lobes(double alpha, size_t index, long m, long max_points) {
+    const HuangHair cyc(base(alpha, 0, 0, 1));
+    const auto cs = configs(cyc, 12, false, 17);
+    const Config& c = cs[index];
+    std::printf("\n## TRT and TRRT+ at alpha %.2f, configuration %zu (wo %.3f %.3f %.3f, wi %.3f %.3f %.3f, h %.3f)\n",
+                alpha, index, c.wo.x, c.wo.y, c.wo.z, c.wi.x, c.wi.y, c.wi.z, c.h);
+    const auto e = cycles_estimator(cyc, c, {false, false, true, true}, m, 77 + uint32_t(index));
+    std::printf("Cycles, %ld evals: TRT %.4e +- %.1e, TRRT+ %.4e +- %.1e\n", m, e.lobe_mean[2],
+                std::sqrt(e.lobe_var[2] / double(m)), e.lobe_mean[3], std::sqrt(e.lobe_var[3] / double(m)));
+    for (long npts = 1024; npts <= max_points; npts *= 4) {
+        HuangHairParams p = base(alpha, 0, 0, 1);
+        p.trt_points = npts;
+        const auto v = values(HuangHair(p), {c}, nullptr)[0];
+        std::printf("ours, %7ld points/node: TRT %.4e, TRRT+ %.4e\n", npts, v[2], v[3]);
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     const std::string what = argc > 1 ? argv[1] : "all";
-    const long m = argc > 2 ? std::atol(argv[2]) : 2000000;
-    const double only_alpha = argc > 3 ? std::atof(argv[3]) : 0.0;
-    const bool known = what == "all" || what == "simpson" || what == "speed" || what == "speed_trt";
-    const bool alpha_ok = only_alpha == 0.0 || only_alpha == 0.3 || only_alpha == 0.1 || only_alpha == 0.02;
     const bool help = what == "-h" || what == "--help";
-    if (!known || m < 100 || !alpha_ok) {
+    auto usage = [&] {
         std::fprintf(help ? stdout : stderr,
-                     "usage: huang_measure [all|simpson|speed|speed_trt [M [alpha]]]\n"
+                     "usage: huang_measure [all|simpson|speed|speed_trt [M [alpha]]|trt_lobes alpha index M max_points]\n"
                      "  simpson    Cycles' Simpson rule over h vs the converged integral, per lobe\n"
                      "  speed      R and TT: cost at equal error, ours vs Cycles' rule (~4 min)\n"
                      "  speed_trt  TRT + TRRT+: the same against the mean of M Cycles evals per configuration\n"
                      "             (M >= 100, default 2000000; M / 4 at alpha 0.02; alpha: only 0.3, 0.1 or 0.02)\n"
+                     "  trt_lobes  TRT and TRRT+ separately at speed_trt's configuration index (0-11): Cycles' mean\n"
+                     "             over M evals, ours at 1024, 4096, ... up to max_points points per node\n"
                      "  HUANG_MEASURE_VERBOSE=1 prints speed_trt's configurations. docs/huang.md sections 5 and 9.\n");
         return help ? 0 : 2;
+    };
+    auto alpha_ok = [](double a) { return a == 0.3 || a == 0.1 || a == 0.02; };
+    if (what == "trt_lobes") {
+        if (argc != 6) return usage();
+        const double alpha = std::atof(argv[2]);
+        const long index = std::atol(argv[3]), m = std::atol(argv[4]), max_points = std::atol(argv[5]);
+        if (!alpha_ok(alpha) || index < 0 || index > 11 || m < 100 || max_points < 1024) return usage();
+        trt_lobes(alpha, size_t(index), m, max_points);
+        return 0;
     }
+    const long m = argc > 2 ? std::atol(argv[2]) : 2000000;
+    const double only_alpha = argc > 3 ? std::atof(argv[3]) : 0.0;
+    const bool known = what == "all" || what == "simpson" || what == "speed" || what == "speed_trt";
+    if (!known || m < 100 || !(only_alpha == 0.0 || alpha_ok(only_alpha))) return usage();
     if (what == "all" || what == "simpson") simpson_vs_converged();
     if (what == "all" || what == "speed") speed();
     if (what == "all" || what == "speed_trt") speed_trt(m, only_alpha);
