@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 import pytest
+from ci import skip_or_fail  # noqa: F401  (re-exported for the tests)
 
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "blender_tests"
@@ -126,11 +127,6 @@ os._exit(_rc)
 '''
 
 
-def skip_or_fail(reason: str):
-    """Skip locally; under CI (env CI set and not 'false'/'0') a missing prerequisite fails."""
-    if os.environ.get("CI", "").lower() not in ("", "0", "false", "no"):
-        pytest.fail(reason)
-    pytest.skip(reason)
 
 
 # --------------------------------------------------------------------------- availability

@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 import pytest
+from ci import skip_or_fail as _skip_or_fail
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
@@ -155,11 +156,6 @@ def _check_rows(rows):
         ", ".join("%s (median %.2e, p99 %.2e)" % (r["name"], r["median"], r["p99"]) for r in bad[:5]))
 
 
-def _skip_or_fail(reason):
-    """Skips locally; under CI a missing prerequisite is a failure, never a silent skip."""
-    if os.environ.get("CI"):
-        pytest.fail(reason)
-    pytest.skip(reason)
 
 
 # --------------------------------------------------------------------------

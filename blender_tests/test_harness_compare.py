@@ -2,9 +2,10 @@
 
 * The CI gate: every library scene at CI size, our engine (-E HAIRBSDF) against Cycles, in
   bpy 4.5 and in Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
-  Scenes marked pending in blender_tests/thresholds.toml xfail with their reason.  Until the
-  engine is built (`import hairbsdf._render` fails) these xfail with "engine not built yet";
-  when it is built but a Blender cannot load it, they skip locally and fail under CI=true.
+  Scenes marked pending in blender_tests/thresholds.toml xfail with their reason.  An engine
+  that cannot be imported (`import hairbsdf._render` fails) fails the gate, locally and in CI
+  (test_gate_fails_without_the_engine plants that fault); a Blender that is not installed
+  skips locally and fails under CI=true.
   Reports: build/blender_tests/compare/<blender>/<scene>/index.html (join them with
   `hairbsdf report merge build/blender_tests/compare/*/* --out out/compare-ci`).
 * The harness itself, without the engine: Cycles against Cycles on other seeds must pass (a
@@ -22,6 +23,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from ci import skip_or_fail as _skip_or_fail
 
 REPO = Path(__file__).resolve().parent.parent
 PY = str(REPO / ".venv" / "bin" / "python") if (REPO / ".venv" / "bin" / "python").exists() else sys.executable
@@ -30,10 +32,6 @@ BLENDERS = {"bpy4.5": "bpy", "blender3.4": os.environ.get("HAIRBSDF_BLENDER") or
 BAD = ("FAIL", "CRASH", "NO OUTPUT", "ERROR")
 
 
-def _skip_or_fail(reason):
-    if os.environ.get("CI"):
-        pytest.fail(reason)
-    pytest.skip(reason)
 
 
 def compare(*args, env=None, timeout=1500):
@@ -61,6 +59,14 @@ def _have_blender(label):
     return os.path.exists(spec) or bool(subprocess.run(["which", spec], capture_output=True).returncode == 0)
 
 
+def require_engine():
+    """The engine is part of the build: an engine that cannot be imported fails, never skips."""
+    try:
+        importlib.import_module("hairbsdf._render")
+    except ImportError as exc:
+        pytest.fail("the engine does not import (hairbsdf._render: %s): the build is broken" % exc)
+
+
 def _catalog():
     from hairbsdf.compare.runner import load_catalog
     return load_catalog()[0]
@@ -81,10 +87,7 @@ def _ci_params():
 def test_ci_comparison(label, scene):
     """CI-size comparison of one library scene (all its variants) in one Blender; fails on any
     threshold breach, crash or missing output."""
-    try:
-        importlib.import_module("hairbsdf._render")
-    except ImportError as exc:
-        pytest.xfail("engine not built yet (%s)" % exc)
+    require_engine()
     if not _have_blender(label):
         _skip_or_fail("%s is not installed" % label)
     out = REPORTS / label / scene
@@ -105,6 +108,25 @@ def test_ci_comparison(label, scene):
         pytest.xfail("pending: %s (measured %s; report %s)" % (pending[0]["pending"], pending[0].get("pending_status"),
                                                                out / "index.html"))
     assert rc == 0, log[-2000:]
+
+
+def test_gate_fails_without_the_engine(tmp_path):
+    """Planted fault: `hairbsdf._render` raises ImportError (a sitecustomize on PYTHONPATH blocks it);
+    the CI gate must fail, not xfail or skip."""
+    (tmp_path / "sitecustomize.py").write_text(
+        "import sys\n"
+        "class _Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'hairbsdf._render':\n"
+        "            raise ImportError('planted: the engine does not load')\n"
+        "sys.meta_path.insert(0, _Block())\n")
+    env = dict(os.environ, PYTHONPATH=str(tmp_path), CI="")
+    r = subprocess.run([PY, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
+                        "blender_tests/test_harness_compare.py::test_ci_comparison[bpy4.5-swatch]"],
+                       capture_output=True, text=True, cwd=str(REPO), env=env, timeout=300)
+    out = r.stdout + r.stderr
+    assert r.returncode == 1 and "1 failed" in out, out[-3000:]
+    assert "planted: the engine does not load" in out and "xfail" not in out.lower(), out[-3000:]
 
 
 # --------------------------------------------------------------------------- the harness itself
@@ -166,10 +188,7 @@ def test_model_plugin_report(tmp_path, kk_plugin):
     """--model plugin:PATH:mapping.py renders our side with the plugin and says so in the report."""
     if not _have_blender("bpy4.5"):
         _skip_or_fail("bpy is not installed")
-    try:
-        importlib.import_module("hairbsdf._render")
-    except ImportError:
-        pytest.xfail("engine not built yet")
+    require_engine()
     mapping = REPO / "examples" / "plugins" / "kajiya_kay" / "mapping.py"
     rc, log, data = compare("--scene", "fiber_gonio:front", "--ci", "--model", "plugin:%s:%s" % (kk_plugin, mapping),
                             "--jobs", "2", "--out", str(tmp_path))
@@ -195,10 +214,7 @@ def test_crashing_plugin_is_contained(tmp_path, crash_plugin):
     Cycles renders and the report complete."""
     if not _have_blender("bpy4.5"):
         _skip_or_fail("bpy is not installed")
-    try:
-        importlib.import_module("hairbsdf._render")
-    except ImportError:
-        pytest.xfail("engine not built yet")
+    require_engine()
     rc, log, data = compare("--scene", "fiber_gonio:front", "--ci", "--model", "plugin:%s" % crash_plugin,
                             "--timeout", "120", "--jobs", "2", "--out", str(tmp_path))
     assert rc == 1 and data is not None, log[-3000:]

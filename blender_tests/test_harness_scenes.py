@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ci import skip_or_fail as _skip_or_fail
 
 from hairbsdf.compare import metrics as M
 from hairbsdf.compare.runner import Options, Runner, TargetError, expand_cases, resolve_target
@@ -22,10 +23,6 @@ BLENDERS = {"bpy4.5": "bpy", "blender3.4": os.environ.get("HAIRBSDF_BLENDER") or
 _TARGETS = {}
 
 
-def _skip_or_fail(reason):
-    if os.environ.get("CI"):
-        pytest.fail(reason)
-    pytest.skip(reason)
 
 
 def target(label):

@@ -11,6 +11,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
+from ci import require_module, skip_or_fail as _skip_or_fail
 
 from hairbsdf.compare import judge, report
 from hairbsdf.compare.images import write_png
@@ -20,10 +21,6 @@ REPO = Path(__file__).resolve().parent.parent
 SHOTS = REPO / "build" / "blender_tests" / "report"
 
 
-def _skip_or_fail(reason):
-    if os.environ.get("CI"):
-        pytest.fail(reason)
-    pytest.skip(reason)
 
 
 def synthetic_case(scene, label, status_kind, variant=None, seed=0):
@@ -111,7 +108,7 @@ def test_report_merge(tmp_path):
 
 
 def test_png_writer_roundtrip(tmp_path):
-    oiio = pytest.importorskip("OpenImageIO")
+    oiio = require_module("OpenImageIO")
     img = (np.arange(5 * 7 * 3).reshape(5, 7, 3) * 3 % 256).astype(np.uint8)
     write_png(tmp_path / "a.png", img)
     back = oiio.ImageBuf(str(tmp_path / "a.png")).get_pixels(oiio.UINT8)

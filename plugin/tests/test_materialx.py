@@ -6,12 +6,13 @@ import math
 
 import numpy as np
 import pytest
+from ci import require_module
 
 import hairbsdf
 from hairbsdf import materialx as hmx
 from hairbsdf import testing
 
-mx = pytest.importorskip("MaterialX")
+mx = require_module("MaterialX")
 
 
 @pytest.fixture(scope="module")

@@ -6,11 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from ci import require_module
 
 import hairbsdf
 from hairbsdf import materialx as hmx
 
-mx = pytest.importorskip("MaterialX")
+mx = require_module("MaterialX")
 
 
 def directions(rng, n=300):

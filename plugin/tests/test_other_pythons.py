@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ci import skip_or_fail
 
 import hairbsdf
 
@@ -45,7 +46,7 @@ def run_probe(cmd):
 def need(path_or_cmd):
     if shutil.which(path_or_cmd) is None and not os.path.exists(path_or_cmd):
         reason = f"{path_or_cmd} is not installed (scripts/setup installs it)"
-        pytest.fail(reason) if os.environ.get("CI") else pytest.skip(reason)
+        skip_or_fail(reason)
     if not SITE.exists():
         pytest.fail("build/blender_site/current is missing: run scripts/setup")
 

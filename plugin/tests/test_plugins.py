@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ci import skip_or_fail
 
 import hairbsdf
 from hairbsdf import testing
@@ -38,7 +39,7 @@ def compiler():
     for name in ("c++", "g++", "clang++"):
         if shutil.which(name):
             return name
-    pytest.skip("no C++ compiler")
+    skip_or_fail("no C++ compiler (scripts/setup installs build-essential)")
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +69,7 @@ def test_a_plain_c_plugin(tmp_path, rng):
     """plugin.h is plain C: a C99 plugin builds pedantically, loads and passes the battery."""
     cc = next((c for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
     if cc is None:
-        pytest.skip("no C compiler")
+        skip_or_fail("no C compiler (scripts/setup installs build-essential)")
     target = tmp_path / "uniform_c.so"
     cmd = [cc, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O1", "-shared", "-fPIC",
            f"-I{ROOT / 'bsdf_core' / 'include'}", str(SOURCE.parent / "uniform_plugin.c"), "-o", str(target), "-lm"]
