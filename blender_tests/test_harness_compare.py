@@ -2,7 +2,7 @@
 
 * The CI gate: every library scene at CI size, our engine (-E HAIRBSDF) against Cycles, in
   bpy 4.5 and in Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
-  Scenes marked pending in blender_tests/thresholds.toml xfail with their reason.  Until the
+  Scenes marked pending in plugin/hairbsdf/compare/thresholds.toml xfail with their reason.  Until the
   engine is built (`import hairbsdf._render` fails) these xfail with "engine not built yet";
   when it is built but a Blender cannot load it, they skip locally and fail under CI=true.
   Reports: build/blender_tests/compare/<blender>/<scene>/index.html (join them with
