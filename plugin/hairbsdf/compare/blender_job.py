@@ -189,6 +189,7 @@ def do_render(job):
             how, errors = ensure_hairbsdf(job.get("sites"))
             meta["engine_registration"] = how
             meta["engine_registration_errors"] = errors
+            meta["hairbsdf_file"] = getattr(sys.modules.get("hairbsdf"), "__file__", None)  # which copy rendered
             if how is None:
                 meta["error"] = "the HAIRBSDF engine is not available in this Blender: " + "; ".join(errors)
                 meta["status"] = "NOT AVAILABLE"
