@@ -101,8 +101,8 @@ def parse_res(s):
         w, h = int(w), int(h)
         assert w > 0 and h > 0
         return (w, h)
-    except Exception:
-        raise SystemExit("error: --res takes WxH, e.g. 320x240")
+    except (ValueError, AssertionError):
+        raise ValueError("--res takes WxH, e.g. 320x240, not %r" % s) from None
 
 
 def default_out():
