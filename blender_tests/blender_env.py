@@ -11,7 +11,7 @@ folders in one run, as scripts/test does.
             emit({"version": list(bpy.app.version)})
         ''')
 
-Inside a snippet: `bpy`, `np` (numpy), `hs` (scenes/hair_scenes), `fg` (scenes/fiber_gonio),
+Inside a snippet: `bpy`, `np` (numpy), `hs` (scenes/hair_scenes), `fg` (the library's fiber_gonio),
 `emit(obj)` (JSON, numpy-aware), `ARGS` (the dict passed as args=...), `TMP` (a per-test
 folder), `register_engine()` (imports hairbsdf.blender and registers the engine) and
 `loaded_libraries(*names)` (shared libraries mapped in the process).
@@ -36,7 +36,8 @@ from ci import skip_or_fail  # noqa: F401  (re-exported for the tests)
 
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "blender_tests"
-SCENES = TESTS / "scenes"
+SCENES = TESTS / "scenes"  # test-only scene helpers (hair_scenes, engine_memory)
+LIBRARY = ROOT / "plugin" / "hairbsdf" / "compare" / "scenes"  # the scene library (fiber_gonio, scene_lib)
 VENV_PY = ROOT / ".venv" / "bin" / "python"
 SITE = ROOT / "build" / "blender_site" / "current"
 ADDON_SRC = ROOT / "plugin" / "blender_addon"
@@ -209,7 +210,7 @@ def run_snippet(kind: str, code: str, tmp: Path, args=None, timeout=DEFAULT_TIME
     snippet = tmp / f"snippet_{kind}_{time.monotonic_ns()}.py"
     snippet.write_text(textwrap.dedent(code))
     runner = _write_runner(tmp)
-    paths = [str(SCENES)]
+    paths = [str(SCENES), str(LIBRARY)]
     if kind == "blender":
         ensure_staged()
         paths.append(str(SITE))

@@ -1,7 +1,7 @@
 """BSDF-level check against real Cycles (no render engine of ours involved).
 
 Cycles renders one straight thick strand with an orthographic camera and a delta
-sun (scenes/fiber_gonio.py); every pixel across the strand is one BSDF
+sun (plugin/hairbsdf/compare/scenes/fiber_gonio.py); every pixel across the strand is one BSDF
 evaluation eval(wo, wi, h) times the sun strength (bsdf_check/README.md).
 The renders run in subprocesses:
   * bpy 4.5 (the venv's Python with the ``bpy`` module)  -> compared with tilt="4.2"
@@ -36,7 +36,7 @@ from ci import skip_or_fail as _skip_or_fail
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 CHECK_DIR = os.path.join(HERE, "bsdf_check")
-SCENE_FILE = os.path.join(HERE, "scenes", "fiber_gonio.py")
+SCENE_FILE = os.path.join(REPO, "plugin", "hairbsdf", "compare", "scenes", "fiber_gonio.py")
 RENDER_SCRIPT = os.path.join(CHECK_DIR, "render_cases.py")
 CASES_FILE = os.path.join(CHECK_DIR, "cases.py")
 LEGACY_SCRIPT = os.path.join(CHECK_DIR, "render_cycles_hair.py")  # Cycles' legacy Hair BSDF node

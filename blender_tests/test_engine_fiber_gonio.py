@@ -1,6 +1,6 @@
 """The engine's image of the fibre-gonio scene equals our own eval per pixel (Engine I).
 
-The scene of the BSDF-level check (scenes/fiber_gonio.py, bsdf_check/README.md: one straight
+The scene of the BSDF-level check (plugin/hairbsdf/compare/scenes/fiber_gonio.py, bsdf_check/README.md: one straight
 strand of radius 0.05, an orthographic camera 0.25 away, a delta sun, direct light only,
 1 spp with a 0.01 px Blackman-Harris filter) is built in bpy 4.5 and in Blender 3.4 and
 rendered by the HAIRBSDF engine through the real path: Blender's depsgraph -> exporter ->

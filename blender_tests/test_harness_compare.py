@@ -2,7 +2,7 @@
 
 * The CI gate: every library scene at CI size, our engine (-E HAIRBSDF) against Cycles, in
   bpy 4.5 and in Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
-  Scenes marked pending in blender_tests/thresholds.toml xfail with their reason.  An engine
+  Scenes marked pending in plugin/hairbsdf/compare/thresholds.toml xfail with their reason.  An engine
   that cannot be imported (`import hairbsdf._render` fails) fails the gate, locally and in CI
   (test_gate_fails_without_the_engine plants that fault); a Blender that is not installed
   skips locally and fails under CI=true.

@@ -14,7 +14,7 @@ import pytest
 from ci import skip_or_fail
 
 from hairbsdf.compare import judge, metrics as M
-from hairbsdf.compare.runner import Target, blender_seed, expand_cases, shard
+from hairbsdf.compare.runner import Target, blender_seed, default_thresholds, expand_cases, shard
 from hairbsdf.compare.thresholds import FLOORS, ThresholdError, Thresholds
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -333,7 +333,7 @@ def test_thresholds_may_tighten_never_loosen():
 
 
 def test_repository_thresholds_file():
-    t = Thresholds.load(os.path.join(REPO, "blender_tests", "thresholds.toml"))
+    t = Thresholds.load(default_thresholds())
     for scene in ("fiber_gonio", "furnace", "swatch", "melanin_sweep", "ribbons_vs_3d"):
         lim = t.for_case(scene)
         for key, (floor, direction, _) in FLOORS.items():

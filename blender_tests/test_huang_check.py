@@ -49,7 +49,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 CHECK_DIR = os.path.join(HERE, "bsdf_check")
 CACHE_DIR = os.path.join(REPO, "build", "blender_tests", "huang_check")
-FILES = [os.path.join(HERE, "scenes", "fiber_gonio.py"), os.path.join(CHECK_DIR, "render_huang.py"),
+FILES = [os.path.join(REPO, "plugin", "hairbsdf", "compare", "scenes", "fiber_gonio.py"), os.path.join(CHECK_DIR, "render_huang.py"),
          os.path.join(CHECK_DIR, "huang_cases.py")]
 REFRESH = os.environ.get("HUANG_CHECK_REFRESH", "") not in ("", "0")
 # CI size: no 'converged' table (informational, and its eval costs up to a second per value);

@@ -27,6 +27,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SCENES = os.path.join(ROOT, "blender_tests", "scenes")
+LIBRARY = os.path.join(ROOT, "plugin", "hairbsdf", "compare", "scenes")  # fiber_gonio, which hair_scenes imports
 SITE = os.path.join(ROOT, "build", "blender_site", "current")
 TAG = "@@BENCH@@"
 
@@ -77,7 +78,7 @@ def _export_bench():
 
 
 def _inside(part):
-    sys.path.insert(0, SCENES)
+    sys.path[:0] = [SCENES, LIBRARY]
     import bpy  # noqa: F401
     try:  # Blender 3.4 ignores PYTHONPATH: use the staged copy (docs/blender.md)
         import hairbsdf  # noqa: F401

@@ -34,6 +34,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SCENES = os.path.join(ROOT, "blender_tests", "scenes")
+LIBRARY = os.path.join(ROOT, "plugin", "hairbsdf", "compare", "scenes")  # fiber_gonio, which hair_scenes imports
 SITE = os.path.join(ROOT, "build", "blender_site", "current")
 
 
@@ -47,7 +48,7 @@ def _blender_part(argv):
     ap.add_argument("--spp", type=int, required=True)
     ap.add_argument("--size", required=True)
     a = ap.parse_args(argv)
-    sys.path.insert(0, SCENES)
+    sys.path[:0] = [SCENES, LIBRARY]
     import bpy
     import fiber_gonio as fg
     import hair_scenes as hs

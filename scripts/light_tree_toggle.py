@@ -52,7 +52,7 @@ for lt in (True, False):
         exr = f"{work}/{tag}{engine}_lt{int(lt)}_s{s}.exr"
         job = dict(action="render", blend=paths[lt], engine=engine, accuracy="CYCLES", seed=s, spp=spp,
                    res=[128, 96], threads=1, osl=False, force_parity=False, exr_out=exr,
-                   scenes_dir=os.path.join(ROOT, "blender_tests", "scenes"),
+                   scenes_dir=os.path.join(ROOT, "plugin", "hairbsdf", "compare", "scenes"),
                    sites=[os.path.join(ROOT, "build", "blender_site", "current")], hair_model=None)
         meta = bj.do_render(job)
         assert meta.get("ok"), meta

@@ -24,7 +24,7 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = os.path.join(os.path.dirname(HERE), "scenes")
+SCENES = os.path.join(os.path.dirname(os.path.dirname(HERE)), "plugin", "hairbsdf", "compare", "scenes")
 for _p in (HERE, SCENES):
     if _p not in sys.path:
         sys.path.insert(0, _p)

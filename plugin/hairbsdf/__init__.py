@@ -8,7 +8,9 @@
 Frames and units: docs/conventions.md in the repository.
 """
 
-from . import _core
+from ._platform import load_core
+
+_core = load_core()
 from .closure import LOBES, Closure, SampleResult
 from .principled import (PRINCIPLED_HAIR_DEFAULTS, absorption_from_color, absorption_from_melanin,
                          cycles_curve_random, huang_fallback_normal, principled_hair)
@@ -20,7 +22,26 @@ from . import zoo
 from .zoo import (cycles_hair_bsdf, deon_hair, epic_hair, kajiya_kay_hair, make_model, marschner_hair, model_schema,
                   scheuermann_hair, yan_fur, zoo_model_names)
 
-__version__ = "0.1.0"
+from ._version import __version__
+
+
+def _installed_dir(name: str) -> str:
+    import os
+    for base in __path__:  # an editable install lists the source folder and the installed one
+        path = os.path.join(base, name)
+        if os.path.isdir(path):
+            return path
+    raise FileNotFoundError("hairbsdf/%s is missing from this installation (reinstall hairbsdf)" % name)
+
+
+def get_include() -> str:
+    """The folder that holds hairbsdf/plugin.h, for building a BSDF plugin (docs/plugins.md)."""
+    return _installed_dir("include")
+
+
+def get_cmake_dir() -> str:
+    """The folder of hairbsdfConfig.cmake: cmake -Dhairbsdf_DIR=... then find_package(hairbsdf)."""
+    return _installed_dir("cmake")
 
 
 def set_num_threads(n: int) -> None:
@@ -40,5 +61,5 @@ __all__ = [
     "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
     "python_bsdf", "PluginConstructor", "PluginError", "PythonBSDF", "ParamSpec", "PLUGIN_ABI_VERSION",
     "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair", "yan_fur", "cycles_hair_bsdf",
-    "make_model", "model_schema", "zoo_model_names",
+    "make_model", "model_schema", "zoo_model_names", "get_include", "get_cmake_dir", "__version__",
 ]

@@ -5,6 +5,7 @@
     hairbsdf fit --target SPEC --model NAME [options]
                                        fit a model's parameters to a target BSDF (docs/fit.md)
     hairbsdf plot SPEC [--out DIR]     per-lobe polar plots, heat maps and albedo as PNGs
+    hairbsdf --version                 the installed version
 
 SPEC is one constructor call with literal keywords, e.g. "principled_hair(melanin=0.6)".
 """
@@ -15,10 +16,22 @@ USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, fit, plot
 
 
 def main(argv=None):
-    argv = list(sys.argv[1:] if argv is None else argv)
+    from ._deps import MissingDependency
+    try:
+        return _dispatch(list(sys.argv[1:] if argv is None else argv))
+    except MissingDependency as exc:
+        sys.stderr.write("hairbsdf: error: %s\n" % exc)
+        return 1
+
+
+def _dispatch(argv):
     if not argv or argv[0] in ("-h", "--help", "help"):
         sys.stdout.write(USAGE)
         return 0 if argv else 2
+    if argv[0] == "--version":
+        from ._version import __version__
+        print("hairbsdf %s" % __version__)
+        return 0
     cmd, rest = argv[0], argv[1:]
     if cmd == "compare":
         from .compare.cli import main as compare_main

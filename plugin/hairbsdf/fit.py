@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 
 from . import gonio
+from ._deps import require
 from .gonio import H_NODES
 from .closure import LOBES
 from .spec import CONSTRUCTORS, SpecError, build, format_spec, parse_spec
@@ -229,10 +230,7 @@ def fit(target: str, model: str, *, grid: int = 24, h_count: int = H_NODES, star
     """Fits `model` (a FIT_MODELS name) to the `target` spec. The first start is the declared
     start (or `start`, free parameter name -> value, overriding it); further starts are uniform in
     the bounds, drawn with `seed`. Returns the best of all starts."""
-    try:
-        from scipy.optimize import least_squares
-    except ImportError:
-        raise ImportError("hairbsdf fit needs scipy: pip install 'hairbsdf[tools]' (scripts/setup installs it)") from None
+    least_squares = require("scipy.optimize", "tools", "hairbsdf fit").least_squares
 
     fm = fit_model(model)
     target_name, target_kwargs = parse_spec(target)

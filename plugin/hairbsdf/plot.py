@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from . import gonio
+from ._deps import require
 from .gonio import H_NODES
 from .closure import YAN_FUR_LOBES
 from .spec import SpecError, build, format_spec, parse_spec
@@ -24,11 +25,7 @@ DEFAULT_THETA_O = (0.0, 30.0, 60.0)
 
 def pyplot():
     """matplotlib.pyplot with the Agg backend (no display needed)."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise ImportError("hairbsdf plot / fit need matplotlib: pip install 'hairbsdf[tools]' "
-                          "(scripts/setup installs it)") from None
+    matplotlib = require("matplotlib", "tools", "hairbsdf plot / fit")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt

@@ -45,13 +45,10 @@ def _versions():
 
 
 def _scene_lib(scenes_dir):
-    if scenes_dir and scenes_dir not in sys.path:
+    if scenes_dir not in sys.path:
         sys.path.insert(0, scenes_dir)
-    try:
-        import scene_lib
-        return scene_lib
-    except Exception:  # pragma: no cover - user .blend without the library
-        return None
+    import scene_lib  # shipped in the package (hairbsdf/compare/scenes)
+    return scene_lib
 
 
 # --------------------------------------------------------------------------- build
@@ -189,6 +186,7 @@ def do_render(job):
             how, errors = ensure_hairbsdf(job.get("sites"))
             meta["engine_registration"] = how
             meta["engine_registration_errors"] = errors
+            meta["hairbsdf_file"] = getattr(sys.modules.get("hairbsdf"), "__file__", None)  # which copy rendered
             if how is None:
                 meta["error"] = "the HAIRBSDF engine is not available in this Blender: " + "; ".join(errors)
                 meta["status"] = "NOT AVAILABLE"

@@ -29,7 +29,7 @@ how it judges (details: docs/compare.md):
     within 2 sigma and within 0.5%%; the furnace's image mean within 0.5%% of Cycles'
   informational: mean/RMS/max absolute and relative error, PSNR, the idiff rule, FLIP, and the
     effect of exact special functions (our engine rendered with accuracy EXACT)
-  thresholds: blender_tests/thresholds.toml (may tighten the fixed floors, never loosen them)
+  thresholds: hairbsdf/compare/thresholds.toml in the package (may tighten the fixed floors, never loosen them)
 
 exit status: 0 when no case FAILs, CRASHes or has NO OUTPUT / ERROR (PENDING and SKIPPED are fine),
   1 otherwise, 2 for bad arguments.
@@ -40,7 +40,7 @@ def build_parser(prog="hairbsdf compare"):
     from .runner import default_cache_dir, default_thresholds, load_catalog
 
     catalog, default_scene = load_catalog()
-    scenes = ", ".join(catalog) if catalog else "(library not found: set HAIRBSDF_SCENES)"
+    scenes = ", ".join(catalog)
     p = argparse.ArgumentParser(
         prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
         description="Render scenes with Blender's Cycles and with the hairbsdf engine (-E HAIRBSDF in the same "
@@ -101,8 +101,8 @@ def parse_res(s):
         w, h = int(w), int(h)
         assert w > 0 and h > 0
         return (w, h)
-    except Exception:
-        raise SystemExit("error: --res takes WxH, e.g. 320x240")
+    except (ValueError, AssertionError):
+        raise ValueError("--res takes WxH, e.g. 320x240, not %r" % s) from None
 
 
 def default_out():
@@ -111,6 +111,12 @@ def default_out():
 
 
 def run_compare(args, argv_text=""):
+    from .._deps import MissingDependency, check_extra
+    try:
+        check_extra("compare", "hairbsdf compare")
+    except MissingDependency as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 1
     from . import report
     from .runner import (Options, Runner, TargetError, default_cache_dir, default_thresholds, expand_cases,
                          load_catalog, resolve_target, shard)
@@ -176,12 +182,9 @@ def run_compare(args, argv_text=""):
             (out / "cases" / res["dir"]).mkdir(parents=True, exist_ok=True)
 
     results = runner.run(on_case=on_case)
-    try:
-        import hairbsdf
-        ver = "hairbsdf %s" % hairbsdf.__version__
-    except Exception:  # pragma: no cover
-        ver = "hairbsdf"
-    run = dict(created=datetime.datetime.now().astimezone().isoformat(timespec="seconds"), git=_git_describe(),
+    import hairbsdf
+    ver = "hairbsdf %s" % hairbsdf.__version__
+    run = dict(hairbsdf_file=hairbsdf.__file__, created=datetime.datetime.now().astimezone().isoformat(timespec="seconds"), git=_git_describe(),
                command=argv_text or " ".join(shlex.quote(a) for a in sys.argv), hairbsdf=ver,
                host=platform.node(), python=sys.version.split()[0], seconds=round(runner.seconds, 1),
                shard=args.shard, targets=[t.as_dict() for t in targets], engine=opts.engine,
@@ -211,6 +214,12 @@ def _git_describe():
 
 
 def run_merge(argv):
+    from .._deps import MissingDependency, check_extra
+    try:
+        check_extra("compare", "hairbsdf report merge")
+    except MissingDependency as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 1
     from . import report
     p = argparse.ArgumentParser(prog="hairbsdf report merge",
                                 description="Join the reports of several `hairbsdf compare --shard` runs into one.")

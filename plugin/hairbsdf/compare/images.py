@@ -8,6 +8,7 @@ import zlib
 
 import numpy as np
 
+from .._deps import require
 from .metrics import luminance, rgb, srgb_oetf
 
 # Anchors (0..255) of the colour maps; interpolated linearly.
@@ -81,11 +82,8 @@ def write_png(path, img):
 
 
 def write_exr(path, img):
-    """Linear float EXR through OpenImageIO (False when it is missing)."""
-    try:
-        import OpenImageIO as oiio
-    except Exception:  # pragma: no cover
-        return False
+    """Linear float EXR through OpenImageIO."""
+    oiio = require("OpenImageIO", "compare", "hairbsdf compare")
     a = np.ascontiguousarray(img, dtype=np.float32)
     spec = oiio.ImageSpec(a.shape[1], a.shape[0], a.shape[2], oiio.FLOAT)
     spec.attribute("compression", "zip")

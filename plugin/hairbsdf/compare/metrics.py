@@ -21,18 +21,20 @@ import math
 
 import numpy as np
 
-try:  # optional
-    from scipy import special as _sp_special
-    from scipy import stats as _sp_stats
-except Exception:  # pragma: no cover
-    _sp_stats = _sp_special = None
+from .._deps import require
+
+WHAT = "hairbsdf compare"
+
+
+def _stats():
+    return require("scipy.stats", "compare", WHAT)
 
 
 # --------------------------------------------------------------------------- images
 
 def load_image(path) -> np.ndarray:
     """(H, W, C) float32 from any file OpenImageIO reads (EXR for the renders)."""
-    import OpenImageIO as oiio
+    oiio = require("OpenImageIO", "compare", WHAT)
 
     buf = oiio.ImageBuf(str(path))
     if buf.has_error:
@@ -92,11 +94,8 @@ def error_stats(ref, test, floor_frac=1e-3):
 
 
 def oiio_compare(ref, test, failthresh, warnthresh=None):
-    """OpenImageIO's ImageBufAlgo.compare on two arrays (None when OIIO is missing)."""
-    try:
-        import OpenImageIO as oiio
-    except Exception:  # pragma: no cover
-        return None
+    """OpenImageIO's ImageBufAlgo.compare on two arrays."""
+    oiio = require("OpenImageIO", "compare", WHAT)
     a = np.ascontiguousarray(ref, dtype=np.float32)
     b = np.ascontiguousarray(test, dtype=np.float32)
     bufs = []
@@ -122,12 +121,7 @@ def idiff_rule(ref, test, failthresh=0.016, failpercent=1.0, hardfail=float("inf
         a, b = srgb_oetf(a), srgb_oetf(b)
     npix = a.shape[0] * a.shape[1]
     res = oiio_compare(a, b, failthresh)
-    if res is not None:
-        nfail, maxerr, via = res["nfail"], res["maxerror"], "OpenImageIO ImageBufAlgo.compare"
-    else:  # pragma: no cover - same rule in NumPy
-        d = np.abs(a - b)
-        nfail = int(np.count_nonzero(d.max(axis=-1) > failthresh))
-        maxerr, via = float(d.max()) if d.size else 0.0, "numpy"
+    nfail, maxerr, via = res["nfail"], res["maxerror"], "OpenImageIO ImageBufAlgo.compare"
     pct = 100.0 * nfail / max(npix, 1)
     ok = not (nfail > failpercent / 100.0 * npix or maxerr > hardfail)
     return dict(nfail=nfail, npix=npix, percent=pct, maxerror=maxerr, failthresh=failthresh,
@@ -136,11 +130,8 @@ def idiff_rule(ref, test, failthresh=0.016, failpercent=1.0, hardfail=float("inf
 
 def flip(ref, test):
     """Mean HDR-FLIP of test against ref (linear images) and the error map; (None, None, reason)
-    when flip-evaluator is not installed or fails."""
-    try:
-        import flip_evaluator
-    except Exception as exc:
-        return None, None, "flip-evaluator not installed (%s)" % exc
+    when flip-evaluator fails (MissingDependency when it is not installed)."""
+    flip_evaluator = require("flip_evaluator", "compare", WHAT)
     a = np.ascontiguousarray(np.maximum(rgb(ref), 0.0), dtype=np.float32)
     b = np.ascontiguousarray(np.maximum(rgb(test), 0.0), dtype=np.float32)
     try:
@@ -164,29 +155,17 @@ def t_sf(t, df):
     df = np.broadcast_to(np.asarray(df, dtype=np.float64), t.shape)
     out = np.empty_like(t)
     inf = ~np.isfinite(df)
-    if _sp_stats is not None:
-        if np.any(~inf):
-            out[~inf] = _sp_stats.t.sf(t[~inf], df[~inf])
-        out[inf] = _sp_stats.norm.sf(t[inf])
-        return out
-    # pragma: no cover - without SciPy: the normal tail (conservative only for large df)
-    from math import erfc, sqrt
-    return np.vectorize(lambda x: 0.5 * erfc(x / sqrt(2.0)))(t)
+    stats = _stats()
+    if np.any(~inf):
+        out[~inf] = stats.t.sf(t[~inf], df[~inf])
+    out[inf] = stats.norm.sf(t[inf])
+    return out
 
 
 def t_isf(p, df):
     """Critical value t with P(T > t) = p."""
-    if _sp_stats is not None:
-        return float(_sp_stats.t.isf(p, df) if np.isfinite(df) else _sp_stats.norm.isf(p))
-    # pragma: no cover
-    lo, hi = 0.0, 1e6
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if t_sf(np.array([mid]), np.array([df]))[0] > p:
-            lo = mid
-        else:
-            hi = mid
-    return hi
+    stats = _stats()
+    return float(stats.t.isf(p, df) if np.isfinite(df) else stats.norm.isf(p))
 
 
 def sidak(alpha, m):
@@ -349,12 +328,9 @@ def _erode(mask, r):
 
 def _components(mask):
     """Connected components (8-neighbour) of a boolean mask: (labels, count)."""
-    try:
-        from scipy import ndimage
-        lab, n = ndimage.label(mask, structure=np.ones((3, 3), int))
-        return lab, int(n)
-    except Exception:  # pragma: no cover
-        return mask.astype(int), int(mask.any())
+    ndimage = require("scipy.ndimage", "compare", WHAT)
+    lab, n = ndimage.label(mask, structure=np.ones((3, 3), int))
+    return lab, int(n)
 
 
 def gonio_roi(shape, roi):

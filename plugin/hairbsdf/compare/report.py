@@ -320,7 +320,7 @@ def render_index(cases, run):
                                              "; hair model: %s" % html.escape(r["hair_model"]["label"])
                                              if r.get("hair_model") else "")
                          for r in runs if r)
-    legend = ("PASS: every gating metric within its threshold (blender_tests/thresholds.toml); FAIL: one is not; "
+    legend = ("PASS: every gating metric within its threshold (hairbsdf/compare/thresholds.toml); FAIL: one is not; "
               "CRASH / NO OUTPUT: the engine's render crashed or produced no image; ERROR: the scene or the Cycles "
               "render failed; PENDING: measured, not gated (a feature the engine lacks); SKIPPED: not for this "
               "Blender.")

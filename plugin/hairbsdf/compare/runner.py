@@ -25,6 +25,7 @@ import signal
 import subprocess
 import sys
 import time
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -45,11 +46,20 @@ def find_repo():
 REPO = find_repo()
 
 
+def package_dir(name):
+    """A folder shipped inside hairbsdf.compare (scenes): Blender imports from it, so it must be
+    a real directory, not a zip member."""
+    path = Path(str(resources.files(__package__) / name))
+    if not path.is_dir():
+        raise FileNotFoundError("hairbsdf.compare/%s is missing from this installation (%s)" % (name, path))
+    return path
+
+
 def scenes_dir():
     env = os.environ.get("HAIRBSDF_SCENES")
     if env:
         return Path(env)
-    return REPO / "blender_tests" / "scenes" if REPO else None
+    return package_dir("scenes")
 
 
 def default_cache_dir():
@@ -65,14 +75,14 @@ def default_thresholds():
     env = os.environ.get("HAIRBSDF_THRESHOLDS")
     if env:
         return Path(env)
-    return REPO / "blender_tests" / "thresholds.toml" if REPO else None
+    return Path(str(resources.files(__package__) / "thresholds.toml"))
 
 
 def load_catalog(sdir=None):
-    sdir = Path(sdir or scenes_dir() or "")
+    sdir = Path(sdir or scenes_dir())
     path = sdir / "catalog.py"
     if not path.exists():
-        return {}, None
+        raise FileNotFoundError("no scene library: %s does not exist" % path)
     ns = runpy.run_path(str(path))
     return ns["SCENES"], ns.get("DEFAULT_SCENE", "swatch")
 
@@ -568,6 +578,7 @@ class Runner:
                     accuracy=r.get("accuracy"), seed=r.get("seed"), status=r.get("status"), ok=bool(r.get("ok")),
                     cached=bool(r.get("cached")), seconds=r.get("render_seconds"), wall=r.get("wall_seconds"),
                     exr=r.get("exr"), log=r.get("log"), error=r.get("error"), log_tail=r.get("log_tail", ""),
+                    hairbsdf_file=r.get("hairbsdf_file"),
                     engine_warnings=((r.get("engine_report") or {}).get("warnings") or []))
 
     def _judge(self, c, b, renders):

@@ -1,7 +1,7 @@
 """Per-scene thresholds: built-in floors (issue 5's parity thresholds) that a TOML file may
 tighten but never loosen.
 
-TOML layout (blender_tests/thresholds.toml):
+TOML layout (hairbsdf/compare/thresholds.toml, shipped in the package):
 
     [defaults]            # every scene
     mean_bias_rel = 0.005
@@ -16,11 +16,7 @@ A value looser than its floor is an error (ThresholdError), not a silent clamp.
 from __future__ import annotations
 
 import os
-
-try:
-    import tomllib
-except ImportError:  # pragma: no cover - Python < 3.11
-    tomllib = None
+import tomllib
 
 # key: (floor, direction, description).  "max": the value must be <= floor (smaller is
 # stricter); "min": >= floor (larger is stricter).
@@ -84,10 +80,11 @@ class Thresholds:
 
     @classmethod
     def load(cls, path=None):
-        if path is None or not os.path.exists(path):
+        """The floors alone when path is None; a path that does not exist is an error."""
+        if path is None:
             return cls({}, None)
-        if tomllib is None:  # pragma: no cover
-            raise ThresholdError("reading %s needs Python 3.11's tomllib" % path)
+        if not os.path.isfile(path):
+            raise ThresholdError("thresholds file %s does not exist" % path)
         with open(path, "rb") as f:
             return cls(tomllib.load(f), str(path))
 

@@ -28,10 +28,7 @@ import math
 
 import bpy
 
-try:  # mathutils must be imported after bpy (bpy module mode)
-    from mathutils import Matrix, Vector
-except ImportError:  # pragma: no cover
-    Matrix = Vector = None
+from mathutils import Matrix, Vector  # noqa: E402  (after bpy: bpy module mode)
 
 
 STRAND_NAME = "GonioStrand"
@@ -475,14 +472,10 @@ def read_exr_rgba(path):
     try:
         w, h = img.size
         ch = img.channels
-        try:
-            import numpy as np
-            buf = np.empty(w * h * ch, dtype=np.float32)
-            img.pixels.foreach_get(buf)
-            px = buf.reshape(h, w, ch)
-        except ImportError:  # pragma: no cover
-            px = list(img.pixels)
-        return px, (w, h)
+        import numpy as np
+        buf = np.empty(w * h * ch, dtype=np.float32)
+        img.pixels.foreach_get(buf)
+        return buf.reshape(h, w, ch), (w, h)
     finally:
         bpy.data.images.remove(img)
 

@@ -27,10 +27,7 @@ import sys
 
 import bpy
 
-try:  # mathutils after bpy (module mode)
-    from mathutils import Vector
-except ImportError:  # pragma: no cover
-    Vector = None
+from mathutils import Vector  # noqa: E402  (after bpy: bpy module mode)
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 if _HERE not in sys.path:

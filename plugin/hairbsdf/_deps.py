@@ -1,0 +1,34 @@
+"""Optional dependencies, grouped by the pip extra that installs them. A missing one stops the
+command with a message that names the extra; nothing falls back to a weaker substitute."""
+
+import importlib
+
+# extra -> (import name, pip name)
+EXTRAS = {
+    "compare": (("OpenImageIO", "OpenImageIO"), ("scipy", "scipy"), ("flip_evaluator", "flip-evaluator")),
+    "tools": (("scipy", "scipy"), ("matplotlib", "matplotlib")),
+}
+
+
+class MissingDependency(ImportError):
+    pass
+
+
+def _message(pip_name, extra, what):
+    return "%s needs %s: pip install 'hairbsdf[%s]'" % (what, pip_name, extra)
+
+
+def require(module, extra, what):
+    """Imports `module` (e.g. "scipy.stats") or raises MissingDependency naming `extra`."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        top = module.split(".")[0]
+        pip_name = dict(EXTRAS[extra]).get(top, top)
+        raise MissingDependency(_message(pip_name, extra, what)) from exc
+
+
+def check_extra(extra, what):
+    """Raises MissingDependency for the first package of `extra` that does not import."""
+    for module, _ in EXTRAS[extra]:
+        require(module, extra, what)
