@@ -25,7 +25,7 @@
 namespace hairbsdf {
 
 namespace huang {
-// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, bsdf_core/tools/huang_tables.cpp).
+// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, lab/huang_tables.cpp).
 extern const double kGgxGlassAlbedo[2][16][16][16];
 
 // Cycles' lookup_table_read_3D on one table: coordinates saturated, trilinear.

@@ -7,7 +7,7 @@
 //   speed_trt [M [alpha]]  the same for TRT + TRRT+, against the mean of M Cycles evaluations
 //              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration;
 //   trt_lobes alpha index M max_points  TRT and TRRT+ separately at one of speed_trt's configurations.
-// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/bsdf_core/huang_measure [mode]
+// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/lab/huang_measure [mode]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
