@@ -22,10 +22,9 @@ import math
 import numpy as np
 
 try:  # optional
-    from scipy import special as _sp_special
     from scipy import stats as _sp_stats
 except Exception:  # pragma: no cover
-    _sp_stats = _sp_special = None
+    _sp_stats = None
 
 
 # --------------------------------------------------------------------------- images
