@@ -265,7 +265,7 @@ HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
 
 std::vector<HuangHair::Node> HuangHair::simpson_nodes(double lo, double hi, double step) const {
     const double range = hi - lo;
-    const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * std::max(params_.simpson_refinement, 1);
+    const long n = 2 * long(std::ceil(range / (step * alpha_) * 0.5)) * simpson_refinement_;
     const double res = range / double(n);
     std::vector<Node> nodes(size_t(n + 1));
     for (long i = 0; i <= n; ++i) {
