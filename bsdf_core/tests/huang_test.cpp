@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "hairbsdf/closures.h"
+#include "hairbsdf/math_cubature.h"
 #include "hairbsdf/models/huang_lab.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "test_util.h"

@@ -17,7 +17,6 @@
 
 #include <vector>
 
-#include "hairbsdf/models/huang_cubature.h"
 #include "hairbsdf/closure.h"
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang_ggx.h"
