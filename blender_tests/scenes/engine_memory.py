@@ -1,7 +1,7 @@
 """Peak memory and time of the HAIRBSDF engine on a big groom: n_side x n_side Curves strands
 with `keys` keys each (1000 x 1000 x 16 = 1M strands, 16M keys), made by geometry nodes.
 
-Used by blender_tests/test_engine_million_strands.py and scripts/bench_engine.py. Runs
+Used by blender_tests/test_engine_million_strands.py and lab/bench_engine.py. Runs
 inside bpy 4.5 or Blender 3.4 (Linux: /proc/self/status, /proc/self/clear_refs).
 
 Memory is the process's resident set: after Blender has evaluated the scene, the peak

@@ -269,7 +269,7 @@ def deg(x):
 # --------------------------------------------------------------------------- showcase
 
 def showcase_scene(width=240, height=160, spp=64, curve_shape="THICK", children=12):
-    """The side-by-side scene (scripts/engine_side_by_side.py, docs/engine.md): a grey
+    """The side-by-side scene (lab/engine_side_by_side.py, docs/engine.md): a grey
     ground plane; a patch of particle hair with interpolated children (melanin) and a
     Curves object made by geometry nodes (coloured, tilted); lit by a sun, a point light,
     a rectangular area light and a uniform world. Cycles' default integrator settings

@@ -6,10 +6,8 @@ namespace hairbsdf {
 
 namespace {
 // 6-point Gauss-Legendre rule on [-1, 1].
-constexpr double kNodes[6] = {-0.9324695142031521, -0.6612093864662645, -0.2386191860831969,
-                              0.2386191860831969,  0.6612093864662645,  0.9324695142031521};
-constexpr double kWeights[6] = {0.1713244923791704, 0.3607615730481386, 0.4679139345726910,
-                                0.4679139345726910, 0.3607615730481386, 0.1713244923791704};
+constexpr const double* kNodes = GaussLegendre<6>::x;
+constexpr const double* kWeights = GaussLegendre<6>::w;
 
 struct Rule {
     std::vector<double> x, w;

@@ -5,6 +5,8 @@
 #include <chrono>
 
 #include "hairbsdf/closures.h"
+#include "hairbsdf/math_cubature.h"
+#include "hairbsdf/models/huang_lab.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "test_util.h"
 
@@ -165,6 +167,22 @@ TEST(HuangHair, DeterministicEqualsMeanOfCyclesEstimator) {
                 << "lobe " << l << " case " << c.theta_o << " " << c.theta_i << " " << c.dphi;
         }
     }
+}
+
+// The lab's Simpson refinement (huang_lab.h): 1 is the plain model bit for bit, k > 1 multiplies
+// the nodes of Cycles' rule by k and keeps the R value close.
+TEST(HuangHair, LabSimpsonRefinement) {
+    const HuangHairParams p = clear_fibre(0.3, 0.03);
+    const HuangHair plain(p), same = HuangLab::with_simpson_refinement(p, 1), fine = HuangLab::with_simpson_refinement(p, 4);
+    const Vec3 wo = test::direction(0.3, -kPi / 2), wi = test::direction(-0.4, 0.5);
+    const auto a = plain.prepare(context(wo, 0.2)), b = same.prepare(context(wo, 0.2)), c = fine.prepare(context(wo, 0.2));
+    ASSERT_TRUE(a.valid);
+    EXPECT_EQ(a.r_nodes.size(), b.r_nodes.size());
+    EXPECT_EQ(4 * (a.r_nodes.size() - 1), c.r_nodes.size() - 1);
+    const Vec3 O = plain.to_local(a, wi);
+    const auto la = plain.eval_local(a, O), lb = same.eval_local(b, O), lc = fine.eval_local(c, O);
+    for (int l = 0; l < 4; ++l) EXPECT_EQ(lum(la[size_t(l)]), lum(lb[size_t(l)])) << "lobe " << l;
+    EXPECT_NEAR(lum(lc[0]), lum(la[0]), 0.05 * lum(la[0]) + 1e-6);
 }
 
 // Circular fibres: a common rotation about the fibre axis changes nothing; mirroring both

@@ -176,19 +176,6 @@ def marschner_hair(*, sigma_a=MARSCHNER_DEFAULTS["sigma_a"], eta: float = MARSCH
 DEON_DEFAULTS = {**_defaults("deon"), "sigma_a": None}
 
 
-def deon_absorption(melanin: float, melanin_redness: float, pigments: str = "cycles") -> tuple[float, float, float]:
-    """sigma_a from melanin and redness: Cycles' concentration mapping
-    (q = -ln(max(1 - melanin, 1e-4)), eumelanin q (1 - r), pheomelanin q r) with Cycles' or d'Eon's
-    (seed 004) pigment constants (the model factory's, so deon_hair agrees)."""
-    if not isinstance(pigments, str):
-        raise TypeError(f"pigments: expected a string, got {pigments!r}")
-    core = _core.make_model("deon", {"melanin": check.real("melanin", melanin), "pigments": pigments,
-                                     "melanin_redness": check.real("melanin_redness", melanin_redness),
-                                     "tabulated": False})
-    (d,) = core.model_params()
-    return tuple(d["sigma_a"])
-
-
 def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: float = DEON_DEFAULTS["melanin_redness"],
               sigma_a=None, pigments: str = DEON_DEFAULTS["pigments"], eta: float = DEON_DEFAULTS["eta"],
               roughness: float = DEON_DEFAULTS["roughness"], tilt: float = DEON_DEFAULTS["tilt"],

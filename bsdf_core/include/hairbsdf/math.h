@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "hairbsdf/math_quadrature.h"
+
 namespace hairbsdf {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -29,6 +31,17 @@ inline double length(Vec3 a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalize(Vec3 a) {
     const double l = length(a);
     return l > 0 ? (1.0 / l) * a : Vec3{};
+}
+// An orthonormal pair completing the unit vector n, as Cycles builds it: a = normalize((1,1,1) x n),
+// or normalize((-1,1,1) x n) when n.x == n.y == n.z; b = n x a.
+inline void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
+    if (n.x != n.y || n.x != n.z) {
+        a = Vec3{n.z - n.y, n.x - n.z, n.y - n.x};
+    } else {
+        a = Vec3{n.z - n.y, n.x + n.z, -n.y - n.x};
+    }
+    a = normalize(a);
+    b = cross(n, a);
 }
 
 // Linear RGB in the scene-linear working space.
@@ -128,6 +141,11 @@ inline double sample_trimmed_logistic(double u, double s) {
     return clamp(x, -kPi, kPi);
 }
 
+// Cycles' linear congruential generator: one step of the state, and the new state mapped to [0, 1]
+// in float as Cycles rounds it.
+inline uint32_t lcg_step(uint32_t& state) { return state = 1103515245u * state + 12345u; }
+inline double lcg_step_float(uint32_t& state) { return double(float(lcg_step(state)) * (1.0f / float(0xFFFFFFFFu))); }
+
 // Bob Jenkins' lookup3 hash of two integers mapped to [0, 1]: Blender's per-curve
 // "Hair Info > Random" is hash(curve_index, 0) / 0xFFFFFFFF (notes §2.2).
 uint32_t lookup3_hash_uint2(uint32_t kx, uint32_t ky);
@@ -213,8 +231,8 @@ public:
     PiecewiseConstant1D() = default;
     template <class F>
     PiecewiseConstant1D(F f, double lo, double hi, int bins) : lo_(lo), hi_(hi), width_((hi - lo) / bins) {
-        static const double gx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
-        static const double gw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+        const double* gx = GaussLegendre<4>::x;
+        const double* gw = GaussLegendre<4>::w;
         density_.resize(size_t(bins));
         cdf_.assign(size_t(bins) + 1, 0.0);
         for (int k = 0; k < bins; ++k) {

@@ -30,8 +30,9 @@ RGB EnergyBoundTable::albedo(double theta_o, int orientation) const {
 }
 
 namespace {
-constexpr double kGLNodes[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363};
-constexpr double kGLWeights[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
+// The positive half of the 8-point rule (nodes in pairs +-x).
+constexpr const double* kGLNodes = GaussLegendre<8>::x + 4;
+constexpr const double* kGLWeights = GaussLegendre<8>::w + 4;
 }  // namespace
 
 void append_gauss_legendre(QuadratureRule& rule, double lo, double hi, int panels) {

@@ -1,15 +1,13 @@
 // Directional albedo of the GGX glass BSDF (the E_glass table of Huang hair): docs/huang.md §3.
 #include "hairbsdf/models/huang_ggx.h"
 
-#include "hairbsdf/models/huang_cubature.h"
+#include "hairbsdf/math_cubature.h"
 
 namespace hairbsdf::ggx {
 
 namespace {
-constexpr double kGl8x[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-                             0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
-constexpr double kGl8w[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-                             0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
+constexpr const double* kGl8x = GaussLegendre<8>::x;
+constexpr const double* kGl8w = GaussLegendre<8>::w;
 constexpr double kSingularRoughnessSq = 2e-10;  // Cycles' BSDF_ROUGHNESS_SQ_THRESH
 
 // eval / pdf of one sample of Cycles' glass sampler, averaged over its reflect/refract choice.

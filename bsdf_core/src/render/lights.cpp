@@ -132,16 +132,6 @@ RectangleView Light::solid_angle_rectangle(Vec3 p) const {
     return {rect, false};
 }
 
-void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
-    if (n.x != n.y || n.x != n.z) {
-        a = Vec3{n.z - n.y, n.x - n.z, n.y - n.x};
-    } else {
-        a = Vec3{n.z - n.y, n.x + n.z, -n.y - n.x};
-    }
-    a = normalize(a);
-    b = cross(n, a);
-}
-
 void sample_concentric_disk(double u0, double u1, double& x, double& y) {
     const double a = 2.0 * u0 - 1.0, b = 2.0 * u1 - 1.0;
     if (a == 0 && b == 0) {

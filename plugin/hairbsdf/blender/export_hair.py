@@ -62,10 +62,6 @@ class HairBuffer:
         self.material.append(material)
         self.length.append(length)
 
-    @property
-    def num_curves(self) -> int:
-        return int(sum(c.size for c in self.counts))
-
     def finish(self, attribute_names=()) -> dict:
         """The `curves` dict of docs/scene_desc.md; `attribute_names`: the curve attributes the
         shading programs read, in their VM order (absent on an object: 0)."""
@@ -420,12 +416,6 @@ def _particle_systems(obj, render: bool):
         if part is None or part.type != "HAIR" or part.render_type != "PATH":
             continue
         yield psys, part
-
-
-def has_particle_hair(obj, render: bool) -> bool:
-    if obj.type != "MESH":
-        return False
-    return any(True for _ in _particle_systems(obj, render))
 
 
 CO_HAIR_CHUNK = 8192  # strands per co_hair batch between cancel checks

@@ -29,10 +29,6 @@ from . import passes
 SCENE_DESC_VERSION = 1
 
 
-class _Cancelled(Exception):
-    pass
-
-
 # Blender versions before this one cull back faces of 3D curves (their Embree 3 build; 3.6 moved
 # to Embree 4, which reports the inner wall to rays starting inside a tube).
 CURVE_CULLING_BEFORE = (3, 6, 0)

@@ -130,7 +130,6 @@ class HairbsdfMaterialSettings(bpy.types.PropertyGroup):
         name="Plugin", subtype="FILE_PATH", update=_refill,
         description="Shared library of a hair BSDF plugin (hairbsdf/plugin.h, docs/plugins.md)")
     params: bpy.props.CollectionProperty(type=HairbsdfModelParam)
-    params_for: bpy.props.StringProperty()    # "model|path" the parameters were filled for
     schema_error: bpy.props.StringProperty()  # why the schema could not be read (a plugin that does not load)
 
 
@@ -147,7 +146,6 @@ def fill_params(settings, keep=True) -> None:
     old = {p.name: (p.kind, p.current(), p.use) for p in settings.params} if keep else {}
     settings.params.clear()
     settings.schema_error = ""
-    settings.params_for = f"{model}|{path}"
     if model == "NONE" or (model == "plugin" and not path):
         return
     try:

@@ -82,10 +82,6 @@ def unpatch_panels():
             pass
 
 
-def patched_panel_names():
-    return sorted(cls.__name__ for cls, _, _ in _patched)
-
-
 # ---------------------------------------------------------------------------- settings
 
 class HairBsdfSceneSettings(bpy.types.PropertyGroup):

@@ -23,7 +23,7 @@ What is computed:
     (h_rule="simpson") or converged (h_rule="converged", Gauss-Legendre in gamma);
   * `ggx_glass_albedo(...)` / `energy_tables()`: the GGX glass directional albedo (the energy
     compensation table E_glass), by quadrature over the microfacet normal - a different method from
-    the C++ table generator (bsdf_core/tools/huang_tables.cpp), so that the two check each other.
+    the C++ table generator (lab/huang_tables.cpp), so that the two check each other.
 
 NaN policy: rows whose inputs make Cycles' formulas non-finite return 0.
 """

@@ -24,14 +24,11 @@ struct LongitudinalNumbers {
     double theta = 0.5;    // picks sin(theta_i) within the lobe's cone
     double azimuth = 0.5;  // the azimuth around the cone
     static LongitudinalNumbers from_cycles_lcg(uint32_t seed) {
-        auto step = [](uint32_t& state) { state = 1103515245u * state + 12345u; };
         uint32_t state = seed;
-        step(state);  // lcg_init
+        lcg_step(state);  // lcg_init
         LongitudinalNumbers out;
-        step(state);
-        out.theta = double(state) * (1.0 / 4294967295.0);
-        step(state);
-        out.azimuth = double(state) * (1.0 / 4294967295.0);
+        out.theta = double(lcg_step(state)) * (1.0 / 4294967295.0);
+        out.azimuth = double(lcg_step(state)) * (1.0 / 4294967295.0);
         return out;
     }
 };

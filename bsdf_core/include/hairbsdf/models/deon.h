@@ -200,8 +200,8 @@ private:
     // Calls fn(weight, A_p (p = 0..3), Phi_p (p = 0..2)) at every node of the h quadrature.
     template <class Fn>
     void for_each_node(double s, Fn fn) const {
-        static const double gx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
-        static const double gw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+        const double* gx = GaussLegendre<4>::x;
+        const double* gw = GaussLegendre<4>::w;
         const double cos_o = cos_from_sin(s);
         const double ep = eta_prime(s);
         const double cos_t = cos_from_sin(s / params_.eta);

@@ -17,7 +17,6 @@
 
 #include <vector>
 
-#include "hairbsdf/models/huang_cubature.h"
 #include "hairbsdf/closure.h"
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang_ggx.h"
@@ -25,7 +24,7 @@
 namespace hairbsdf {
 
 namespace huang {
-// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, bsdf_core/tools/huang_tables.cpp).
+// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, lab/huang_tables.cpp).
 extern const double kGgxGlassAlbedo[2][16][16][16];
 
 // Cycles' lookup_table_read_3D on one table: coordinates saturated, trilinear.
@@ -72,7 +71,6 @@ struct HuangHairParams {
     HuangQuadrature quadrature = HuangQuadrature::Cycles;
     double tolerance = 1e-3;   // relative error target of the adaptive TT integration
     long max_evaluations = 200000;  // cap on TT integrand evaluations per eval
-    int simpson_refinement = 1;  // measurements only: Cycles' Simpson steps divided by this
     long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
     HuangSampler sampler = HuangSampler::Mixture;
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
@@ -161,7 +159,7 @@ private:
                         std::array<double, 9>& f) const;
     RGB trrt_series(double t, double r, RGB a) const;
     // Cycles' composite Simpson nodes over [lo, hi]: an even count of steps of at most step x alpha
-    // (the steps divided by params_.simpson_refinement).
+    // (the steps divided by simpson_refinement_).
     std::vector<Node> simpson_nodes(double lo, double hi, double step) const;
     // The path up to the second interface for the entry visible normal at disk point (r1, angle1).
     struct EntryState {
@@ -181,7 +179,10 @@ private:
     void set_frame(const ShadingContext& ctx, ShadingPoint& sp) const;  // frame, I, r, transparent
     BsdfSample sample_cycles(const ShadingPoint& sp, const std::array<double, 3>& u) const;
 
+    friend struct HuangLab;  // measurement switches (huang_lab.h)
+
     HuangHairParams params_;
+    int simpson_refinement_ = 1;  // 1: Cycles' steps; more only through HuangLab
     double alpha_, alpha2_, sqrt_alpha_;
     double tilt_;          // Cycles' tilt = -offset
     double tan_tilt_, sin_tilt_, cos_tilt_;

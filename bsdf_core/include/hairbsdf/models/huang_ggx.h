@@ -53,18 +53,6 @@ inline Vec3 refract(Vec3 incident, Vec3 n, double cos_t, double inv_eta) {
 // GLSL-style reflect: incident - 2 n (incident . n).
 inline Vec3 reflect(Vec3 incident, Vec3 n) { return incident - (2.0 * dot(incident, n)) * n; }
 
-// Any orthonormal pair completing the unit vector n (Cycles' make_orthonormals: a is
-// normalize((1,1,1) x n), or (-1,1,1) x n when n.x == n.y == n.z; b = n x a).
-inline void orthonormals(Vec3 n, Vec3& a, Vec3& b) {
-    if (n.x != n.y || n.x != n.z) {
-        a = Vec3{n.z - n.y, n.x - n.z, n.y - n.x};
-    } else {
-        a = Vec3{n.z - n.y, n.x + n.z, -n.y - n.x};
-    }
-    a = normalize(a);
-    b = cross(n, a);
-}
-
 // Heitz 2018 visible-normal sample for the direction v (local frame, normal +z) from a point of
 // the unit disk (d1, d2) (uniform disk point = uniform visible normal).
 inline Vec3 vndf_from_disk(Vec3 v, double alpha, double d1, double d2) {
@@ -77,14 +65,6 @@ inline Vec3 vndf_from_disk(Vec3 v, double alpha, double d1, double d2) {
     const double d3 = safe_sqrt(1.0 - d1 * d1 - d2 * d2);
     const Vec3 nh = d1 * t1 + d2 * t2 + d3 * vh;
     return normalize(Vec3{alpha * nh.x, alpha * nh.y, std::max(nh.z, 0.0)});
-}
-// The visible-normal density of h for v (local frame), per unit solid angle.
-inline double vndf_pdf(Vec3 v, Vec3 h, double alpha) {
-    const double a2 = alpha * alpha;
-    if (!(v.z > 0) || !(h.z > 0)) return 0.0;
-    const double vh = dot(v, h);
-    if (!(vh > 0)) return 0.0;
-    return D(a2, h.z) * vh / (v.z * (1.0 + lambda(a2, v.z)));
 }
 
 // Directional albedo of Cycles' GGX glass BSDF as its sampler estimates it (its precompute

@@ -50,10 +50,8 @@ public:
 
     // Directional albedo of the unit lobe for a view at cos(T', V) = v_t.
     static double lobe_albedo(double p, double v_t) {
-        static const double gx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
-                                     0.8611363115940526};
-        static const double gw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
-                                     0.3478548451374538};
+        const double* gx = GaussLegendre<4>::x;
+        const double* gw = GaussLegendre<4>::w;
         const double v_p = cos_from_sin(v_t);
         const int panels = int(clamp(16.0 * std::sqrt(p + 1.0), 64.0, 4096.0));
         const double width = 2.0 / panels;

@@ -33,7 +33,6 @@ public:
     double right() const { return right_; }
     double bottom() const { return bottom_; }
     double top() const { return top_; }
-    double tan_half_fov() const { return tan_half_fov_; }
 
 private:
     CameraType type_;

@@ -7,7 +7,7 @@
 //   speed_trt [M [alpha]]  the same for TRT + TRRT+, against the mean of M Cycles evaluations
 //              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration;
 //   trt_lobes alpha index M max_points  TRT and TRRT+ separately at one of speed_trt's configurations.
-// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/bsdf_core/huang_measure [mode]
+// Build: cmake --build build/cpp --target huang_measure; run: build/cpp/lab/huang_measure [mode]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "hairbsdf/models/huang.h"
+#include "hairbsdf/models/huang_lab.h"
 
 using namespace hairbsdf;
 
@@ -215,15 +216,10 @@ void speed() {
         double t_refined = 0, e_refined = 0;
         int k_refined = 0;
         for (int k = 1; k <= 4096; k *= 2) {
-            HuangHairParams pk = base(alpha / k, 1, 0, 0);  // step = 0.7 (alpha / k); the model keeps alpha
-            (void)pk;
-            // Evaluate the R Simpson sum with k times as many intervals via the converged model's
-            // integrand: emulate by a Cycles-quadrature model whose roughness parameter is unchanged
-            // but whose node spacing is divided by k (HuangHairParams::simpson_refinement).
-            HuangHairParams pr2 = base(alpha, 1, 0, 0);
-            pr2.simpson_refinement = k;
+            // Cycles' rule at the same alpha with k times as many Simpson steps (step 0.7 alpha / k).
+            const HuangHairParams pr2 = base(alpha, 1, 0, 0);
             double t;
-            const auto v = values(HuangHair(pr2), cs, &t);
+            const auto v = values(HuangLab::with_simpson_refinement(pr2, k), cs, &t);
             const double e = rms_error(v, ref, {true, false, false, false});
             t_refined = t, e_refined = e, k_refined = k;
             if (e <= best_e) break;
@@ -262,14 +258,11 @@ void speed() {
         int best_r = 0;
         for (int r = 1; r <= 64; r *= 2) {
             HuangHairParams pe = base(alpha, 0, 1, 0);
-            pe.simpson_refinement = r;
             pe.tolerance = 1e-5;
             pe.max_evaluations = 5'000'000;
-            const auto expect = values(HuangHair(pe), cst, nullptr);
+            const auto expect = values(HuangLab::with_simpson_refinement(pe, r), cst, nullptr);
             const double b2 = sqr(rms_error(expect, reft, {false, true, false, false}));
-            HuangHairParams ps = base(alpha, 0, 1, 0);
-            ps.simpson_refinement = r;
-            const HuangHair cyc(ps);
+            const HuangHair cyc = HuangLab::with_simpson_refinement(base(alpha, 0, 1, 0), r);
             const long m = 2000;
             double v2 = 0, t_one = 0;
             for (size_t i = 0; i < cst.size(); ++i) {

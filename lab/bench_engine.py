@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Engine I benchmarks (goals, not tests; docs/benchmarks.md "Engine I"):
 
-    .venv/bin/python scripts/bench_engine.py [--export] [--memory] [--blender34] [--out build/bench/engine.json]
+    .venv/bin/python lab/bench_engine.py [--export] [--memory] [--blender34] [--out build/bench/engine.json]
 
 --export   export_scene of 100k strands: Curves (400 x 250 strands x 8 keys, geometry nodes,
            realized) best of 3, and particle hair (1000 parents x 100 interpolated children x

@@ -2,7 +2,7 @@
 // embedded degree-5 rule; the box with the largest error estimate is bisected along the axis
 // with the largest fourth difference, as in hcubature). Several problems of different dimension
 // share one priority queue, so the error budget goes where it is largest. Used by the Huang
-// model's deterministic evaluation (docs/huang.md §4).
+// model's deterministic evaluation (docs/huang.md §4) and its E_glass tables.
 #pragma once
 
 #include <algorithm>
@@ -124,13 +124,6 @@ public:
         }
     }
 
-    // Sum of values of every box of each problem.
-    std::vector<std::array<double, kMaxValues>> problem_values(int problem_count) const {
-        std::vector<std::array<double, kMaxValues>> out(static_cast<size_t>(problem_count));
-        for (const Box& b : heap_)
-            for (int k = 0; k < kMaxValues; ++k) out[size_t(b.problem)][size_t(k)] += b.value[size_t(k)];
-        return out;
-    }
     double total_error() const { return std::max(error_sum_, 0.0); }
     const std::array<double, kMaxValues>& totals() const { return totals_; }
     long evaluations() const { return evaluations_; }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Side by side: Cycles and the HAIRBSDF engine on one hair scene, in bpy 4.5 and in Blender 3.4.
 
-    .venv/bin/python scripts/engine_side_by_side.py [--spp 64] [--size 240x160] [--out DIR]
+    .venv/bin/python lab/engine_side_by_side.py [--spp 64] [--size 240x160] [--out DIR]
                                                     [--png docs/images/engine_side_by_side.png]
 
 The scene (blender_tests/scenes/hair_scenes.py: showcase_scene) is particle hair with

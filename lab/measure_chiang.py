@@ -4,7 +4,7 @@
 Cycles' sampler is from the pdf it reports, and what the Blender 3.4 tilt and MaterialX's
 theta_i tilt do to normalisation. Prints Markdown tables.
 
-    .venv/bin/python scripts/measure_chiang.py
+    .venv/bin/python lab/measure_chiang.py
 """
 
 import argparse

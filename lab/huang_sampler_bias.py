@@ -6,8 +6,8 @@ Cycles' unbiased stochastic eval over uniform directions), per aspect ratio and 
 in the far field. A ratio above 1 means BSDF-sampled bounces in Cycles carry more light than the
 eval implies (docs/huang.md §10, the reason the engine uses Cycles' sampler).
 
-    .venv/bin/python scripts/huang_sampler_bias.py                 # the table in docs/huang.md
-    .venv/bin/python scripts/huang_sampler_bias.py --samples 100000 --aspect 0.5
+    .venv/bin/python lab/huang_sampler_bias.py                 # the table in docs/huang.md
+    .venv/bin/python lab/huang_sampler_bias.py --samples 100000 --aspect 0.5
 """
 
 import argparse

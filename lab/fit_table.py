@@ -3,7 +3,7 @@
 4.5 defaults otherwise) for four hair colours, with `hairbsdf.fit.fit` (the code behind
 `hairbsdf fit`).
 
-    .venv/bin/python scripts/fit_table.py [--grid 24] [--out out/fit_table]
+    .venv/bin/python lab/fit_table.py [--grid 24] [--out out/fit_table]
 
 Prints a Markdown table (relative L2 error, solid-angle weighted, total and per lobe) and writes
 table.md and table.json (every fit's parameters) to --out."""

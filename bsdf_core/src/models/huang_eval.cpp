@@ -1,0 +1,266 @@
+// Huang hair: the deterministic eval (adaptive cubature for TT, Sobol' points for TRT and TRRT+)
+// and Cycles' stochastic eval.
+#include "huang_internal.h"
+
+#include "hairbsdf/math_cubature.h"
+#include "hairbsdf/math_quadrature.h"
+
+namespace hairbsdf {
+
+// --- residual (notes §5.4): the TT integrand for the adaptive cubature -------------------------
+
+struct HuangHair::Residual {
+    const HuangHair& m;
+    const ShadingPoint& sp;
+    Vec3 O;
+    double trrt_scale;  // M N 2/pi norm
+    double final_scale; // norm / eta^2
+    // Problems: index p -> (kind, gamma or panel, weight)
+    struct Problem {
+        int kind;        // 0: TT (entry only); 1: TRT + TRRT+ (entry and internal; not used by eval)
+        bool gamma_free; // Converged quadrature: gamma is the first coordinate
+        double gamma;    // fixed gamma (Cycles quadrature)
+        double weight;   // Simpson weight x |d gamma/dh| (Cycles) or 1 / r (Converged)
+    };
+    std::vector<Problem> problems;
+
+    int dim(int p) const {
+        const Problem& q = problems[size_t(p)];
+        return (q.kind == 0 ? 2 : 4) + (q.gamma_free ? 1 : 0);
+    }
+    int values(int) const { return 9; }
+    // TRRT+ is left out of the error norm: its integrand jumps (visibility and total internal
+    // reflection switch it on and off) and it is small; it rides along on the TRT boxes.
+    double norm(int, const std::array<double, adaptive::kMaxValues>& f) const {
+        return std::fabs(luminance3(&f[0])) + std::fabs(luminance3(&f[3])) + trrt_weight * std::fabs(luminance3(&f[6]));
+    }
+    double trrt_weight = 0.0;
+    void eval(int p, const std::array<double, adaptive::kMaxDim>& x, std::array<double, adaptive::kMaxValues>& f) const {
+        const Problem& q = problems[size_t(p)];
+        int k = 0;
+        const double gamma = q.gamma_free ? x[size_t(k++)] : q.gamma;
+        // Disk points with a radius linear in u (weight 2u): smooth at the disk centre.
+        const double u1a = x[size_t(k)], u1b = x[size_t(k + 1)];
+        double w = q.weight * 2.0 * u1a;
+        double u2a = 0.0, u2b = 0.0;
+        if (q.kind == 1) {
+            u2a = x[size_t(k + 2)];
+            u2b = x[size_t(k + 3)];
+            w *= 2.0 * u2a;
+        }
+        std::array<double, 9> g;
+        m.residual_point(sp, O, gamma, u1a, kTwoPi * u1b, u2a, kTwoPi * u2b, q.kind, w, final_scale, trrt_scale, g);
+        for (int j = 0; j < 9; ++j) f[size_t(j)] = g[size_t(j)];
+    }
+};
+
+
+// --- eval ---------------------------------------------------------------------------------------
+
+std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations) const {
+    std::array<RGB, kLobeCount> lobes{};
+    if (evaluations) *evaluations = 0;
+    if (!sp.valid) return lobes;
+    const Vec3 I = sp.I;
+    const double cto = cos_theta(O);
+    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;  // dot(O, mesonormal) < 0 everywhere
+    const Vec3 wh = normalize(I + O);
+
+    // R lobe: a 1D integral, Cycles' Simpson nodes or adaptive Gauss-Kronrod in gamma.
+    double r_value = 0.0;
+    if (factors_[0] > 0.0 && length(I + O) > 0.0) {
+        double integral = 0.0;
+        if (params_.quadrature == HuangQuadrature::Cycles) {
+            for (const Node& n : sp.r_nodes) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        } else {
+            const double g_lo = h_to_gamma(sp.h_hi, I), g_hi = h_to_gamma(sp.h_lo, I);
+            std::vector<double> breaks{g_lo, g_hi};
+            auto add_break = [&](double phi) {
+                const double g = b_ == 1.0 ? phi : std::atan2(std::sin(phi), b_ * std::cos(phi));
+                for (int k = -2; k <= 2; ++k) {
+                    const double c = g + kTwoPi * k;
+                    if (c > g_lo && c < g_hi) breaks.push_back(c);
+                }
+            };
+            // Visibility of the macro normal from I and O switches at phi_I +- pi/2, phi_O +- pi/2;
+            // the lobe peaks where the mesonormal meets the half vector.
+            const double phi_i = dir_phi(I), phi_o = dir_phi(O), phi_h = dir_phi(wh);
+            add_break(phi_i + 0.5 * kPi);
+            add_break(phi_i - 0.5 * kPi);
+            add_break(phi_o + 0.5 * kPi);
+            add_break(phi_o - 0.5 * kPi);
+            add_break(phi_h);
+            const int panels = int(clamp(std::ceil((g_hi - g_lo) / (4.0 * alpha_)), 1.0, 32.0));
+            for (int k = 1; k < panels; ++k) breaks.push_back(g_lo + (g_hi - g_lo) * k / panels);
+            std::sort(breaks.begin(), breaks.end());
+            integral = adaptive_gk([&](double g) { return r_integrand_gamma(sp, O, wh, g); }, breaks,
+                                   0.1 * params_.tolerance, 4000) / sp.r;
+        }
+        r_value = factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm;
+        lobes[0] = RGB(r_value);
+    }
+    if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
+
+    // h nodes of the residual: Cycles' Simpson nodes, or 3-point Gauss-Legendre panels in gamma
+    // (no 1/cos singularity at the interval ends) of width 0.8 alpha.
+    std::vector<Node> nodes;  // (gamma, weight including |d gamma/dh| or 1 / r)
+    // TRRT+ has no masking term, so its integrand jumps where the entry mesonormal turns away from
+    // the viewer; when the cuticle tilt limits the visible interval, that edge is an end node of
+    // Cycles' Simpson rule, which float rounding puts on either side. Its expected value counts half
+    // of the inside limit (docs/huang.md §4); the node is moved inside by 1e-9.
+    std::vector<double> trrt_node_factor;
+    if (params_.quadrature == HuangQuadrature::Cycles) {
+        const size_t count = sp.residual_nodes.size();
+        for (size_t k = 0; k < count; ++k) {
+            const Node& n = sp.residual_nodes[k];
+            double gamma = h_to_gamma(n.h, I);
+            double trrt_factor = 1.0;
+            if (k == 0 || k + 1 == count) {
+                const double inward = (k == 0) ? -1e-9 : 1e-9;  // gamma decreases with h
+                if (!(dot(I, mesonormal(tilt_, gamma)) > 1e-7)) {
+                    gamma += inward;
+                    trrt_factor = 0.5;
+                }
+            }
+            const double w = n.weight * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
+            if (w != 0.0 && std::isfinite(w)) {
+                nodes.push_back({gamma, w});
+                trrt_node_factor.push_back(trrt_factor);
+            }
+        }
+    } else {
+        const double g_lo = h_to_gamma(sp.h_hi, I), g_hi = h_to_gamma(sp.h_lo, I);
+        const int panels = int(clamp(std::ceil((g_hi - g_lo) / (0.8 * alpha_)), 1.0, 512.0));
+        const double* x3 = GaussLegendre<3>::x;
+        const double* w3 = GaussLegendre<3>::w;
+        const double width = (g_hi - g_lo) / panels;
+        for (int k = 0; k < panels; ++k)
+            for (int q = 0; q < 3; ++q) nodes.push_back({g_lo + width * (k + 0.5 + 0.5 * x3[q]), 0.5 * width * w3[q] / sp.r});
+    }
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    long count = 0;
+
+    // TT: a 2D integral over the entry visible normal per node, adaptive cubature with one
+    // priority queue over all nodes, to the relative tolerance of the total.
+    if (factors_[1] > 0.0 && !nodes.empty()) {
+        Residual res{*this, sp, O, trrt_scale, final_scale, {}, 0.0};
+        adaptive::Integrator<Residual> integ(res);
+        const std::array<double, adaptive::kMaxDim> lo{}, hi{1, 1, 1, 1, 1};
+        // Each node starts as 3 x 3 boxes: the 17-point rule on the whole disk can miss the exit
+        // lobe and underestimate its own error.
+        for (const Node& n : nodes) {
+            res.problems.push_back({0, false, n.h, n.weight});
+            for (int i = 0; i < 3; ++i) {
+                for (int j = 0; j < 3; ++j) {
+                    std::array<double, adaptive::kMaxDim> blo = lo, bhi = hi;
+                    blo[0] = i / 3.0;
+                    bhi[0] = (i + 1) / 3.0;
+                    blo[1] = j / 3.0;
+                    bhi[1] = (j + 1) / 3.0;
+                    integ.add(int(res.problems.size()) - 1, blo, bhi);
+                }
+            }
+        }
+        const double tol = 0.25 * params_.tolerance;  // the error estimates are optimistic
+        integ.refine([&](const std::array<double, adaptive::kMaxValues>& t) { return tol * (std::fabs(r_value) + std::fabs(luminance3(&t[0]))) + 1e-300; },
+                     params_.max_evaluations);
+        const auto& t = integ.totals();
+        lobes[1] = RGB(t[0], t[1], t[2]);
+        count += integ.evaluations();
+    }
+
+    // TRT and TRRT+: a 4D integral (entry and internal visible normals) per node; its integrand
+    // is peaked along a ridge and jumps (visibility, total internal reflection), where product
+    // and adaptive rules converge no faster than quasi-Monte Carlo: a fixed digitally shifted
+    // Sobol' set (a different shift per node), TRT weighted by multiple importance between the
+    // internal-reflection normals and a proposal for the exit (trt_mis_point), docs/huang.md §4.
+    if (factors_[2] > 0.0) {
+        const uint32_t npts = uint32_t(std::max(params_.trt_points, 16L));
+        const Sobol& so = sobol();
+        double acc[6] = {0, 0, 0, 0, 0, 0};
+        uint32_t seed = 0x2545F491u;
+        for (size_t kn = 0; kn < nodes.size(); ++kn) {
+            const Node& n = nodes[kn];
+            const double trrt_factor = kn < trrt_node_factor.size() ? trrt_node_factor[kn] : 1.0;
+            uint32_t shift[4];
+            for (uint32_t& sh : shift) sh = seed = lookup3_hash_uint2(seed, 0x9E3779B9u);
+            const double w = n.weight / double(npts);
+            for (uint32_t i = 0; i < npts; ++i) {
+                const double u0 = double(so.point(i, 0) ^ shift[0]) * 0x1p-32;
+                const double u1 = double(so.point(i, 1) ^ shift[1]) * 0x1p-32;
+                const double u2 = double(so.point(i, 2) ^ shift[2]) * 0x1p-32;
+                const double u3 = double(so.point(i, 3) ^ shift[3]) * 0x1p-32;
+                RGB trt, trrt;
+                trt_mis_point(sp, O, n.h, u0, kTwoPi * u1, u2, u3, 2.0 * u0 * w, trt, trrt);
+                trt = (factors_[2] * final_scale) * trt;
+                trrt = (trrt_factor * trrt_scale) * trrt;
+                acc[0] += trt.r, acc[1] += trt.g, acc[2] += trt.b;
+                if (isfinite(trrt)) acc[3] += trrt.r, acc[4] += trrt.g, acc[5] += trrt.b;
+            }
+            count += npts;
+        }
+        lobes[2] = RGB(acc[0], acc[1], acc[2]);
+        lobes[3] = RGB(acc[3], acc[4], acc[5]);
+    }
+    if (evaluations) *evaluations = count;
+    for (RGB& l : lobes)
+        if (!isfinite(l)) l = RGB(0.0);
+    return lobes;
+}
+
+BsdfEval HuangHair::eval(const ShadingPoint& sp, Vec3 wi) const {
+    BsdfEval out;
+    if (sp.transparent || !sp.valid) return out;
+    const Vec3 O = to_local(sp, wi);
+    out.lobes = eval_local(sp, O);
+    out.pdf = params_.sampler == HuangSampler::Cycles ? 1.0 : pdf_local(sp, O);
+    return out;
+}
+
+double HuangHair::pdf(const ShadingPoint& sp, Vec3 wi) const {
+    if (sp.transparent || !sp.valid) return 0.0;
+    if (params_.sampler == HuangSampler::Cycles) return 1.0;
+    return pdf_local(sp, to_local(sp, wi));
+}
+
+// --- Cycles' stochastic eval ------------------------------------------------------------------
+
+std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
+    std::array<RGB, kLobeCount> lobes{};
+    if (!sp.valid) return lobes;
+    const Vec3 I = sp.I;
+    const double cto = cos_theta(O);
+    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
+    const Vec3 wh = normalize(I + O);
+    if (factors_[0] > 0.0) {
+        double integral = 0.0;
+        for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+    }
+    if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    std::array<double, 9> f{}, acc{};
+    for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep)) {
+        const double gamma = h_to_gamma(n.h, I);
+        const double w = n.weight * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
+        const double a = lcg_step_float(rng), b = lcg_step_float(rng);
+        const double r1 = std::sqrt(a), ang1 = kTwoPi * b;
+        if (factors_[1] > 0.0) {
+            residual_point(sp, O, gamma, r1, ang1, 0, 0, 0, w, final_scale, trrt_scale, f);
+            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
+        }
+        if (factors_[2] > 0.0) {
+            const double c = lcg_step_float(rng), d = lcg_step_float(rng);
+            residual_point(sp, O, gamma, r1, ang1, std::sqrt(c), kTwoPi * d, 1, w, final_scale, trrt_scale, f);
+            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
+        }
+    }
+    lobes[1] = RGB(acc[0], acc[1], acc[2]);
+    lobes[2] = RGB(acc[3], acc[4], acc[5]);
+    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+    return lobes;
+}
+
+}  // namespace hairbsdf

@@ -1,0 +1,226 @@
+// Huang hair: the paths through the fibre (notes §5.4): entry, TT exit, internal reflection with
+// TRT exit and the TRRT+ series, and the TRT estimator with two strategies.
+#include "huang_internal.h"
+
+namespace hairbsdf {
+
+RGB HuangHair::trrt_series(double t, double r, RGB a) const {
+    // Geometric series of the TRRT+ attenuation (Cycles' bsdf_hair_huang_eval_trrt).
+    const double t_avg = std::max(1.0 - r, 1e-5);
+    auto ch = [&](double x) { return t * r * r * t_avg * x * x * x / (1.0 - x * (1.0 - t_avg)); };
+    return {ch(a.r), ch(a.g), ch(a.b)};
+}
+
+bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const {
+    const Vec3 I = sp.I;
+    e.gamma = gamma;
+    e.wmi = mesonormal(tilt_, gamma);
+    const Vec3 wmi_ = mesonormal(0.0, gamma);
+    e.cos_mi1 = dot(I, e.wmi);
+    if (!(e.cos_mi1 > 0.0) || !(dot(I, wmi_) > 0.0)) return false;
+    Vec3 s1, t1v;
+    make_orthonormals(e.wmi, s1, t1v);
+    const Vec3 wh1 = vndf_sample(I, e.wmi, s1, t1v, alpha_, r1, angle1);
+    const double cos_hi1 = dot(I, wh1);
+    if (!(cos_hi1 > 0.0)) return false;
+    double cos_t1 = 0.0;
+    const double f1 = ggx::fresnel(cos_hi1, eta_, &cos_t1);
+    if (!(f1 < 1.0)) return false;  // total internal reflection: nothing enters
+    e.t1 = 1.0 - f1;
+    e.scale1 = huang::energy_scale(sqrt_alpha_, e.cos_mi1, eta_);
+    e.wt = ggx::refract(I, wh1, cos_t1, inv_eta_);
+    e.mwt = -1.0 * e.wt;
+    const double phi_t = dir_phi(e.wt);
+    e.phi_t_b = b_ == 1.0 ? phi_t : std::atan2(b_ * std::sin(phi_t), std::cos(phi_t));
+    e.gmt = 2.0 * e.phi_t_b - gamma;
+    e.wmt = mesonormal(-tilt_, e.gmt);
+    e.wmt_ = mesonormal(0.0, e.gmt);
+    e.cos_mo1 = dot(e.mwt, e.wmi);
+    e.cos_mi2 = dot(e.mwt, e.wmt);
+    if (!visible(I, e.mwt, e.wmi, wh1) || !visible(I, e.mwt, wmi_, wh1)) return false;
+    e.g1o = ggx::G2_over_G1(alpha2_, e.cos_mi1, e.cos_mo1);
+    double path_t;
+    if (b_ == 1.0) {
+        path_t = -2.0 * std::cos(gamma - phi_t);
+    } else {
+        const double gx = std::sin(gamma) - std::sin(e.gmt + kPi), gz = b_ * (std::cos(gamma) - std::cos(e.gmt + kPi));
+        path_t = std::sqrt(gx * gx + gz * gz);
+    }
+    e.a_t = absorption(path_t, cos_theta(e.wt));
+    e.scale2 = huang::energy_scale(sqrt_alpha_, e.cos_mi2, inv_eta_);
+    return true;
+}
+
+RGB HuangHair::tt_exit(const EntryState& e, Vec3 O) const {
+    if (!(dot(O, e.wt) >= inv_eta_ - kTirEpsilon)) return {};
+    const Vec3 wh2u = e.mwt + inv_eta_ * O;
+    // IOR ~ 1 with O along wt: the half vector degenerates (a delta transmission); Cycles returns
+    // garbage of either sign there, we return 0. Both cosines are positive for any real refraction.
+    const double len = length(wh2u);
+    if (!(len > 1e-7)) return {};
+    const double inv_len = 1.0 / len;
+    const Vec3 wh2 = inv_len * wh2u;
+    const double cos_mh2 = dot(e.wmt, wh2);
+    if (!(cos_mh2 >= 0.0)) return {};
+    const double cos_hi2 = dot(e.mwt, wh2);
+    const double cos_ho2 = -dot(O, wh2);
+    if (!(cos_hi2 > 0.0) || !(cos_ho2 > 0.0)) return {};
+    const double cos_mo2 = -dot(O, e.wmt);
+    const double t2 = (1.0 - ggx::fresnel(cos_hi2, inv_eta_)) * e.scale2;
+    const double scalar = e.t1 * e.scale1 * t2 * ggx::D(alpha2_, cos_mh2) * e.g1o * ggx::G2(alpha2_, e.cos_mi2, cos_mo2) /
+                          e.cos_mo1 * e.cos_mi1 * cos_hi2 * cos_ho2 * inv_len * inv_len * arc_length(e.gmt);
+    const RGB v = scalar * e.a_t;
+    return isfinite(v) ? v : RGB();
+}
+
+// The internal reflection at the second interface with microfacet normal wh2 and the exit to O:
+// TRT (returned) and the TRRT+ series (trrt; 0 where Cycles does not add it).
+RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out) const {
+    trrt = RGB();
+    const double cos_hi2 = dot(e.mwt, wh2);
+    if (!(cos_hi2 > 0.0)) return {};
+    const double r2f = ggx::fresnel(cos_hi2, inv_eta_);
+    const Vec3 wtr = -1.0 * ggx::reflect(e.wt, wh2);
+    if (wtr_out) *wtr_out = wtr;
+    const Vec3 mwtr = -1.0 * wtr;
+    const RGB series = trrt_series(e.t1, r2f, e.a_t);
+    if (dot(mwtr, O) < inv_eta_ - kTirEpsilon) {  // total internal reflection at the exit
+        trrt = series;
+        return {};
+    }
+    if (!visible(e.mwt, mwtr, e.wmt, wh2) || !visible(e.mwt, mwtr, e.wmt_, wh2)) return {};
+    trrt = series;
+    const double phi_tr = dir_phi(wtr);
+    const double phi_tr_b = b_ == 1.0 ? phi_tr : std::atan2(b_ * std::sin(phi_tr), std::cos(phi_tr));
+    const double gmtr = e.gamma - 2.0 * (e.phi_t_b - phi_tr_b) + kPi;
+    const Vec3 wmtr = mesonormal(-tilt_, gmtr);
+    const Vec3 wmtr_ = mesonormal(0.0, gmtr);
+    const Vec3 wh3u = wtr + inv_eta_ * O;
+    const double len3 = length(wh3u);
+    if (!(len3 > 1e-7)) return {};  // degenerate half vector (IOR ~ 1), as in tt_exit
+    const double inv_len3 = 1.0 / len3;
+    const Vec3 wh3 = inv_len3 * wh3u;
+    const double cos_mh3 = dot(wmtr, wh3);
+    const Vec3 mO = -1.0 * O;
+    if (cos_mh3 < 0.0 || !visible(wtr, mO, wmtr, wh3) || !visible(wtr, mO, wmtr_, wh3)) return {};
+    const double cos_hi3 = dot(wh3, wtr);
+    const double cos_ho3 = dot(wh3, mO);
+    const double cos_mi3 = dot(wmtr, wtr);
+    const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * huang::energy_scale(sqrt_alpha_, cos_mi3, inv_eta_);
+    double path_tr;
+    if (b_ == 1.0) {
+        path_tr = 2.0 * std::fabs(std::cos(phi_tr - e.gmt));
+    } else {
+        const double gx = std::sin(gmtr) - std::sin(e.gmt), gz = b_ * (std::cos(gmtr) - std::cos(e.gmt));
+        path_tr = std::sqrt(gx * gx + gz * gz);
+    }
+    const RGB a_tr = absorption(path_tr, cos_theta(wtr));
+    const double cos_mo2 = dot(e.wmt, mwtr);
+    const double scalar = e.t1 * e.scale1 * r2f * e.scale2 * t3 * ggx::D(alpha2_, cos_mh3) * e.g1o *
+                          ggx::G2_over_G1(alpha2_, e.cos_mi2, cos_mo2) * ggx::G2(alpha2_, cos_mi3, dot(wmtr, mO)) /
+                          (e.cos_mo1 * cos_mo2) * e.cos_mi1 * e.cos_mi2 * cos_hi3 * cos_ho3 * inv_len3 * inv_len3 *
+                          arc_length(gmtr);
+    const RGB v = scalar * (e.a_t * a_tr);
+    return isfinite(v) ? v : RGB();
+}
+
+void HuangHair::residual_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
+                               double angle2, int kind, double weight, double final_scale, double trrt_scale,
+                               std::array<double, 9>& f) const {
+    f.fill(0.0);
+    EntryState e;
+    if (!entry_state(sp, gamma, r1, angle1, e)) return;
+    if (kind == 0) {
+        if (!(factors_[1] > 0.0)) return;
+        const RGB v = (weight * factors_[1] * final_scale) * tt_exit(e, O);
+        f[0] = v.r, f[1] = v.g, f[2] = v.b;
+        return;
+    }
+    if (!(factors_[2] > 0.0)) return;
+    Vec3 s2, t2v;
+    make_orthonormals(e.wmt, s2, t2v);
+    const Vec3 wh2 = vndf_sample(e.mwt, e.wmt, s2, t2v, alpha_, r2, angle2);
+    RGB trrt;
+    const RGB v = (weight * factors_[2] * final_scale) * trt_internal(e, wh2, O, trrt);
+    const RGB t = (weight * trrt_scale) * trrt;
+    f[3] = v.r, f[4] = v.g, f[5] = v.b;
+    if (isfinite(t)) f[6] = t.r, f[7] = t.g, f[8] = t.b;
+}
+
+// TRT with two strategies for the internal direction, combined by the balance heuristic: the
+// internal-reflection visible normals (what Cycles samples: density qa of wtr) and refraction of O
+// into the fibre through visible normals around the mesonormal of the specular exit point
+// (density qb). One point (u2, u3) feeds both; the TRT integrand g qa / (qa + qb) has no exit
+// peak left. TRRT+ uses the first strategy only. Returns TRT and TRRT+ sums (times weight).
+void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double u2,
+                              double u3, double weight, RGB& trt_out, RGB& trrt_out) const {
+    trt_out = RGB();
+    trrt_out = RGB();
+    EntryState e;
+    if (!entry_state(sp, gamma, r1, angle1, e)) return;
+    const double cos_vm = e.cos_mi2;  // visibility of the internal mesonormal from -wt
+    Component ca;
+    ca.v = e.mwt;
+    ca.m = e.wmt;
+    make_orthonormals(ca.m, ca.s, ca.t);
+    ca.inv_norm = cos_vm > 0.0 ? 1.0 / (cos_vm * (1.0 + ggx::lambda(alpha2_, cos_vm))) : 0.0;
+    auto qa = [&](Vec3 wtr) {  // density of wtr = -reflect(wt, h), h ~ visible normals of -wt
+        Vec3 h = normalize(e.wt + wtr);
+        if (dot(e.mwt, h) < 0.0) h = -1.0 * h;
+        const double c = dot(e.mwt, h);
+        return c > 0.0 ? vndf_density(ca, h, alpha2_) / (4.0 * c) : 0.0;
+    };
+    // Proposal for the exit: the mesonormal where the specular internal reflection leaves.
+    const Vec3 wtr0 = -1.0 * ggx::reflect(e.wt, e.wmt);
+    const double phi_tr0 = dir_phi(wtr0);
+    const double phi_tr0_b = b_ == 1.0 ? phi_tr0 : std::atan2(b_ * std::sin(phi_tr0), std::cos(phi_tr0));
+    const Vec3 out_normal = -1.0 * mesonormal(-tilt_, e.gamma - 2.0 * (e.phi_t_b - phi_tr0_b) + kPi);
+    Component cb;
+    cb.v = O;
+    cb.m = out_normal;
+    make_orthonormals(cb.m, cb.s, cb.t);
+    const double ob = dot(O, out_normal);
+    const bool use_b = ob > 1e-6;
+    cb.inv_norm = use_b ? 1.0 / (ob * (1.0 + ggx::lambda(alpha2_, ob))) : 0.0;
+    auto qb = [&](Vec3 wtr) {  // density of wtr = refraction of O through h ~ visible normals of O
+        if (!use_b) return 0.0;
+        const Vec3 hu = -1.0 * (O + eta_ * wtr);
+        const double len = length(hu);
+        if (!(len > 0.0)) return 0.0;
+        const Vec3 h = (1.0 / len) * hu;
+        const double oh = dot(O, h), th = dot(wtr, h);
+        if (!(oh > 0.0) || !(th < 0.0)) return 0.0;
+        const double d = oh + eta_ * th;
+        return vndf_density(cb, h, alpha2_) * eta_ * eta_ * std::fabs(th) / (d * d);
+    };
+    // Strategy A: Cycles' internal visible normal.
+    {
+        const Vec3 wh2 = vndf_sample(ca.v, ca.m, ca.s, ca.t, alpha_, std::sqrt(u2), kTwoPi * u3);
+        RGB trrt;
+        Vec3 wtr;
+        const RGB g = trt_internal(e, wh2, O, trrt, &wtr);
+        trrt_out = weight * trrt;
+        if (g.r != 0.0 || g.g != 0.0 || g.b != 0.0) {
+            const double a = qa(wtr), b = qb(wtr);
+            if (a > 0.0) trt_out += (weight * a / (a + b)) * g;
+        }
+    }
+    // Strategy B: refraction of O into the fibre.
+    if (use_b) {
+        const Vec3 h = vndf_sample(cb.v, cb.m, cb.s, cb.t, alpha_, std::sqrt(u2), kTwoPi * u3);
+        double cos_t = 0.0;
+        if (ggx::fresnel(dot(O, h), eta_, &cos_t) < 1.0 && dot(O, h) > 0.0) {
+            const Vec3 wtr = ggx::refract(O, h, cos_t, inv_eta_);
+            Vec3 wh2 = normalize(e.wt + wtr);
+            if (dot(e.mwt, wh2) < 0.0) wh2 = -1.0 * wh2;
+            const double a = qa(wtr), b = qb(wtr);
+            if (a > 0.0 && b > 0.0) {
+                RGB trrt;
+                const RGB g = trt_internal(e, wh2, O, trrt);
+                trt_out += (weight * a / (a + b)) * g;
+            }
+        }
+    }
+}
+
+}  // namespace hairbsdf

@@ -1,0 +1,45 @@
+"""Names that test_dead_code.py's vulture run must not report (vulture's whitelist format: each
+line uses a name). Only names that Blender, pytest or a script run inside Blender use, which
+vulture cannot see; each with the reason. This file is parsed, never imported."""
+
+_ = None  # vulture only reads the attribute names below
+
+# Blender calls these on registered classes (bpy.types.Panel / Operator / RenderEngine).
+_.poll  # Panel.poll / Operator.poll: Blender asks whether to show or enable it
+_.draw  # Panel.draw: Blender draws the panel
+_.execute  # Operator.execute: Blender runs the operator
+_.update_render_passes  # RenderEngine.update_render_passes: Blender asks for the engine's passes
+
+# Class attributes Blender reads when a class is registered.
+_.bl_space_type  # Panel: the editor it appears in
+_.bl_region_type  # Panel: the region of that editor
+_.bl_context  # Panel: the Properties tab
+_.bl_options  # Operator: e.g. {"REGISTER", "UNDO"}
+_.bl_use_preview  # RenderEngine: renders material previews
+_.bl_use_postprocess  # RenderEngine: the compositor runs after it
+_.bl_use_shading_nodes_custom  # RenderEngine: keeps Cycles' node editor
+_.bl_use_eevee_viewport  # RenderEngine: EEVEE draws the viewport
+
+# bpy.props annotations, read by name (UILayout.prop(settings, "huang_sampler"), the exporter's _get).
+_.huang_sampler
+
+# Blender RNA properties that the code sets for Blender to read.
+_.use_property_split  # UILayout: label and value in two columns
+_.use_property_decorate  # UILayout: the keyframe decorator column
+_.alert  # UILayout: draws the row in red
+_.use_animated_seed  # scene.cycles: the harness sets the seed itself
+_.shading_system  # scene.cycles: SVM or OSL
+_.device  # scene.cycles: CPU
+_.file_format  # image settings of the render output
+_.color_mode  # image settings of the render output
+_.color_depth  # image settings of the render output
+_.exr_codec  # image settings of the render output
+_.use_file_extension  # render output path
+_.rotation_mode  # Object (lab/light_tree_toggle.py aims its lights)
+_.rotation_quaternion  # Object (lab/light_tree_toggle.py aims its lights)
+
+# Used from code that runs inside Blender, passed as a string (blender_tests/test_engine_render.py).
+_.request_cancel  # hairbsdf.blender.engine: stops a running render as Esc would
+
+# pytest reads it: hairbsdf.plugins.test_plugin is not a test when imported into a test module.
+_.__test__
