@@ -1,6 +1,8 @@
 """The `hairbsdf` command.
 
     hairbsdf compare [options]         render with Cycles and hairbsdf, compare, write a report
+    hairbsdf judge REF TEST [--out DIR]        judge any renderer's EXRs against reference EXRs
+                                               (no Blender; docs/compare.md)
     hairbsdf report merge DIR... [--out DIR]   join shard reports
     hairbsdf fit --target SPEC --model NAME [options]
                                        fit a model's parameters to a target BSDF (docs/fit.md)
@@ -12,7 +14,7 @@ SPEC is one constructor call with literal keywords, e.g. "principled_hair(melani
 
 import sys
 
-USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, fit, plot) for the options.\n"
+USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, judge, fit, plot) for the options.\n"
 
 
 def main(argv=None):
@@ -36,6 +38,9 @@ def _dispatch(argv):
     if cmd == "compare":
         from .compare.cli import main as compare_main
         return compare_main(rest, prog="hairbsdf compare")
+    if cmd == "judge":
+        from .compare.judge_cli import main as judge_main
+        return judge_main(rest, prog="hairbsdf judge")
     if cmd == "fit":
         from .fit import main as fit_main
         return fit_main(rest, prog="hairbsdf fit")
