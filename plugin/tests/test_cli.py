@@ -147,3 +147,19 @@ def test_judge_seed_count_from_the_exr_header(tmp_path):
     assert rc == 0, o + err
     case = json.loads((tmp_path / "rep" / "report.json").read_text())["cases"][0]
     assert case["sizes"]["seeds"] == 4 and case["inputs"]["ref"][1] == str(var)
+
+
+def test_subcommands():
+    """Top-level argparse: a command's options go to that command; a missing or unknown one exits 2."""
+    rc, out, err = cli("compare", "--help")
+    assert rc == 0 and "usage: hairbsdf compare" in out and "--shard" in out, err
+    rc, out, err = cli("judge", "--help")
+    assert rc == 0 and "usage: hairbsdf judge" in out and "REF" in out, err
+    rc, out, err = cli()
+    assert rc == 2 and "COMMAND" in err
+    rc, out, err = cli("nonsense")
+    assert rc == 2 and "invalid choice: 'nonsense'" in err, err
+    rc, out, err = cli("report")
+    assert rc == 2 and "usage: hairbsdf report merge" in err, err
+    from hairbsdf import cli as module
+    assert module.main(["--help"]) == 0 and module.main(["nonsense"]) == 2
