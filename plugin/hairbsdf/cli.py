@@ -30,7 +30,8 @@ def build_parser():
     p = argparse.ArgumentParser(
         prog="hairbsdf", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Hair BSDFs matching Blender Cycles, and the tools to prove it.",
-        epilog="commands:\n" + __doc__.split("\n", 2)[2].rstrip() + "\n\nRun `hairbsdf COMMAND --help` for a command's options.")
+        epilog="commands:\n" + __doc__.split("\n", 2)[2].rstrip()
+        + "\n\nRun `hairbsdf COMMAND --help` for a command's options.")
     p.add_argument("--version", action="version", version="hairbsdf %s" % __version__)
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     for name, text in COMMANDS.items():

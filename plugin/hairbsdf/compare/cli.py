@@ -81,7 +81,8 @@ def build_parser(prog="hairbsdf compare"):
     p.add_argument("--force-parity", action="store_true",
                    help="for user .blend files: apply the parity settings (no denoising, clamps 0, ...) before "
                         "rendering; without it they are only reported")
-    p.add_argument("--thresholds", default=None, type=file_arg, help="thresholds TOML (default: %s)" % default_thresholds())
+    p.add_argument("--thresholds", default=None, type=file_arg,
+                   help="thresholds TOML (default: %s)" % default_thresholds())
     p.add_argument("--cache", default=None, help="cache folder for built scenes and Cycles renders (default: %s)"
                                                  % default_cache_dir())
     p.add_argument("--no-cache", action="store_true", help="render Cycles again and do not store it")
