@@ -7,7 +7,6 @@ nothing.  Every judge run is a subprocess in which `import bpy` fails: judge nee
 """
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -22,13 +21,13 @@ SEEDS, SPP = 8, 8
 PATCH = (5, 40)  # x, y of a 10x10 patch on the backdrop, left of the strands
 NO_BPY = "import sys; sys.modules['bpy'] = None; from hairbsdf.cli import main; sys.exit(main(sys.argv[1:]))"
 
-pytestmark = pytest.mark.blender
+pytestmark = pytest.mark.blender  # xdist workers share the cache; its per-image locks render each image once
 
 
 @pytest.fixture(scope="session")
 def cycles_sets(tmp_path_factory):
     """{'ref': [exr...], 'test': [exr...]}: two independent Cycles seed sets of swatch."""
-    out = REPO / "build" / "blender_tests" / "judge" / "swatch_cycles"
+    out = tmp_path_factory.mktemp("swatch_cycles")  # the renders stay in the harness's cache
     r = subprocess.run([PY, "-m", "hairbsdf.compare", "-q", "--scene", "swatch", "--ci", "--engine", "CYCLES",
                         "--seeds", str(SEEDS), "--spp", str(SPP), "--no-flip", "--exit-zero", "-j", "2",
                         "--out", str(out)], capture_output=True, text=True, cwd=str(REPO), timeout=900)
