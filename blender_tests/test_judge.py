@@ -75,6 +75,7 @@ def test_independent_cycles_sets_pass(cycles_sets, tmp_path):
     assert ch["welch"]["value"] == 0 and ch["mean_bias_sigma"]["passed"] and ch["nonfinite"]["value"] == 0
     for name in ("index.html", "junit.xml", "report.json"):
         assert (tmp_path / "rep" / name).exists()
+    assert "REF (mean of 8 renders" in (tmp_path / "rep" / "index.html").read_text()
 
 
 def test_bias_of_one_percent_fails_on_the_image_mean(cycles_sets, tmp_path):

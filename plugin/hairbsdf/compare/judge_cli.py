@@ -210,7 +210,7 @@ def run(args, argv_text=""):
     res = dict(id="judge", dir="judge", scene="judge", variant=None, file=None, kind="noisy",
                title="%s vs %s" % (args.test, args.ref),
                description="REF %s (%d seeds), TEST %s (%d seeds)" % (args.ref, n_ref, args.test, n_test),
-               blender=dict(label="judge", path=""), engine="TEST", engine_label="TEST",
+               blender=dict(label="judge", path=""), engine="TEST", engine_label="TEST", ref_label="REF",
                sizes=dict(res=[w, h], seeds=n_ref, seeds_test=n_test), limits=limits, checks=checks,
                metrics=report.clean(mets), renders=[], status=status,
                reason=("failed: " + "; ".join(failed)) if failed else "",
