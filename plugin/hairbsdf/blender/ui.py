@@ -90,7 +90,7 @@ class HairBsdfSceneSettings(bpy.types.PropertyGroup):
         default=0, min=0, max=1024)
     tilt: bpy.props.EnumProperty(
         name="Tilt Convention",
-        description="Principled Hair cuticle tilt convention (cycles-hair-notes §4.3, §5b)",
+        description="Principled Hair cuticle tilt convention (docs/principled_hair.md, section Blender 3.4-4.1)",
         items=(("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4"),
                ("4.2", "Blender 4.2+", "Tilt applied to the view angle (Cycles 4.2 and later)"),
                ("3.4", "Blender 3.4-4.1", "Tilt applied to the light angle (Cycles 3.4 to 4.1)")),

@@ -37,6 +37,7 @@ exit status: 0 when no case FAILs, CRASHes or has NO OUTPUT / ERROR (PENDING and
 
 
 def build_parser(prog="hairbsdf compare"):
+    from .._version import __version__
     from .runner import default_cache_dir, default_thresholds, load_catalog
 
     catalog, default_scene = load_catalog()
@@ -52,22 +53,22 @@ def build_parser(prog="hairbsdf compare"):
                    help="'bpy' (the bpy module from pip, e.g. 4.5 LTS in .venv) or a Blender executable such as "
                         "Debian's /usr/bin/blender (3.4); repeat for several (default: bpy)")
     p.add_argument("--cycles-osl", action="store_true",
-                   help="render the Cycles reference with its OSL backend (its hair path differs slightly from "
-                        "SVM, cycles-hair-notes.md 2.6)")
-    p.add_argument("--spp", type=int, help="samples per render (default: the scene's, per size)")
-    p.add_argument("--res", metavar="WxH", help="resolution, e.g. 320x240 (default: the scene's)")
-    p.add_argument("--seeds", type=int, help="independent renders per engine for the statistics (default: the "
+                   help="render the Cycles reference with its OSL backend (its hair closure differs slightly from "
+                        "the SVM one; docs/compare.md)")
+    p.add_argument("--spp", type=count_arg(1), help="samples per render (default: the scene's, per size)")
+    p.add_argument("--res", metavar="WxH", type=res_arg, help="resolution, e.g. 320x240 (default: the scene's)")
+    p.add_argument("--seeds", type=count_arg(1), help="independent renders per engine for the statistics (default: the "
                                              "scene's; >= 2 for the Welch test)")
     p.add_argument("--ci", action="store_true", help="small sizes for CI (the scenes' 'ci' sizes; no exact renders)")
-    p.add_argument("--exact-seeds", type=int, metavar="N",
+    p.add_argument("--exact-seeds", type=count_arg(0), metavar="N",
                    help="also render the engine with exact special functions on N seeds (default: 2, 0 with --ci, "
                         "1 for noise-free scenes)")
     p.add_argument("--no-exact", action="store_true", help="skip the exact-accuracy renders")
     p.add_argument("--out", default=None, help="report folder (default: out/compare)")
-    p.add_argument("--jobs", "-j", type=int, default=None,
+    p.add_argument("--jobs", "-j", type=count_arg(1), default=None,
                    help="renders in parallel, each in its own process (default: the number of cores; threads are "
                         "split between them)")
-    p.add_argument("--threads", type=int, default=0, help="threads per render (default: cores / jobs)")
+    p.add_argument("--threads", type=count_arg(0), default=0, help="threads per render (default: cores / jobs)")
     p.add_argument("--shard", metavar="I/N", help="render only shard I of N of the sorted case list (CI matrices; "
                                                   "join the reports with `hairbsdf report merge`)")
     p.add_argument("--model", metavar="NAME|plugin:PATH[:mapping.py]",
@@ -80,17 +81,46 @@ def build_parser(prog="hairbsdf compare"):
     p.add_argument("--force-parity", action="store_true",
                    help="for user .blend files: apply the parity settings (no denoising, clamps 0, ...) before "
                         "rendering; without it they are only reported")
-    p.add_argument("--thresholds", default=None, help="thresholds TOML (default: %s)" % default_thresholds())
+    p.add_argument("--thresholds", default=None, type=file_arg,
+                   help="thresholds TOML (default: %s)" % default_thresholds())
     p.add_argument("--cache", default=None, help="cache folder for built scenes and Cycles renders (default: %s)"
                                                  % default_cache_dir())
     p.add_argument("--no-cache", action="store_true", help="render Cycles again and do not store it")
     p.add_argument("--refresh", action="store_true", help="re-render cached Cycles images and rebuild scenes")
-    p.add_argument("--timeout", type=int, default=900, help="seconds per render process (default 900)")
+    p.add_argument("--timeout", type=count_arg(1), default=900, help="seconds per render process (default 900)")
     p.add_argument("--no-flip", action="store_true", help="skip FLIP")
     p.add_argument("--list-scenes", action="store_true", help="list the scene library and exit")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     p.add_argument("--exit-zero", action="store_true", help="exit 0 even when cases fail")
+    p.add_argument("--version", action="version", version="hairbsdf %s" % __version__)
     return p
+
+
+def count_arg(lo):
+    """argparse type: an integer >= lo (the error names what is allowed; argparse adds the option)."""
+    def parse(s):
+        try:
+            v = int(s)
+        except ValueError:
+            v = None
+        if v is None or v < lo:
+            raise argparse.ArgumentTypeError("must be an integer >= %d, not %r" % (lo, s))
+        return v
+    parse.__name__ = "integer >= %d" % lo
+    return parse
+
+
+def res_arg(s):
+    try:
+        return parse_res(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError("takes WxH with W, H >= 1, e.g. 320x240, not %r" % s) from None
+
+
+def file_arg(s):
+    if not os.path.isfile(s):
+        raise argparse.ArgumentTypeError("file %s does not exist" % s)
+    return s
 
 
 def parse_res(s):
@@ -155,7 +185,7 @@ def run_compare(args, argv_text=""):
     try:
         exact = 0 if (args.no_exact or hair_model) else args.exact_seeds  # accuracy is Chiang's only
         cases = expand_cases(args.scene or [default_scene], targets, ci=args.ci, spp=args.spp,
-                             res=parse_res(args.res), seeds=args.seeds, exact_seeds=exact, catalog=catalog)
+                             res=args.res, seeds=args.seeds, exact_seeds=exact, catalog=catalog)
         cases = shard(cases, args.shard)
     except ValueError as exc:
         print("error: %s" % exc, file=sys.stderr)

@@ -30,13 +30,19 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
     (2 sigma <= bound); at full size an unresolved bound fails.
     roi: optional (H, W) mask of the pixels a deterministic scene compares (metrics.gonio_roi).
     Returns (checks, metrics, maps)."""
-    cycles = np.asarray(cycles, np.float32)
-    ours = np.asarray(ours, np.float32)
-    if cycles.shape[1:3] != ours.shape[1:3]:
+    # a side is a stack or a metrics.Summary (mean and variance images, `hairbsdf judge`)
+    stats = isinstance(cycles, M.Summary) or isinstance(ours, M.Summary)
+    if stats:
+        cycles, ours = (x if isinstance(x, M.Summary) else M.Summary(*M.stack_stats(x)) for x in (cycles, ours))
+        ref, test = cycles.mean, ours.mean
+    else:
+        cycles = np.asarray(cycles, np.float32)
+        ours = np.asarray(ours, np.float32)
+        ref, test = cycles.mean(axis=0), ours.mean(axis=0)
+    if ref.shape[:2] != test.shape[:2]:
         c = check("size", "image sizes match", None, None, "<=", True,
-                  "Cycles %s vs hairbsdf %s" % (cycles.shape[1:3], ours.shape[1:3]), passed=False)
+                  "Cycles %s vs hairbsdf %s" % (ref.shape[:2], test.shape[:2]), passed=False)
         return [c], {}, {}
-    ref, test = cycles.mean(axis=0), ours.mean(axis=0)
     checks, mets, maps = [], {}, dict(cycles=ref, ours=test, diff=M.luminance(test) - M.luminance(ref))
 
     if kind == "deterministic":
@@ -55,10 +61,15 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
         if g["n_pixels"] == 0:
             checks.append(check("pixels", "compared pixels", 0, 1, ">=", True, "nothing to compare"))
     else:
-        n_a, n_b = cycles.shape[0], ours.shape[0]
+        n_a, n_b = (cycles.n, ours.n) if stats else (cycles.shape[0], ours.shape[0])
         if n_a >= 2 and n_b >= 2:
-            w = M.welch(cycles, ours, alpha=limits["welch_alpha"], floor_abs=limits["welch_floor_abs"],
-                        floor_rel=limits["welch_floor_rel"])
+            wl = dict(alpha=limits["welch_alpha"], floor_abs=limits["welch_floor_abs"],
+                      floor_rel=limits["welch_floor_rel"])
+            if stats:
+                w = M.welch_from_stats(M.rgb(cycles.mean), M.rgb(cycles.var), n_a, M.rgb(ours.mean),
+                                       M.rgb(ours.var), n_b, **wl)
+            else:
+                w = M.welch(cycles, ours, **wl)
             maps["z"], maps["zfail"] = w.pop("t_map"), w.pop("fail_map")
             w.pop("p")
             mets["welch"] = w
@@ -68,14 +79,17 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                 "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f, max |t| %.2f "
                 "(critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
                                           w["t_critical_median_df"])))
-            b = M.mean_bias(cycles, ours, floor_rel=limits["welch_floor_rel"])
+            if stats:
+                b = M.mean_bias_from_stats(cycles, ours, floor_rel=limits["welch_floor_rel"])
+            else:
+                b = M.mean_bias(cycles, ours, floor_rel=limits["welch_floor_rel"])
             mets["mean_bias"] = b
             det = "bias %+.3e of %.4g (%+.3f%%), sigma %.2e (%.3f%%), z %+.2f; worst channel %+.3f%%" % (
                 b["bias"], b["mean_a"], 100 * b["rel"], b["sigma"], 100 * b["rel_sigma"], b["z"],
                 100 * max((c["rel"] for c in b["channels"]), key=abs))
             checks.append(check("mean_bias_sigma", "image-mean bias in standard errors |z|", abs(b["z"]),
                                 limits["mean_bias_sigma"], "<=", True, det))
-            if n_a >= 3 and n_b >= 3:
+            if n_a >= 3 and n_b >= 3 and not stats:
                 spread = dict(cycles=M.seed_spread(cycles), ours=M.seed_spread(ours))
                 mets["seed_spread"] = spread
                 worst = max(s["outlier_ratio"] for s in spread.values())
@@ -148,6 +162,18 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
         checks.append(check("exact_effect", "exact special functions: image-mean change", pe["rel"], None, "<=",
                             False, det, passed=True))
     return checks, mets, maps
+
+
+def nonfinite_check(counts, where, first=10):
+    """Gate on NaN / Inf pixels: counts {file: n}, where [(file, x, y, channel, value)];
+    the detail names the first `first` with coordinates (x right, y down from the top row)."""
+    total = sum(counts.values())
+    det = "none"
+    if total:
+        det = "%d NaN/Inf values in %d file(s) (replaced by 0 for the other metrics); first: %s" % (
+            total, sum(1 for n in counts.values() if n), "; ".join(
+                "%s x=%d y=%d channel %d = %s" % w for w in where[:first]))
+    return check("nonfinite", "NaN or Inf pixel-channels", total, 0, "<=", True, det)
 
 
 def status_of(checks, pending=None):

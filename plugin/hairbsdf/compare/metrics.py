@@ -301,6 +301,57 @@ def seed_spread(stack, mask=None):
     return out
 
 
+class Summary:
+    """Per-pixel mean and variance (ddof=1, of one render's value across the renders) of n
+    renders, for inputs that come as a mean and a variance image instead of a stack."""
+
+    def __init__(self, mean, var, n):
+        self.mean = np.asarray(mean, np.float32)
+        self.var = np.asarray(var, np.float32)
+        self.n = int(n)
+
+
+def mean_bias_from_stats(a, b, floor_rel=0.0):
+    """mean_bias from two Summary objects.  The variance of one render's image mean is taken as
+    sum(var) / P^2 over the P pixels, i.e. pixels with independent noise (per-pixel scrambled
+    samplers); within a pixel the channels count as fully correlated (an upper bound)."""
+
+    def side(s, c=None):
+        m, v = rgb(s.mean).astype(np.float64), rgb(s.var).astype(np.float64)
+        P = m.shape[0] * m.shape[1]
+        if c is None:
+            mean = float(m.mean())
+            var_img = float((np.sqrt(np.maximum(v, 0)).mean(axis=-1) ** 2).sum()) / P ** 2
+        else:
+            mean = float(m[..., c].mean())
+            var_img = float(np.maximum(v[..., c], 0).sum()) / P ** 2
+        return mean, var_img
+
+    def one(c=None):
+        ma, va = side(a, c)
+        mb, vb = side(b, c)
+        sigma = math.sqrt(va / a.n + vb / b.n + (floor_rel * ma) ** 2)
+        bias = mb - ma
+        return dict(mean_a=ma, mean_b=mb, bias=bias, sigma=sigma,
+                    rel=bias / ma if ma != 0 else (0.0 if bias == 0 else float("inf")),
+                    rel_sigma=sigma / abs(ma) if ma != 0 else float("inf"),
+                    z=bias / sigma if sigma > 0 else (0.0 if bias == 0 else float("inf")))
+
+    out = one()
+    out["channels"] = [one(c) for c in range(3)]
+    out["n_a"], out["n_b"] = a.n, b.n
+    return out
+
+
+def nonfinite(img, first=10):
+    """(count, [(x, y, channel, value)...] of the first `first`) of the NaN and Inf values of
+    an (H, W, C) image; row 0 at the top."""
+    bad = ~np.isfinite(np.asarray(img))
+    ys, xs, cs = np.nonzero(bad)
+    where = [(int(x), int(y), int(c), str(float(img[y, x, c]))) for y, x, c in zip(ys[:first], xs[:first], cs[:first])]
+    return int(bad.sum()), where
+
+
 def paired_effect(stack_base, stack_variant, mask=None):
     """Relative change of the image mean from base to variant, both rendered with the same
     seeds (so most of the noise cancels): rel = mean(variant - base) / mean(base), with the

@@ -82,19 +82,21 @@ def write_case_assets(out_dir, result, maps):
         I.write_exr(cdir / "cycles_mean.exr", ref)
         I.write_exr(cdir / "hairbsdf_mean.exr", test)
         n_c = result["sizes"]["seeds"]
+        n_o = result["sizes"].get("seeds_test", n_c)
+        ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
         imgs["cycles"] = dict(path=rel(cdir / "cycles.png"), exr=rel(cdir / "cycles_mean.exr"),
-                              caption="Cycles (mean of %d render%s), display %+.1f EV" % (
-                                  n_c, "s" if n_c > 1 else "", ev),
+                              caption="%s (mean of %d render%s), display %+.1f EV" % (
+                                  ref_name, n_c, "s" if n_c > 1 else "", ev),
                               swap=rel(cdir / "hairbsdf.png"), swap_caption="%s (hover)" % ours_name)
         imgs["ours"] = dict(path=rel(cdir / "hairbsdf.png"), exr=rel(cdir / "hairbsdf_mean.exr"),
-                            caption="%s (mean of %d), display %+.1f EV" % (ours_name, n_c, ev))
+                            caption="%s (mean of %d), display %+.1f EV" % (ours_name, n_o, ev))
         d = maps["diff"]
         scale = float(np.percentile(np.abs(d), 99.5)) if d.size else 0.0
         scale = scale if scale > 0 else max(float(np.abs(d).max()), 1e-12)
         I.write_png(cdir / "diff.png", I.signed_map(d, scale))
         imgs["diff"] = dict(path=rel(cdir / "diff.png"),
-                            caption="difference of the means, %s - Cycles (luminance); blue: darker, orange: "
-                                    "brighter" % ours_name,
+                            caption="difference of the means, %s - %s (luminance); blue: darker, orange: "
+                                    "brighter" % (ours_name, ref_name),
                             colorbar=dict(gradient=I.css_gradient(I.DIVERGING), labels=[-scale, 0.0, scale]))
     if "z" in maps:
         z = maps["z"]
