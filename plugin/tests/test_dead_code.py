@@ -31,10 +31,15 @@ def dead_code(checked) -> list[str]:
         pytest.fail("vulture is not installed: run scripts/setup (scripts/requirements.txt)")
     paths = [str(p) for p in (*checked, *USERS, ALLOWLIST)]
     r = subprocess.run([sys.executable, "-m", "vulture", *paths, "--min-confidence", str(MIN_CONFIDENCE)],
-                       capture_output=True, text=True, timeout=120)
+                       capture_output=True, text=True, timeout=120, cwd=REPO)
     assert r.returncode in (0, 3), f"vulture failed (exit {r.returncode}):\n{r.stdout}{r.stderr}"
-    prefixes = tuple(str(p) + "/" for p in checked)
-    return [line for line in r.stdout.splitlines() if line.startswith(prefixes)]
+    found = []
+    for line in r.stdout.splitlines():  # vulture prints paths under its cwd relative to it
+        path, _, rest = line.partition(":")
+        path = (REPO / path).resolve()
+        if any(path.is_relative_to(Path(c).resolve()) for c in checked):
+            found.append("%s:%s" % (path, rest))
+    return found
 
 
 def test_no_dead_code():
@@ -50,7 +55,7 @@ def test_planted_dead_code_is_reported(tmp_path):
         f.write("\n\ndef _planted_unused_function():\n    return 1\n")
     with open(package / "closure.py", "a") as f:
         f.write("\n\nimport fractions as _planted_unused_import\n")
-    found = "\n".join(dead_code((package,)))
+    found = "\n".join(dead_code((package, CHECKED[1])))
     assert "unused function '_planted_unused_function'" in found, found
     assert "unused import '_planted_unused_import'" in found, found
     assert found.count("\n") == 1, f"only the two planted findings expected:\n{found}"

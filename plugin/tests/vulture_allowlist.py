@@ -43,3 +43,49 @@ _.request_cancel  # hairbsdf.blender.engine: stops a running render as Esc would
 
 # pytest reads it: hairbsdf.plugins.test_plugin is not a test when imported into a test module.
 _.__test__
+
+# Blender RNA properties the library scenes (hairbsdf/compare/scenes) set so that Cycles and our engine
+# render with the settings parity needs; Blender reads them, no Python does.
+_.blur_glossy
+_.caustics_reflective
+_.caustics_refractive
+_.compute_device_type
+_.diffuse_bounces
+_.display_device
+_.display_method
+_.distribution
+_.emit_from
+_.factor_random
+_.filepath_raw
+_.film_exposure
+_.glossy_bounces
+_.hair_length
+_.hide_render
+_.hide_viewport
+_.light_sampling_threshold
+_.look
+_.min_light_bounces
+_.min_transparent_bounces
+_.normal_factor
+_.sample_clamp_direct
+_.sample_clamp_indirect
+_.spline_type
+_.transform_space
+_.transmission_bounces
+_.transparent_max_bounces
+_.use_adaptive_sampling
+_.use_advanced_hair
+_.use_border
+_.use_curve_mapping
+_.use_denoising
+_.use_emit_random
+_.use_even_distribution
+_.use_hair_bspline
+_.use_persistent_data
+_.use_simplify
+_.use_smooth
+_.view_transform
+_.volume_bounces
+
+# Read by name: runner.load_catalog takes the catalog's DEFAULT_SCENE from its namespace.
+_.DEFAULT_SCENE

@@ -98,13 +98,3 @@ SCENES = {
         description="Three swatches of the Huang model with aspect ratios 0.5, 0.8 and 1.0; the ellipse axes "
                     "follow the curve normals (Z Up and Minimum Twist). Blender 4.x only."),
 }
-
-
-def scene_names():
-    return list(SCENES)
-
-
-def case_names(name):
-    """['scene'] or ['scene:variant', ...]."""
-    v = SCENES[name].get("variants")
-    return ["%s:%s" % (name, x) for x in v] if v else [name]
