@@ -18,7 +18,7 @@ OUTSIDE = re.compile(
             "peer" + "-tests",
             "blender" + "-integration",
             "lighttree" + "_notes",
-            r"(?<![\w.~])/work/",
+            r"(?<![\w.~])/" + "work/",
             r"\.\./shared\b",
         ]
     )
