@@ -104,6 +104,8 @@ def test_every_named_doc_exists():
 
 
 def test_index_lists_every_doc():
+    if not (ROOT / "docs" / "README.md").is_file():
+        pytest.skip("no docs/ beside the tests (not a source checkout)")
     index = (ROOT / "docs" / "README.md").read_text()
     linked = set(MD_LINK.findall(index))
     docs = sorted(p.name for p in (ROOT / "docs").glob("*.md") if p.name != "README.md")
