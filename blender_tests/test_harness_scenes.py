@@ -52,7 +52,7 @@ def library_cases():
     return out
 
 
-# Every setting a builder must set, with the value parity needs (cycles-hair-notes §6).
+# Every setting a builder must set, with the value parity needs (docs/cycles.md §6).
 REQUIRED = {
     "cycles.use_denoising": False, "cycles.use_adaptive_sampling": False, "cycles.blur_glossy": 0.0,
     "cycles.sample_clamp_direct": 0.0, "cycles.sample_clamp_indirect": 0.0,

@@ -23,7 +23,7 @@ DPHI_FULL = (12.0, 55.0, 95.0, 140.0, 171.0, 178.5, -35.0, -115.0, -160.0)
 DPHI_SMALL = (55.0, 140.0, 176.0, -115.0)
 
 # Node inputs. Offset in radians.  random_color only acts in the MELANIN mode
-# (notes §2.3); the others still set it to check that it is ignored.
+# (docs/cycles.md §2.3); the others still set it to check that it is ignored.
 MATERIALS = {
     # Direct coloring, Blender default colour, default roughness, 2 deg offset.
     "color_default": dict(

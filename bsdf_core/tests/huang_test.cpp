@@ -338,7 +338,7 @@ TEST(HuangHair, ContextDefaultsKeepChiang) {
     EXPECT_EQ(lum(c.eval(a, wi).value()), lum(c.eval(b, wi).value()));
 }
 
-// Blender's node inputs: the Huang mapping (notes §2.5).
+// Blender's node inputs: the Huang mapping (docs/cycles.md §2.5).
 TEST(HuangHair, PrincipledMapping) {
     PrincipledHairInputs in;
     in.roughness = 0.4;

@@ -26,7 +26,7 @@ TEST(Bessel, LogI0IsContinuousAcrossItsBranchSwitch) {
     }
 
 TEST(Bessel, CyclesApproximationsHaveTheirKnownErrors) {
-    // The 10-term series is 2.0% low just below the switch at 12 (peer-tests §3.2) ...
+    // The 10-term series is 2.0% low just below the switch at 12 (docs/validation.md §3.2) ...
     EXPECT_NEAR(cycles_bessel_i0(12.0) / bessel_i0(12.0), 0.980, 0.002);
     // ... and exact for small arguments.
     EXPECT_LT(test::relative_error(cycles_bessel_i0(1.0), bessel_i0(1.0)), 1e-15);

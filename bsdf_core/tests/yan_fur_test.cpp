@@ -209,7 +209,7 @@ TEST(YanFur, TablesAreCachedAndDeterministic) {
 }
 
 TEST(YanFur, ScatteredLobesAveragedOverHAreTheFarFieldTable) {
-    // Near/far consistency (peer-tests §5.I): at a table node the scattered lobes' energy at h,
+    // Near/far consistency (docs/validation.md §5.I): at a table node the scattered lobes' energy at h,
     // (1 - F) x prefactor x the chord-binned fraction, averaged over h in [-1, 1], is the table's
     // far-field energy of the lobe (both from the same walk).
     for (const YanFurParams& p : {YanFurParams{}, [] {

@@ -17,7 +17,7 @@ HUANG_ACCURACIES = {"cycles": 0, "converged": 1}
 HUANG_SAMPLERS = {"mixture": 0, "cycles": 1}
 HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
 
-# Blender 4.5 node defaults (cycles-hair-notes §1). Offset is in radians.
+# Blender 4.5 node defaults (docs/cycles.md §1). Offset is in radians.
 PRINCIPLED_HAIR_DEFAULTS = {
     "color": (0.017513, 0.005763, 0.002059),
     "melanin": 0.8,

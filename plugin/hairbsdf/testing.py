@@ -3,7 +3,7 @@
 available to users who write their own BSDF (needs scipy for the chi-square p-value).
 
 All domains are fibre-aligned: cells in (sin theta_i, delta phi) have equal solid angle
-and the lobes sit near sin theta_i = -sin theta_o (peer-tests §5.E).
+and the lobes sit near sin theta_i = -sin theta_o (docs/validation.md §5.E).
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ def unit(theta_deg, phi_deg):
     return np.array([np.sin(t), np.cos(t) * np.cos(p), np.cos(t) * np.sin(p)])
 
 
-# (beta_m, beta_n, absorption) x offset x h x wo; beta_n down to 0.1 (peer-tests §5.E).
+# (beta_m, beta_n, absorption) x offset x h x wo; beta_n down to 0.1 (docs/validation.md §5.E).
 ROUGHNESS = [(0.2, 0.1, 0.0), (0.4, 0.3, 0.8), (0.7, 0.8, (2.0, 0.5, 0.1)), (1.0, 0.2, 0.0), (0.3, 1.0, 0.8)]
 OFFSETS_DEG = [0.0, 3.0]
 HS = [-0.9, 0.0, 0.7]

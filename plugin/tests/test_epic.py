@@ -160,7 +160,7 @@ def bounded_scale(kw, wo, shadow):
 def test_furnace_bounded():
     """energy="bounded" (the default): a white fibre with every gain at its maximum stays <= 1.01,
     for both variants, shift +-0.25, roughness 0.1 and 0.35, Scatter 0 and 1, Shadow 0 and 1
-    (peer-tests §5 D). The albedo at Shadow s is the per-view scale times the published one:
+    (docs/validation.md §5.D). The albedo at Shadow s is the per-view scale times the published one:
     R + TT + TRT by quadrature plus the multiple-scattering term's closed form
     (test_multiple_scattering_albedo_is_closed_form; for C = 1 it is Scatter for every Shadow)."""
     worst = 0.0

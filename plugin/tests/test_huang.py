@@ -84,7 +84,7 @@ def test_extra_arrays_shapes_and_defaults(rng):
 
 def test_projected_radius_and_transparency():
     """r = sqrt(1 - e^2 x^2 / (x^2 + z^2)) of the view direction in the frame of the major axis;
-    |h| >= r is transparent: eval 0, no sample (notes §5.1)."""
+    |h| >= r is transparent: eval 0, no sample (docs/cycles.md §5.1)."""
     b = 0.6
     c = huang(aspect_ratio=b, trt_points=64)
     normal = np.array([0.0, 1.0, 0.0])       # major axis along fibre-frame y

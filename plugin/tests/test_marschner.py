@@ -121,7 +121,7 @@ WHITE_CASES = [(dict(), 0.99), (dict(glint_scale=5.0), 0.99), (dict(beta_r=0.7),
 
 @pytest.mark.parametrize("kw, lowest", WHITE_CASES, ids=[str(k) for k, _ in WHITE_CASES])
 def test_bounded_furnace_white(kw, lowest):
-    """energy="bounded" (the default), sigma_a = 0: <= 1.01 everywhere (peer-tests §5 D); where the
+    """energy="bounded" (the default), sigma_a = 0: <= 1.01 everywhere (docs/validation.md §5.D); where the
     published albedo exceeds 1 the bounded one is about 1 (>= `lowest`: the table matches the
     quadrature); elsewhere it is the published one, or (where the table's E is just above 1 by its
     error) a little below it. (eta < 1.155 gives TT its own caustics, whose spikes make the

@@ -76,7 +76,7 @@ inline BsdfSample sample_from_eval(Vec3 wi, const BsdfEval& e, int lobe) {
     return out;
 }
 
-// The per-shading-point frame Cycles uses for hair (cycles-hair-notes §4.1):
+// The per-shading-point frame Cycles uses for hair (docs/cycles.md §4.1):
 // x = tangent, y = normalize(x × wo), z = x × y. The view direction sits at phi = -pi/2.
 struct FibreFrame {
     Vec3 x, y, z;

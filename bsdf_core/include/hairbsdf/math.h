@@ -14,7 +14,7 @@ namespace hairbsdf {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kTwoPi = 2.0 * kPi;
 constexpr double kInvTwoPi = 1.0 / kTwoPi;
-constexpr double kSqrtPiOver8 = 0.6266570686577501;  // sqrt(pi/8), cycles-hair-notes §2.4
+constexpr double kSqrtPiOver8 = 0.6266570686577501;  // sqrt(pi/8), docs/cycles.md §2.4
 
 struct Vec3 {
     double x = 0, y = 0, z = 0;
@@ -103,7 +103,7 @@ inline double log_bessel_i0(double x) {
     return x < kBesselSeriesLimit ? std::log(bessel_i0_series(x)) : log_bessel_i0_asymptotic(x);
 }
 
-// Cycles' approximations (cycles-hair-notes §4.3): the first 10 terms of the power series
+// Cycles' approximations (docs/cycles.md §4.3): the first 10 terms of the power series
 // (k = 0..9; Cycles stops early only where a term no longer changes a float sum) and the
 // asymptotic log branch above x = 12.
 inline double cycles_bessel_i0(double x) {
@@ -147,7 +147,7 @@ inline uint32_t lcg_step(uint32_t& state) { return state = 1103515245u * state +
 inline double lcg_step_float(uint32_t& state) { return double(float(lcg_step(state)) * (1.0f / float(0xFFFFFFFFu))); }
 
 // Bob Jenkins' lookup3 hash of two integers mapped to [0, 1]: Blender's per-curve
-// "Hair Info > Random" is hash(curve_index, 0) / 0xFFFFFFFF (notes §2.2).
+// "Hair Info > Random" is hash(curve_index, 0) / 0xFFFFFFFF (docs/cycles.md §2.2).
 uint32_t lookup3_hash_uint2(uint32_t kx, uint32_t ky);
 inline double cycles_curve_random(uint32_t curve_index) {
     // Cycles computes this in float32; round the same way so values match bit for bit.

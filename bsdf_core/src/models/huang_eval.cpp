@@ -7,7 +7,7 @@
 
 namespace hairbsdf {
 
-// --- residual (notes §5.4): the TT integrand for the adaptive cubature -------------------------
+// --- residual (docs/cycles.md §5.4): the TT integrand for the adaptive cubature -----------------
 
 struct HuangHair::Residual {
     const HuangHair& m;

@@ -1,5 +1,5 @@
 // Huang hair: parameters, cross-section geometry, setup of a shading point (frame, visible
-// interval, Simpson nodes) and the R integrand. Formulas: cycles-hair-notes §5 and docs/huang.md;
+// interval, Simpson nodes) and the R integrand. Formulas: docs/cycles.md §5 and docs/huang.md;
 // directions named as in Cycles' local frame: I = the viewer (Cycles' wi), O = the light (Cycles' wo).
 // The rest: huang_paths.cpp (paths through the fibre), huang_eval.cpp, huang_sample.cpp.
 #include "huang_internal.h"
@@ -26,7 +26,7 @@ HuangHair::HuangHair(const HuangHairParams& params)
     factors_ = {std::max(params.r_factor, 0.0), std::max(params.tt_factor, 0.0), std::max(params.trt_factor, 0.0)};
 }
 
-// --- cross-section geometry (notes §5.1) ------------------------------------------------------
+// --- cross-section geometry (docs/cycles.md §5.1) ----------------------------------------------
 
 double HuangHair::h_to_gamma(double h_div_r, Vec3 w) const {
     if (b_ == 1.0) return -safe_asin(h_div_r);
@@ -99,7 +99,7 @@ HuangHair::ShadingPoint HuangHair::prepare(const ShadingContext& ctx) const {
     const double ct = cos_theta(I);
     if (sp.transparent || !(ct > 0) || !isfinite(I)) return sp;
 
-    // Visible interval of h (notes §5.2).
+    // Visible interval of h (docs/cycles.md §5.2).
     const double half_span = std::acos(std::max(-tan_tilt_ * (I.y / ct), 0.0));
     if (std::isnan(half_span)) return sp;
     const double phi_i = b_ == 1.0 ? 0.0 : dir_phi(I);
@@ -147,7 +147,7 @@ std::vector<HuangHair::Node> HuangHair::simpson_nodes(double lo, double hi, doub
     return nodes;
 }
 
-// --- R lobe (notes §5.3) ------------------------------------------------------------------------
+// --- R lobe (docs/cycles.md §5.3) ----------------------------------------------------------------
 
 double HuangHair::r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const {
     const Vec3 wm = mesonormal(tilt_, gamma);

@@ -1,4 +1,4 @@
-// Huang hair: the paths through the fibre (notes §5.4): entry, TT exit, internal reflection with
+// Huang hair: the paths through the fibre (docs/cycles.md §5.4): entry, TT exit, internal reflection with
 // TRT exit and the TRRT+ series, and the TRT estimator with two strategies.
 #include "huang_internal.h"
 

@@ -36,7 +36,7 @@ struct SurfacePoint {
     Vec3 ng_triangle;  // triangles: geometric normal on the viewer's side (for ray offsets)
 };
 
-// Hit -> position, frame, h and material (cycles-hair-notes §3, geom/curve.h).
+// Hit -> position, frame, h and material (docs/cycles.md §3, geom/curve.h).
 SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit) {
     SurfacePoint sp;
     sp.g.wo = -1.0 * ray.dir;

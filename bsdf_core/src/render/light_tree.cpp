@@ -1,4 +1,4 @@
-// Cycles 4.5's light tree; see render/light_tree.h and /work/lighttree_notes.md.
+// Cycles 4.5's light tree; see render/light_tree.h and docs/engine.md.
 #include "hairbsdf/render/light_tree.h"
 
 #include <algorithm>

@@ -57,7 +57,7 @@ def blender_version() -> tuple:
 
 
 def default_tilt() -> str:
-    """Principled Hair tilt convention of the running Blender (cycles-hair-notes §0, §5b)."""
+    """Principled Hair tilt convention of the running Blender (docs/cycles.md §0, §5b)."""
     return "4.2" if blender_version() >= (4, 2, 0) else "3.4"
 
 

@@ -71,7 +71,7 @@ class HairBsdfRenderEngine(bpy.types.RenderEngine):
     bl_use_eevee_viewport = True
 
     # Blender 4.4+ documents __init__(*args, **kwargs) -> super().__init__ and __del__ ->
-    # super().__del__(); 3.4's bpy_struct has no __del__ (blender-integration §2.1).
+    # super().__del__(); 3.4's bpy_struct has no __del__ (checked on Blender 3.4).
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._messages = []

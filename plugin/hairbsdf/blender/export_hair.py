@@ -1,6 +1,6 @@
 """Hair export: Curves objects (foreach_get + NumPy, no per-point Python) and legacy
 particle hair (ParticleSystem.co_hair per key, everything else vectorised), both with
-Cycles' semantics (blender-integration §2.3, cycles-hair-notes §3.1):
+Cycles' semantics (docs/cycles.md §3.1):
 
 * keys are transformed to world space by the instance matrix; radii are scaled by
   |det M|^(1/3) (Hair::apply_transform);

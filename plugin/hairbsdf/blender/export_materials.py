@@ -261,7 +261,7 @@ class MaterialTranslator:
         src = self._link_source(sock)
         if sock is None or src is None or (src[0].bl_idname == "ShaderNodeHairInfo" and not src[0].mute
                                            and src[1].identifier == "Random"):
-            inputs["random"] = None  # per-curve Hair Info > Random (cycles-hair-notes §2.2)
+            inputs["random"] = None  # per-curve Hair Info > Random (docs/cycles.md §2.2)
         else:
             self.linked(node, "Random", "float", inputs, "random")
         return {"type": "principled_hair", "weight": weight, "model": model,

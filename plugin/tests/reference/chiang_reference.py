@@ -1,6 +1,6 @@
 """Independent float64 reference of Blender Cycles' Principled Hair BSDF (Chiang 2016 model).
 
-Written from the formulas in /work/shared/docs/cycles-hair-notes.md (cited as "notes §x") and the
+Written from the formulas in docs/cycles.md (cited as "docs/cycles.md §x") and the
 frame/sign conventions in docs/conventions.md (cited as "conventions"). It is the oracle the C++
 module is tested against, so it deliberately shares no code with it.
 
@@ -14,13 +14,13 @@ Every model function is vectorised over rows: wo, wi are (N, 3); h is (N,) or a 
 entry of the params dict may be a scalar (or (3,) for sigma_a) or per-row ((N,) / (N, 3)).
 
 Switches of the model functions:
-  accuracy="cycles": M_p exactly as Cycles computes it (notes §4.3: v <= 0.1 log branch with the
+  accuracy="cycles": M_p exactly as Cycles computes it (docs/cycles.md §4.3: v <= 0.1 log branch with the
                      constant 0.6931, 10-term I0 series, crude log-I0 asymptote above 12).
   accuracy="exact":  the mathematically exact M_p, normalised so that int M_p cos(theta_i) dtheta_i = 1.
-  tilt="4.2":        cuticle tilt applied to the view angle theta_o (notes §4.3, Blender 4.2+).
-  tilt="3.4":        cuticle tilt applied to the light angle theta_i (notes §5b, Blender 3.4-4.1).
+  tilt="4.2":        cuticle tilt applied to the view angle theta_o (docs/cycles.md §4.3, Blender 4.2+).
+  tilt="3.4":        cuticle tilt applied to the light angle theta_i (docs/cycles.md §5b, Blender 3.4-4.1).
 
-NaN policy: Cycles has no NaN guards (notes §4.5). Wherever its formulas produce NaN for a row
+NaN policy: Cycles has no NaN guards (docs/cycles.md §4.5). Wherever its formulas produce NaN for a row
 (e.g. eta < 1 with sin^2(theta_o) > eta^2, where sqrt(eta^2 - sin^2 theta_o) is NaN, or
 0 * inf in the absorption), this reference returns 0 for the whole row (all lobes, all channels).
 """
@@ -28,51 +28,51 @@ NaN policy: Cycles has no NaN guards (notes §4.5). Wherever its formulas produc
 import numpy as np
 from scipy import special
 
-# Luminance weights used for the lobe-selection probabilities (notes §4.2, Rec.709 rgb_to_y).
+# Luminance weights used for the lobe-selection probabilities (docs/cycles.md §4.2, Rec.709 rgb_to_y).
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 
-# sqrt(pi/8), notes §2.4 step 4.
+# sqrt(pi/8), docs/cycles.md §2.4 step 4.
 SQRT_PI_OVER_8 = np.sqrt(np.pi / 8.0)
 
-# Melanin absorption coefficients used by Cycles (notes §2.3; NOT pbrt-v3's values).
+# Melanin absorption coefficients used by Cycles (docs/cycles.md §2.3; NOT pbrt-v3's values).
 EUMELANIN_SIGMA = np.array([0.506, 0.841, 1.653])
 PHEOMELANIN_SIGMA = np.array([0.343, 0.733, 1.924])
 
 ROUGHNESS_MIN = 0.001
 ROUGHNESS_MAX = 1.0
 
-# Number of terms of Cycles' truncated I0 power series (k = 0..9), notes §4.3.
+# Number of terms of Cycles' truncated I0 power series (k = 0..9), docs/cycles.md §4.3.
 CYCLES_I0_TERMS = 10
-# Above this argument Cycles switches log I0 to its asymptotic form, notes §4.3.
+# Above this argument Cycles switches log I0 to its asymptotic form, docs/cycles.md §4.3.
 CYCLES_LOG_I0_SWITCH = 12.0
-# Cycles' rounded ln(2) in the low-variance branch of M_p, notes §4.3.
+# Cycles' rounded ln(2) in the low-variance branch of M_p, docs/cycles.md §4.3.
 CYCLES_LN2 = 0.6931
 
 
 # ---------------------------------------------------------------------------------------------
-# Parameter mapping (notes §2)
+# Parameter mapping (docs/cycles.md §2)
 # ---------------------------------------------------------------------------------------------
 
 def roughness_to_variance(beta):
-    """Longitudinal variance v = (0.726 b + 0.812 b^2 + 3.7 b^20)^2 (notes §2.4 step 3). No clamp."""
+    """Longitudinal variance v = (0.726 b + 0.812 b^2 + 3.7 b^20)^2 (docs/cycles.md §2.4 step 3). No clamp."""
     beta = np.asarray(beta, dtype=np.float64)
     return (0.726 * beta + 0.812 * beta**2 + 3.7 * beta**20) ** 2
 
 
 def radial_roughness_to_scale(beta_n):
-    """Logistic scale s = (0.265 b + 1.194 b^2 + 5.372 b^22) sqrt(pi/8) (notes §2.4 step 4). No clamp."""
+    """Logistic scale s = (0.265 b + 1.194 b^2 + 5.372 b^22) sqrt(pi/8) (docs/cycles.md §2.4 step 4). No clamp."""
     beta_n = np.asarray(beta_n, dtype=np.float64)
     return (0.265 * beta_n + 1.194 * beta_n**2 + 5.372 * beta_n**22) * SQRT_PI_OVER_8
 
 
 def albedo_roughness_scale(beta_n):
-    """Chiang's P(x) = 5.969 - 0.215x + 2.532x^2 - 10.73x^3 + 5.574x^4 + 0.245x^5 (notes §2.3)."""
+    """Chiang's P(x) = 5.969 - 0.215x + 2.532x^2 - 10.73x^3 + 5.574x^4 + 0.245x^5 (docs/cycles.md §2.3)."""
     x = np.asarray(beta_n, dtype=np.float64)
     return 5.969 - 0.215 * x + 2.532 * x**2 - 10.73 * x**3 + 5.574 * x**4 + 0.245 * x**5
 
 
 def absorption_from_color(color, radial_roughness):
-    """Direct coloring: sigma = (ln(max(C, 0)) / P(beta_n))^2, square of the whole quotient (notes §2.3).
+    """Direct coloring: sigma = (ln(max(C, 0)) / P(beta_n))^2, square of the whole quotient (docs/cycles.md §2.3).
 
     A zero (or negative) channel gives ln(0) = -inf and thus sigma = +inf.
     """
@@ -84,7 +84,7 @@ def absorption_from_color(color, radial_roughness):
 
 def absorption_from_melanin(melanin, melanin_redness, tint=(1.0, 1.0, 1.0), radial_roughness=0.3,
                             random=0.0, random_color=0.0):
-    """Melanin parametrization (notes §2.3), with Cycles' constants and the Random Color factor."""
+    """Melanin parametrization (docs/cycles.md §2.3), with Cycles' constants and the Random Color factor."""
     random_color_factor = 1.0 + 2.0 * (random - 0.5) * np.clip(random_color, 0.0, 1.0)
     melanin = melanin * random_color_factor
     melanin = -np.log(np.maximum(1.0 - melanin, 1e-4))
@@ -112,7 +112,7 @@ def lookup3_final(a, b, c):
 
 
 def cycles_curve_random(index):
-    """Blender's per-curve 'Random' attribute: hash_uint2_to_float(index, 0) (notes §2.2).
+    """Blender's per-curve 'Random' attribute: hash_uint2_to_float(index, 0) (docs/cycles.md §2.2).
 
     lookup3 with a = b = c = 0xdeadbeef + (2 << 2) + 13, a += index, b += 0, then final();
     the result is c / 0xFFFFFFFF (computed here in float64; Cycles divides in float32).
@@ -135,20 +135,20 @@ def principled_hair_params(parametrization="color", color=(0.017513, 0.005763, 0
                            absorption_coefficient=(0.245531, 0.52, 1.365), roughness=0.3,
                            radial_roughness=0.3, coat=0.0, ior=1.55, offset=0.0349066,
                            random_color=0.0, random_roughness=0.0, random=0.0):
-    """Blender node inputs -> Chiang closure parameters (4.2+ SVM path, notes §2.2-2.4).
+    """Blender node inputs -> Chiang closure parameters (4.2+ SVM path, docs/cycles.md §2.2-2.4).
 
     Returns a dict: sigma_a (3,), v (longitudinal variance), v_R (coat-reduced variance of the
     R lobe), s (logistic scale incl. sqrt(pi/8)), eta (= ior, unclamped), offset (radians, as given;
     the model functions apply the per-lobe tilt themselves).
     """
-    # Random roughness factor, no clamp (notes §2.2).
+    # Random roughness factor, no clamp (docs/cycles.md §2.2).
     roughness_factor = 1.0 + 2.0 * (random - 0.5) * random_roughness
     randomized_roughness = roughness * roughness_factor
     randomized_radial = radial_roughness * roughness_factor
 
     # Decision: the colour/tint -> sigma conversions use the randomized but UNCLAMPED radial
-    # roughness. Reason: notes §2.3 defines beta_N as "the randomized radial roughness", computed
-    # in the SVM node (notes §2.2/2.3, svm/closure.h), whereas the [0.001, 1] clamp of notes §2.4
+    # roughness. Reason: docs/cycles.md §2.3 defines beta_N as "the randomized radial roughness", computed
+    # in the SVM node (docs/cycles.md §2.2/2.3, svm/closure.h), whereas the [0.001, 1] clamp of docs/cycles.md §2.4
     # happens later, in bsdf_hair_chiang_setup (the closure header), which only sees the
     # roughness values after sigma_a has already been computed.
     if parametrization == "color":
@@ -159,10 +159,10 @@ def principled_hair_params(parametrization="color", color=(0.017513, 0.005763, 0
     elif parametrization == "absorption":
         sigma_a = np.asarray(absorption_coefficient, dtype=np.float64)
     else:
-        # Cycles falls back to a fixed pigment concentration here (notes §2.3); we refuse instead.
+        # Cycles falls back to a fixed pigment concentration here (docs/cycles.md §2.3); we refuse instead.
         raise ValueError(f"unknown parametrization {parametrization!r}")
 
-    # Closure setup (notes §2.4): clamp, coat on the R roughness before mapping, then map.
+    # Closure setup (docs/cycles.md §2.4): clamp, coat on the R roughness before mapping, then map.
     beta_m = np.clip(randomized_roughness, ROUGHNESS_MIN, ROUGHNESS_MAX)
     beta_n = np.clip(randomized_radial, ROUGHNESS_MIN, ROUGHNESS_MAX)
     coat_roughness = np.clip((1.0 - np.clip(coat, 0.0, 1.0)) * beta_m, ROUGHNESS_MIN, ROUGHNESS_MAX)
@@ -177,12 +177,12 @@ def principled_hair_params(parametrization="color", color=(0.017513, 0.005763, 0
 
 
 # ---------------------------------------------------------------------------------------------
-# Special functions (notes §4.3)
+# Special functions (docs/cycles.md §4.3)
 # ---------------------------------------------------------------------------------------------
 
 def bessel_i0_cycles(x):
     """Cycles' truncated I0: sum_{k=0..9} (x^2/4)^k / (k!)^2, stopping once a term no longer changes
-    the sum (notes §4.3)."""
+    the sum (docs/cycles.md §4.3)."""
     x = np.asarray(x, dtype=np.float64)
     quarter_x2 = 0.25 * x * x
     total = np.ones_like(quarter_x2)
@@ -197,7 +197,7 @@ def bessel_i0_cycles(x):
 
 
 def log_bessel_i0_cycles(x):
-    """Cycles' log I0: x + (1/(8x) - ln(2 pi) - ln x)/2 for x > 12, else ln of the series (notes §4.3)."""
+    """Cycles' log I0: x + (1/(8x) - ln(2 pi) - ln x)/2 for x > 12, else ln of the series (docs/cycles.md §4.3)."""
     x = np.asarray(x, dtype=np.float64)
     large = x > CYCLES_LOG_I0_SWITCH
     safe_large_x = np.where(large, x, 1.0)
@@ -208,7 +208,7 @@ def log_bessel_i0_cycles(x):
 
 
 def _longitudinal_cycles(sin_i, cos_i, sin_o, cos_o, v):
-    """M_p exactly as Cycles' longitudinal_scattering (notes §4.3)."""
+    """M_p exactly as Cycles' longitudinal_scattering (docs/cycles.md §4.3)."""
     a = cos_i * cos_o / v
     b = sin_i * sin_o / v
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -229,7 +229,7 @@ def _longitudinal_exact(sin_i, cos_i, sin_o, cos_o, v):
 
 
 def longitudinal_scattering(sin_i, cos_i, sin_o, cos_o, v, accuracy="cycles"):
-    """Longitudinal term M_p(theta_i, theta_o; v), symmetric in its two angles (notes §4.3)."""
+    """Longitudinal term M_p(theta_i, theta_o; v), symmetric in its two angles (docs/cycles.md §4.3)."""
     args = [np.asarray(t, dtype=np.float64) for t in (sin_i, cos_i, sin_o, cos_o, v)]
     if accuracy == "cycles":
         return _longitudinal_cycles(*args)
@@ -239,7 +239,7 @@ def longitudinal_scattering(sin_i, cos_i, sin_o, cos_o, v, accuracy="cycles"):
 
 
 def logistic_cdf(x, s):
-    """CDF of the logistic with scale s; Cycles returns 0 when -x/s > 88 (notes §4.3)."""
+    """CDF of the logistic with scale s; Cycles returns 0 when -x/s > 88 (docs/cycles.md §4.3)."""
     x = np.asarray(x, dtype=np.float64)
     with np.errstate(over="ignore"):
         cdf = 1.0 / (1.0 + np.exp(-x / s))
@@ -248,7 +248,7 @@ def logistic_cdf(x, s):
 
 def trimmed_logistic(x, s):
     """Logistic density e^{-|x|/s} / (s (1 + e^{-|x|/s})^2), normalised on [-pi, pi] by
-    1 - 2 CDF(-pi) (notes §4.3)."""
+    1 - 2 CDF(-pi) (docs/cycles.md §4.3)."""
     x = np.asarray(x, dtype=np.float64)
     e = np.exp(-np.abs(x) / s)
     density = e / (s * (1.0 + e) ** 2)
@@ -288,13 +288,13 @@ def _direction_angles(w):
 
 
 def _shift_angle(sin_theta, cos_theta, shift):
-    """sin(theta + shift) and |cos(theta + shift)| (cosines taken as |cos|, notes §4.3)."""
+    """sin(theta + shift) and |cos(theta + shift)| (cosines taken as |cos|, docs/cycles.md §4.3)."""
     sin_shift, cos_shift = np.sin(shift), np.cos(shift)
     return (sin_theta * cos_shift + cos_theta * sin_shift,
             np.abs(cos_theta * cos_shift - sin_theta * sin_shift))
 
 
-# Per-lobe tilt multiples of Offset for R, TT, TRT (notes §4.3 and §5b): +2, -1, -4.
+# Per-lobe tilt multiples of Offset for R, TT, TRT (docs/cycles.md §4.3 and §5b): +2, -1, -4.
 TILT_MULTIPLES = (2.0, -1.0, -4.0)
 
 
@@ -303,7 +303,7 @@ def _row_param(params, key, n_rows):
 
 
 def _prepare(params, wo, wi, h):
-    """Everything that depends only on the view direction, h and the parameters (notes §4.2)."""
+    """Everything that depends only on the view direction, h and the parameters (docs/cycles.md §4.2)."""
     wo = np.atleast_2d(np.asarray(wo, dtype=np.float64))
     wi = np.atleast_2d(np.asarray(wi, dtype=np.float64))
     n_rows = max(wo.shape[0], wi.shape[0])
@@ -327,13 +327,13 @@ def _prepare(params, wo, wi, h):
 
 
 def _attenuation(q):
-    """A_p for p = 0..3, shape (N, 4, 3), plus gamma_o, gamma_t and the Fresnel factor (notes §4.2)."""
+    """A_p for p = 0..3, shape (N, 4, 3), plus gamma_o, gamma_t and the Fresnel factor (docs/cycles.md §4.2)."""
     eta, h, sin_o, cos_o = q["eta"], q["h"], q["sin_o"], q["cos_o"]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         sin_t = sin_o / eta
         cos_t = np.sqrt(np.maximum(0.0, 1.0 - sin_t**2))          # cos_from_sin: safe sqrt
         gamma_o = np.arcsin(np.clip(h, -1.0, 1.0))                  # safe_asin
-        # NaN for eta < 1 at grazing view angles (no guard in Cycles, notes §4.2).
+        # NaN for eta < 1 at grazing view angles (no guard in Cycles, docs/cycles.md §4.2).
         sin_gamma_t = h * cos_o / np.sqrt(eta**2 - sin_o**2)
         cos_gamma_t = np.sqrt(np.maximum(0.0, 1.0 - sin_gamma_t**2))
         # Assumption: gamma_t uses a safe (clamped) asin, like gamma_o; NaN stays NaN.
@@ -352,13 +352,13 @@ def _attenuation(q):
 
 
 def chiang_attenuation(params, wo, h):
-    """Attenuations A_p, shape (N, 4, 3) for R, TT, TRT, TRRT+ (notes §4.2). Depends on wo only."""
+    """Attenuations A_p, shape (N, 4, 3) for R, TT, TRT, TRRT+ (docs/cycles.md §4.2). Depends on wo only."""
     q = _prepare(params, wo, wo, h)
     return _attenuation(q)[0]
 
 
 def _lobe_weights(attenuation, fresnel):
-    """Lobe-selection probabilities a_p (notes §4.2): a_0 = f, a_p = luminance(A_p), normalised
+    """Lobe-selection probabilities a_p (docs/cycles.md §4.2): a_0 = f, a_p = luminance(A_p), normalised
     by their sum (safe divide: all zero if the sum is 0)."""
     energy = attenuation @ LUMINANCE_WEIGHTS
     energy[:, 0] = fresnel
@@ -378,15 +378,15 @@ def _azimuthal(q, gamma_o, gamma_t):
 
 
 def _longitudinal(q, accuracy, tilt, r_lobe_variance="v_R"):
-    """M_p for p = 0..3, shape (N, 4), with the per-lobe cuticle tilt and variances (notes §2.4 step 5)."""
+    """M_p for p = 0..3, shape (N, 4), with the per-lobe cuticle tilt and variances (docs/cycles.md §2.4 step 5)."""
     variances = (q[r_lobe_variance], q["v"] / 4.0, 4.0 * q["v"])
     lobes = []
     for variance, multiple in zip(variances, TILT_MULTIPLES):
         shift = multiple * q["offset"]
-        if tilt == "4.2":      # tilt the view angle (notes §4.3)
+        if tilt == "4.2":      # tilt the view angle (docs/cycles.md §4.3)
             sin_o, cos_o = _shift_angle(q["sin_o"], q["cos_o"], shift)
             sin_i, cos_i = q["sin_i"], q["cos_i"]
-        elif tilt == "3.4":    # tilt the light angle (notes §5b)
+        elif tilt == "3.4":    # tilt the light angle (docs/cycles.md §5b)
             sin_i, cos_i = _shift_angle(q["sin_i"], q["cos_i"], shift)
             sin_o, cos_o = q["sin_o"], q["cos_o"]
         else:
@@ -408,11 +408,11 @@ def _zero_nan_rows(values):
 
 
 # ---------------------------------------------------------------------------------------------
-# Public model functions (notes §4)
+# Public model functions (docs/cycles.md §4)
 # ---------------------------------------------------------------------------------------------
 
 def chiang_eval_lobes(params, wo, wi, h, accuracy="cycles", tilt="4.2"):
-    """Per-lobe values A_p M_p N_p, shape (N, 4, 3): R, TT, TRT, TRRT+ (notes §4.3).
+    """Per-lobe values A_p M_p N_p, shape (N, 4, 3): R, TT, TRT, TRRT+ (docs/cycles.md §4.3).
 
     Includes the cosine factor (no division by |cos theta_i|; conventions "What eval returns").
     """
@@ -424,7 +424,7 @@ def chiang_eval_lobes(params, wo, wi, h, accuracy="cycles", tilt="4.2"):
 
 
 def chiang_eval(params, wo, wi, h, accuracy="cycles", tilt="4.2"):
-    """Cycles' eval (N, 3) = sum over the four lobes (notes §4.3)."""
+    """Cycles' eval (N, 3) = sum over the four lobes (docs/cycles.md §4.3)."""
     return chiang_eval_lobes(params, wo, wi, h, accuracy, tilt).sum(axis=1)
 
 
@@ -439,12 +439,12 @@ def _mixture_density(params, wo, wi, h, accuracy, tilt, r_lobe_variance):
 
 def chiang_pdf(params, wo, wi, h, accuracy="cycles", tilt="4.2"):
     """The pdf Cycles reports (per unit solid angle): sum_p a_p M_p N_p with the same M_p as eval
-    (R lobe with v_R) and N_3 = 1/(2 pi) (notes §4.2, §4.3)."""
+    (R lobe with v_R) and N_3 = 1/(2 pi) (docs/cycles.md §4.2, §4.3)."""
     return _mixture_density(params, wo, wi, h, accuracy, tilt, "v_R")
 
 
 def chiang_sampling_density(params, wo, wi, h, tilt="4.2"):
-    """TRUE density (per unit solid angle) of directions drawn by Cycles' 4.2+ sampler (notes §4.4).
+    """TRUE density (per unit solid angle) of directions drawn by Cycles' 4.2+ sampler (docs/cycles.md §4.4).
 
     The d'Eon sampler draws theta_i exactly from the exact M_p, so M_p uses exact Bessel functions;
     the R lobe is sampled with the un-coated v, not v_R (the "coat quirk"). The clamp of the

@@ -1,5 +1,5 @@
 """Brute-force path tracing through an explicit rough dielectric fibre, the ground truth for the
-Huang far-field model (Huang et al. 2022 validate the same way; peer-tests §5.I).
+Huang far-field model (Huang et al. 2022 validate the same way; docs/validation.md §5.I).
 
 The fibre is an infinite cylinder along y with an elliptical cross-section (semi-axes 1 along x, b
 along z) in Huang's local frame. Rays arrive from the viewer direction I uniformly over the

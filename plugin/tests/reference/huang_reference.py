@@ -1,7 +1,7 @@
 """Independent float64 reference of Blender Cycles 4.5's Principled Hair "Huang" model
 (Huang, Hullin, Hanika 2022, "A Microfacet-based Hair Scattering Model").
 
-Written from /work/shared/docs/cycles-hair-notes.md §2.5 and §5 ("notes §x") and the Cycles 4.5
+Written from docs/cycles.md §2.5 and §5 (cited as "docs/cycles.md §x") and the Cycles 4.5
 semantics recorded in docs/huang.md; it shares no code with the C++ module (hairbsdf._core),
 which it is used to test. Slow and simple on purpose: numpy, float64, vectorised over rows.
 
@@ -47,7 +47,7 @@ TABLE_SIZE = 16
 
 
 # ---------------------------------------------------------------------------------------------
-# Parameters (notes §2.2, §2.3, §2.5)
+# Parameters (docs/cycles.md §2.2, §2.3, §2.5)
 # ---------------------------------------------------------------------------------------------
 
 def huang_params(parametrization="color", color=(0.017513, 0.005763, 0.002059), melanin=0.8,
@@ -325,7 +325,7 @@ def lookup_3d(table, x, y, z):
 
 
 def energy_scale(rough_sqrt, mu, eta, tables):
-    """1 / E_glass(sqrt(alpha), mu, eta): the eta < 1 table is used for eta < 1 (notes §5.3)."""
+    """1 / E_glass(sqrt(alpha), mu, eta): the eta < 1 table is used for eta < 1 (docs/cycles.md §5.3)."""
     eta = np.asarray(eta, dtype=np.float64)
     z = np.sqrt(np.abs((eta - 1.0) / (eta + 1.0)))
     e = np.where(eta < 1.0, lookup_3d(tables[1], rough_sqrt, mu, z), lookup_3d(tables[0], rough_sqrt, mu, z))
@@ -333,7 +333,7 @@ def energy_scale(rough_sqrt, mu, eta, tables):
 
 
 # ---------------------------------------------------------------------------------------------
-# Frames and ellipse geometry (notes §5.1)
+# Frames and ellipse geometry (docs/cycles.md §5.1)
 # ---------------------------------------------------------------------------------------------
 
 def huang_frame(wo, b, normal=None):
@@ -439,7 +439,7 @@ def projected_radius(b, wl):
 
 
 # ---------------------------------------------------------------------------------------------
-# Per-row setup: local directions, integration interval (notes §5.2)
+# Per-row setup: local directions, integration interval (docs/cycles.md §5.2)
 # ---------------------------------------------------------------------------------------------
 
 class Setup:

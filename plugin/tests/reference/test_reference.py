@@ -1,6 +1,6 @@
 """Self-tests of the float64 Chiang/Cycles reference (chiang_reference.py).
 
-Values quoted from cycles-hair-notes.md §2 and peer-tests.md §3.2/§5 are checked against the
+Values quoted from docs/cycles.md §2 and docs/validation.md §3.2/§5 are checked against the
 reference; special functions are checked against mpmath; model identities (energy, symmetry,
 normalisation) are checked by quadrature.
 """
@@ -31,7 +31,7 @@ def default_params(beta_m=0.3, beta_n=0.3, sigma_a=(0.0, 0.0, 0.0), eta=1.55, of
 
 
 # --------------------------------------------------------------------------------------------
-# Parameter mapping (notes §2)
+# Parameter mapping (docs/cycles.md §2)
 # --------------------------------------------------------------------------------------------
 
 def test_roughness_to_variance_and_scale():
@@ -147,7 +147,7 @@ def test_lookup3_final_and_curve_random():
 
 
 # --------------------------------------------------------------------------------------------
-# Special functions (notes §4.3)
+# Special functions (docs/cycles.md §4.3)
 # --------------------------------------------------------------------------------------------
 
 def test_bessel_series_matches_mpmath_where_converged():
@@ -191,7 +191,7 @@ def test_exact_longitudinal_normalised(v):
 
 
 def test_cycles_longitudinal_deficit_matches_peer_table():
-    # peer-tests.md §3.2 ("pbrt-style" column = Cycles' code).
+    # docs/validation.md §3.2 ("pbrt-style" column = Cycles' code).
     assert _longitudinal_integral(0.0846, 0.0, "cycles") == pytest.approx(0.9869, abs=1e-4)
     assert _longitudinal_integral(0.0316, 0.0, "cycles") == pytest.approx(0.9979, abs=1e-4)
     assert _longitudinal_integral(0.0065, math.radians(60), "cycles") == pytest.approx(0.9983, abs=1e-4)
@@ -232,7 +232,7 @@ def test_fresnel():
 
 
 # --------------------------------------------------------------------------------------------
-# Model (notes §4)
+# Model (docs/cycles.md §4)
 # --------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("eta", [1.55, 1.3, 2.0])
@@ -248,7 +248,7 @@ def test_attenuations_sum_to_one_without_absorption(eta):
 
 
 def _scalar_eval_exact(params, wo, wi, h):
-    """Straight-line mpmath re-statement of notes §4 for one row (exact M_p, tilt 4.2)."""
+    """Straight-line mpmath re-statement of docs/cycles.md §4 for one row (exact M_p, tilt 4.2)."""
     mpmath.mp.dps = 30
     sin_o, sin_i = mpmath.mpf(wo[0]), mpmath.mpf(wi[0])
     cos_o, cos_i = mpmath.sqrt(wo[1] ** 2 + wo[2] ** 2), mpmath.sqrt(wi[1] ** 2 + wi[2] ** 2)
@@ -411,7 +411,7 @@ def test_pdf_variants():
 
 
 def _sample_cycles_42(params, wo, h, u):
-    """Re-statement of Cycles' 4.2+ sampler (notes §4.4) for one wo/h, many random triples u."""
+    """Re-statement of Cycles' 4.2+ sampler (docs/cycles.md §4.4) for one wo/h, many random triples u."""
     attenuation = ref.chiang_attenuation(params, wo[None], h)[0]
     energy = attenuation @ ref.LUMINANCE_WEIGHTS
     energy[0] = attenuation[0, 0]
@@ -442,7 +442,7 @@ def _sample_cycles_42(params, wo, h, u):
 
 def test_sampling_density_matches_sampler_histogram_with_coat():
     # Histogram of the notes' sampler vs the claimed true density, and vs the reported pdf, with
-    # Coat > 0: only the former must fit (coat quirk, notes §4.4).
+    # Coat > 0: only the former must fit (coat quirk, docs/cycles.md §4.4).
     rng = np.random.default_rng(RNG_SEED)
     params = default_params(beta_m=0.4, beta_n=0.5, sigma_a=(0.1, 0.2, 0.4), offset=0.06, coat_beta=0.2)
     wo = ref.direction_from_angles(0.5, 0.0)

@@ -1,5 +1,5 @@
 // Chiang et al. 2016, "A Practical and Controllable Hair and Fur Model for Production
-// Path Tracing", as Blender Cycles evaluates and samples it (cycles-hair-notes §4).
+// Path Tracing", as Blender Cycles evaluates and samples it (docs/cycles.md §4).
 // Setup, eval, sample and pdf for one closure live here, Cycles-closure style.
 #pragma once
 
@@ -12,7 +12,7 @@ namespace hairbsdf {
 enum class Accuracy { Cycles, Exact };
 
 // Where the cuticle tilt enters M_p. Blender 4.2+ rotates the view angle theta_o;
-// Blender 3.4-4.1 rotated the light angle theta_i and used the older sampler (notes §4.4, §5b).
+// Blender 3.4-4.1 rotated the light angle theta_i and used the older sampler (docs/cycles.md §4.4, §5b).
 enum class TiltConvention { Blender42, Blender34 };
 
 // The longitudinal sampler's two numbers as Cycles before 3.6 drew them: from an LCG seeded per
@@ -46,7 +46,7 @@ struct ChiangHairParams {
     TiltConvention tilt_convention = TiltConvention::Blender42;
 };
 
-// Longitudinal scattering M_p for one lobe (d'Eon et al. 2011 form, notes §4.3), with its
+// Longitudinal scattering M_p for one lobe (d'Eon et al. 2011 form, docs/cycles.md §4.3), with its
 // normalisation precomputed.
 class LongitudinalLobe {
 public:
@@ -95,7 +95,7 @@ inline double sample_longitudinal(double v, double exp_minus_2_over_v, double u_
     return clamp(-fac * sin_theta_o + cos_from_sin(fac) * std::cos(kTwoPi * u_azimuth) * cos_theta_o, -1.0, 1.0);
 }
 
-// Rotation of an angle (sin, cos) by a fixed angle (sin_a, cos_a), returning |cos| (notes §4.3).
+// Rotation of an angle (sin, cos) by a fixed angle (sin_a, cos_a), returning |cos| (docs/cycles.md §4.3).
 struct SinCos {
     double sin, cos;
 };
@@ -103,7 +103,7 @@ inline SinCos rotate_angle(double sin_t, double cos_t, double sin_a, double cos_
     return {sin_t * cos_a + cos_t * sin_a, std::fabs(cos_t * cos_a - sin_t * sin_a)};
 }
 
-// Geometry of one internal pass of the refracted ray at the view's offset h (notes §4.2), handed
+// Geometry of one internal pass of the refracted ray at the view's offset h (docs/cycles.md §4.2), handed
 // to a pass-transmittance function: the 2D distance of the chord from the axis is |sin_gamma_t|,
 // its 3D length 2 cos_gamma_t / cos_theta_t (unit radius).
 struct ChiangPassGeometry {
@@ -111,7 +111,7 @@ struct ChiangPassGeometry {
 };
 
 // A_p for R, TT, TRT and the residual TRRT+ from the Fresnel factor f and the transmittance T of
-// one internal pass (notes §4.2): f, (1-f)^2 T, (1-f)^2 T^2 f, and the geometric tail of TRT.
+// one internal pass (docs/cycles.md §4.2): f, (1-f)^2 T, (1-f)^2 T^2 f, and the geometric tail of TRT.
 inline std::array<RGB, 4> chiang_attenuation(double f, RGB T) {
     std::array<RGB, 4> out;
     const double one_minus_f = 1.0 - f;

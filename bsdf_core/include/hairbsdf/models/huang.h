@@ -1,5 +1,5 @@
 // Huang, Hullin and Hanika 2022, "A Microfacet-based Hair Scattering Model", with the semantics of
-// Blender Cycles 4.5's Principled Hair "Huang" closure (cycles-hair-notes §2.5, §5; docs/huang.md).
+// Blender Cycles 4.5's Principled Hair "Huang" closure (docs/cycles.md §2.5, §5; docs/huang.md).
 //
 // What differs from Cycles, on purpose:
 //   * eval is deterministic: the microfacet integrals Cycles estimates with one random visible
@@ -47,7 +47,7 @@ inline double lookup_table_3d(const double (&t)[16][16][16], double x, double y,
     };
     return (1 - fz) * plane(z0) + fz * plane(z1);
 }
-// 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (notes §5.3).
+// 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (docs/cycles.md §5.3).
 inline double energy_scale(double sqrt_alpha, double mu, double eta) {
     const double z = std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0)));
     const double e = lookup_table_3d(kGgxGlassAlbedo[eta < 1.0 ? 1 : 0], sqrt_alpha, mu, z);

@@ -1,5 +1,5 @@
 // Blender's Principled Hair BSDF node inputs -> model parameters, as Cycles' SVM maps
-// them (cycles-hair-notes §1, §2). The only place where sigma_a, v and s are derived
+// them (docs/cycles.md §1, §2). The only place where sigma_a, v and s are derived
 // from node inputs: the Python API, the engine and the tests all call these.
 #pragma once
 
@@ -61,7 +61,7 @@ inline RGB absorption_from_color(RGB color, double radial_roughness) {
     return {channel(color.r), channel(color.g), channel(color.b)};
 }
 
-// Cycles' pigment absorption (per unit melanin quantity), notes §2.3. These differ from
+// Cycles' pigment absorption (per unit melanin quantity), docs/cycles.md §2.3. These differ from
 // pbrt-v3's constants.
 constexpr RGB kEumelaninAbsorption{0.506, 0.841, 1.653};
 constexpr RGB kPheomelaninAbsorption{0.343, 0.733, 1.924};
@@ -102,7 +102,7 @@ inline ChiangHairParams chiang_params_from_principled(const PrincipledHairInputs
 
     const double beta_m = clamp(roughness, 0.001, 1.0);
     const double beta_n = clamp(radial_roughness, 0.001, 1.0);
-    // Coat lowers the R-lobe roughness before the mapping (notes §2.4 step 2).
+    // Coat lowers the R-lobe roughness before the mapping (docs/cycles.md §2.4 step 2).
     const double beta_coat = clamp((1.0 - clamp(in.coat, 0.0, 1.0)) * beta_m, 0.001, 1.0);
     const double v = longitudinal_variance(beta_m);
     const double v_r = longitudinal_variance(beta_coat);
@@ -117,7 +117,7 @@ inline ChiangHairParams chiang_params_from_principled(const PrincipledHairInputs
     return p;
 }
 
-// Which roughness the Huang colour / tint -> sigma_a conversion uses (cycles-hair-notes §2.5, §2.6):
+// Which roughness the Huang colour / tint -> sigma_a conversion uses (docs/cycles.md §2.5, §2.6):
 // SVM uses the randomized Roughness, OSL the randomized Radial Roughness socket.
 enum class HuangColorRoughness { Svm, Osl };
 
@@ -139,7 +139,7 @@ inline HuangHairParams huang_params_from_principled(const PrincipledHairInputs& 
             p.sigma_a = in.absorption_coefficient;
             break;
         case Parametrization::Melanin: {
-            // OSL does not clamp Random Color (notes §2.6).
+            // OSL does not clamp Random Color (docs/cycles.md §2.6).
             const double rc = color_roughness == HuangColorRoughness::Svm ? clamp(in.random_color, 0.0, 1.0) : in.random_color;
             const double color_factor = 1.0 + 2.0 * (in.random - 0.5) * rc;
             p.sigma_a = absorption_from_melanin(in.melanin * color_factor, in.melanin_redness, in.tint,

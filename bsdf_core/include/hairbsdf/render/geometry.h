@@ -1,5 +1,5 @@
 // Ray tracing of curves and triangles with Embree 3, with Cycles' curve semantics
-// (cycles-hair-notes §3): uniform Catmull-Rom strands through the keys with duplicated
+// (docs/cycles.md §3): uniform Catmull-Rom strands through the keys with duplicated
 // end keys, radius interpolated the same way; THICK = Embree's round curves, open at the
 // ends, whose inside is hit too: Cycles' CPU build sets Embree's BACKFACE_CULLING_CURVES,
 // but Embree applies it only to round *linear* curves, not to the Catmull-Rom sweep (a

@@ -1,6 +1,6 @@
 // Cycles 4.5's light tree: which light next-event estimation picks, and the probability of
-// that pick for MIS on BSDF hits. Written from /work/lighttree_notes.md (a paraphrase of
-// Cycles' scene/light_tree.cpp and kernel/light/tree.h); no Cycles code is copied.
+// that pick for MIS on BSDF hits. Written from a reading of Cycles'
+// scene/light_tree.cpp and kernel/light/tree.h, paraphrased below; no Cycles code is copied.
 //
 // Design
 // * Why: the hair closures' reported pdfs are not their sampling densities, so with MIS the
@@ -10,7 +10,7 @@
 //   when it is light-sampled (an environment texture with MIS on). Emissive meshes are not
 //   light-sampled by this engine (docs/engine.md), so the tree has no mesh / triangle emitters
 //   and no instance nodes. Curves are never emitters in Cycles either.
-// * Each emitter has a measure (bbox, bounding cone, energy E), notes §1.2. The tree root is
+// * Each emitter has a measure (bbox, bounding cone, energy E). The tree root is
 //   an inner node: left = a SAOH-built subtree over the local lights (point, spot, area),
 //   right = one "distant" leaf holding the suns and the world (§1.5).
 // * The build follows should_split literally (12 buckets, <= 8 emitters per leaf, the
@@ -24,7 +24,7 @@
 //   it equals the NEE selection probability at the same (P, N, has_transmission).
 // * Importances use std:: trigonometry (Cycles uses fast_* approximations; the difference is
 //   ~1e-7 relative, irrelevant for the expected image), with the same function on both sides
-//   of the I_min threshold comparison (notes §2.1).
+//   of the I_min threshold comparison.
 // * Not modelled: light linking, volumes (in_volume_segment), mesh lights.
 //
 // Status and known gaps (see also docs/engine.md):
@@ -71,7 +71,7 @@ struct LightTreeMeasure {
     LightTreeCone cone;
     double energy = 0;
     void add(const LightTreeMeasure& other);
-    // SAOH cost E * A * M_omega (notes §1.4).
+    // SAOH cost E * A * M_omega.
     double cost() const;
 };
 

@@ -73,7 +73,7 @@ public:
     bool use_mis() const { return use_mis_; }
     bool visible_camera() const { return visible_camera_; }
     bool has_contribution() const { return contributes_; }
-    // The light's measure and traversal data for the light tree (notes §1.2, §2.3).
+    // The light's measure and traversal data for the light tree.
     const LightTreeEmitter& tree_emitter() const { return tree_; }
 
     bool sample(Vec3 p, double u0, double u1, LightSample& out) const;

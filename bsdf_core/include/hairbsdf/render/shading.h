@@ -3,7 +3,7 @@
 // a closure is picked with probability |average(weight)| / sum, its sample is combined with
 // the other closures' values and pdfs (surface_shader.h). Closures:
 //   principled_hair -> ChiangHair (params/principled_hair.h, `cycles` accuracy): label GLOSSY,
-//     REFLECT for lobe R, TRANSMIT for TT/TRT/TRRT+ (cycles-hair-notes §6);
+//     REFLECT for lobe R, TRANSMIT for TT/TRT/TRRT+ (docs/cycles.md §6);
 //   principled_hair, model Huang -> HuangHair (docs/huang.md §10): every lobe GLOSSY REFLECT;
 //     eval is Cycles' stochastic estimator (one random microfacet normal per Simpson node,
 //     unbiased for the model's value and microseconds instead of milliseconds), the pdf is
@@ -178,7 +178,7 @@ void apply_links(const std::vector<ClosureDesc::Link>& links, const float* regis
 HuangHairParams blur_huang(const HuangHairParams& p, double roughness);
 
 // Chiang parameters blurred by Filter Glossy: v, s and the R-lobe variance become
-// max(roughness, value) of the already mapped values (cycles-hair-notes §6).
+// max(roughness, value) of the already mapped values (docs/cycles.md §6).
 ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness);
 
 }  // namespace hairbsdf::render

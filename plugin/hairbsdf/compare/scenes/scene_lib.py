@@ -2,7 +2,7 @@
 
 Functions only; importing this module touches no scene.  Every builder calls
 ``parity_settings(scene, ...)``, which sets every Cycles setting that changes pixels
-(cycles-hair-notes §6) explicitly, so a factory default can never leak into a comparison:
+(docs/cycles.md §6) explicitly, so a factory default can never leak into a comparison:
 
 * curve shape and subdivisions, Filter Glossy 0, clamps 0, Light Threshold 0,
   denoising and adaptive sampling off, path guiding off, bounce limits, pixel filter,
