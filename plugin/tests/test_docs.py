@@ -6,6 +6,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from ci import skip_or_fail
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,7 +33,7 @@ def tracked_files():
             ["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True, text=True
         ).stdout
     except (OSError, subprocess.CalledProcessError):
-        pytest.skip("not a git checkout")
+        skip_or_fail("not a git checkout")
     return [ROOT / p for p in out.split("\0") if p]
 
 
@@ -105,7 +106,7 @@ def test_every_named_doc_exists():
 
 def test_index_lists_every_doc():
     if not (ROOT / "docs" / "README.md").is_file():
-        pytest.skip("no docs/ beside the tests (not a source checkout)")
+        skip_or_fail("no docs/ beside the tests (not a source checkout)")
     index = (ROOT / "docs" / "README.md").read_text()
     linked = set(MD_LINK.findall(index))
     docs = sorted(p.name for p in (ROOT / "docs").glob("*.md") if p.name != "README.md")
