@@ -21,8 +21,8 @@ any one row, so a TRT or TRRT+ 10 % off fails (test_the_gate_fails_on_a_planted_
 one 3 % off would. The same comparison with accuracy="converged" (HUANG_CHECK_FULL=1) shows
 where Cycles' Simpson rule differs from the converged integral.
 
-CI size: one seed, trt_points 16384 (our default), both sets: about 3 minutes on 2 cores (renders
-near 86 s and far 22 s, our eval of 1025 rows about 70 s).
+CI size: one seed, trt_points 16384 (our default), both sets: 4.0 min alone on 2 idle cores, renders
+and our eval included (near 196 s, far 43 s); 6.5 min of wall time in CI beside the other xdist worker.
 
     .venv/bin/python -m pytest blender_tests/test_huang_check.py -s
 Environment: HUANG_CHECK_REFRESH=1 re-renders; HUANG_CHECK_FULL=0 is the CI size (no 'converged'
