@@ -2,6 +2,7 @@
 command with a message that names the extra; nothing falls back to a weaker substitute."""
 
 import importlib
+import sys
 
 # extra -> (import name, pip name)
 EXTRAS = {
@@ -32,3 +33,14 @@ def check_extra(extra, what):
     """Raises MissingDependency for the first package of `extra` that does not import."""
     for module, _ in EXTRAS[extra]:
         require(module, extra, what)
+
+
+def exit_status_for_extra(extra, what):
+    """For a command's entry: 0 when every package of `extra` imports, else 1 after printing
+    "error: <what> needs <package>: pip install ..." on stderr."""
+    try:
+        check_extra(extra, what)
+    except MissingDependency as exc:
+        print("error: %s" % exc, file=sys.stderr)
+        return 1
+    return 0

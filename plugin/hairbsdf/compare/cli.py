@@ -141,11 +141,8 @@ def default_out():
 
 
 def run_compare(args, argv_text=""):
-    from .._deps import MissingDependency, check_extra
-    try:
-        check_extra("compare", "hairbsdf compare")
-    except MissingDependency as exc:
-        print("error: %s" % exc, file=sys.stderr)
+    from .._deps import exit_status_for_extra
+    if exit_status_for_extra("compare", "hairbsdf compare"):
         return 1
     from . import report
     from .runner import (Options, Runner, TargetError, default_cache_dir, default_thresholds, expand_cases,
@@ -244,11 +241,8 @@ def _git_describe():
 
 
 def run_merge(argv):
-    from .._deps import MissingDependency, check_extra
-    try:
-        check_extra("compare", "hairbsdf report merge")
-    except MissingDependency as exc:
-        print("error: %s" % exc, file=sys.stderr)
+    from .._deps import exit_status_for_extra
+    if exit_status_for_extra("compare", "hairbsdf report merge"):
         return 1
     from . import report
     p = argparse.ArgumentParser(prog="hairbsdf report merge",

@@ -163,11 +163,8 @@ def _scan(side, files):
 # --------------------------------------------------------------------------- run
 
 def run(args, argv_text=""):
-    from .._deps import MissingDependency, check_extra
-    try:
-        check_extra("compare", "hairbsdf judge")
-    except MissingDependency as exc:
-        print("error: %s" % exc, file=sys.stderr)
+    from .._deps import exit_status_for_extra
+    if exit_status_for_extra("compare", "hairbsdf judge"):
         return 1
     from . import judge, report
     from . import metrics as M
