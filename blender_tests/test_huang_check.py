@@ -21,8 +21,9 @@ any one row, so a TRT or TRRT+ 10 % off fails (test_the_gate_fails_on_a_planted_
 one 3 % off would. The same comparison with accuracy="converged" (HUANG_CHECK_FULL=1) shows
 where Cycles' Simpson rule differs from the converged integral.
 
-CI size: one seed, trt_points 16384 (our default), both sets: 4.0 min alone on 2 idle cores, renders
-and our eval included (near 196 s, far 43 s); 6.5 min of wall time in CI beside the other xdist worker.
+CI size: one seed, trt_points 16384 (our default), both sets (near 256 spp, far 4096 spp in
+huang_cases.py): 268 s of CPU, renders and our eval included, about 2.5 min of wall time on 2 idle
+cores (docs/huang.md section 8 has the measured scales).
 
     .venv/bin/python -m pytest blender_tests/test_huang_check.py -s
 Environment: HUANG_CHECK_REFRESH=1 re-renders; HUANG_CHECK_FULL=0 is the CI size (no 'converged'
