@@ -1,16 +1,24 @@
 """hairbsdf add-on: registers the HAIRBSDF render engine.
 
-A thin wrapper: it puts the staged hairbsdf module (a copy made by scripts/setup in
-build/blender_site/current, never an editable install) on sys.path and calls
-hairbsdf.blender.register().  Works as a legacy add-on (bl_info, Blender 3.4-4.1 and
-later) and as a 4.2+ extension (blender_manifest.toml); install both ways with
-scripts/install_blender_addon.
+A thin wrapper that finds the hairbsdf package and calls hairbsdf.blender.register(). The same
+folder is packaged three ways (docs/blender.md):
+  * the extension zip (scripts/build_extension, Blender 4.2+): Blender installs its bundled wheels
+    into its own site-packages, so `import hairbsdf` just works;
+  * the legacy add-on zip (Blender 3.4-4.1): the wheel's contents ride along in _vendor/;
+  * developer mode (scripts/install_blender_addon): the checkout's staged module, whose path the
+    installer records in _site_path.txt.
 
-Where the module is looked up, first match wins:
+Where the package is looked up, first match wins:
   1. $HAIRBSDF_SITE (a folder containing the hairbsdf package);
-  2. the path recorded in _site_path.txt next to this file (written by the installer);
-  3. ../../build/blender_site/current when the add-on is used from the repository.
+  2. the path recorded in _site_path.txt (developer mode);
+  3. _vendor/ next to this file (the legacy add-on zip);
+  4. an importable hairbsdf (the extension's wheels);
+  5. ../../build/blender_site/current when the add-on is used from the repository.
+When the package or its native module cannot load (for example a glibc older than the wheel needs),
+enabling the add-on prints one line naming the requirement and shows it in the add-on's preferences,
+instead of a traceback; the engine is then not registered.
 """
+
 
 bl_info = {
     "name": "hairbsdf",
@@ -39,32 +47,90 @@ def _candidate_sites():
             path = f.read().strip()
         if path:
             yield path
+    yield os.path.join(_HERE, "_vendor")
+    yield None  # whatever `import hairbsdf` finds: the extension's wheels
     yield os.path.normpath(os.path.join(_HERE, "..", "..", "build", "blender_site", "current"))
+
+
+def _importable():
+    import importlib.util
+    return importlib.util.find_spec("hairbsdf") is not None
 
 
 def _ensure_module_path():
     global _added_path
     tried = []
     for site in _candidate_sites():
+        if site is None:
+            tried.append("the installed wheels")
+            if _importable():
+                return "installed"
+            continue
         tried.append(site)
         if os.path.isfile(os.path.join(site, "hairbsdf", "__init__.py")):
             if site not in sys.path:
                 sys.path.insert(0, site)
                 _added_path = site
             return site
-    raise ImportError("hairbsdf: the staged module was not found (looked in: %s). Run scripts/setup and "
-                      "scripts/install_blender_addon, or set HAIRBSDF_SITE." % ", ".join(tried))
+    raise ImportError("hairbsdf: the hairbsdf package was not found (looked in: %s). Install the extension "
+                      "built by scripts/build_extension, or run scripts/setup and scripts/install_blender_addon, "
+                      "or set HAIRBSDF_SITE." % ", ".join(tried))
+
+
+_unavailable = None  # why the engine could not be registered, shown in the add-on's preferences
+
+
+def _preferences_class():
+    import bpy
+
+    class HairbsdfAddonPreferences(bpy.types.AddonPreferences):
+        bl_idname = __package__ or __name__
+
+        def draw(self, context):
+            col = self.layout.column()
+            col.label(text="hairbsdf is not available:", icon="ERROR")
+            for line in _wrap(_unavailable or ""):
+                col.label(text=line)
+
+    return HairbsdfAddonPreferences
+
+
+def _wrap(text, width=90):
+    words, lines, line = text.split(), [], ""
+    for w in words:
+        if line and len(line) + 1 + len(w) > width:
+            lines.append(line)
+            line = w
+        else:
+            line = (line + " " + w).strip()
+    return lines + ([line] if line else [])
 
 
 def register():
-    _ensure_module_path()
-    import hairbsdf.blender
-
+    global _unavailable
+    try:
+        _ensure_module_path()
+        import hairbsdf.blender
+    except ImportError as exc:
+        # A report naming the requirement, not a traceback (hairbsdf/_platform.py words it).
+        _unavailable = str(exc)
+        print("hairbsdf: the HAIRBSDF engine is not available: %s" % _unavailable, file=sys.stderr, flush=True)
+        import bpy
+        bpy.utils.register_class(_preferences_class())
+        return
+    _unavailable = None
     hairbsdf.blender.register()
 
 
 def unregister():
-    global _added_path
+    global _added_path, _unavailable
+    if _unavailable is not None:
+        import bpy
+        cls = getattr(bpy.types, "HairbsdfAddonPreferences", None)
+        if cls is not None:
+            bpy.utils.unregister_class(cls)
+        _unavailable = None
+        return
     try:
         import hairbsdf.blender
     except ImportError:
