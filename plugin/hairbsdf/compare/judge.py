@@ -140,12 +140,13 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                         "%d of %d pixels fail, max error %.4f (%s)" % (idf["nfail"], idf["npix"], idf["maxerror"],
                                                                       idf["via"]), passed=idf["passed"]))
     if flip:
-        fm, fmap, why = M.flip(ref, test)
-        mets["flip"] = dict(mean=fm, note=why)
+        ex = M.flip_exposures(ref)
+        fm, fmap, why = M.flip(ref, test, ex)
+        mets["flip"] = dict(mean=fm, note=why, start_exposure=ex[0], stop_exposure=ex[1])
         if fm is not None:
             maps["flip"] = fmap
             checks.append(check("flip", "FLIP mean (HDR)", fm, limits["flip_max"], "<=", limits["flip_gate"],
-                                "flip-evaluator"))
+                                "flip-evaluator; exposures %+.2f to %+.2f EV, from the reference" % ex))
         else:
             checks.append(check("flip", "FLIP mean (HDR)", None, limits["flip_max"], "<=", False, why, passed=False))
     if exact is not None and len(exact):
