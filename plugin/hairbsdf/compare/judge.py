@@ -44,6 +44,12 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                   "Cycles %s vs hairbsdf %s" % (ref.shape[:2], test.shape[:2]), passed=False)
         return [c], {}, {}
     checks, mets, maps = [], {}, dict(cycles=ref, ours=test, diff=M.luminance(test) - M.luminance(ref))
+    # per-pixel variances of one render (ddof=1) and seed counts, for the report's EXRs
+    for key, side in (("cycles", cycles), ("ours", ours)):
+        if stats:
+            maps[key + "_var"], maps[key + "_n"] = side.var, side.n
+        elif side.shape[0] >= 2:
+            maps[key + "_var"], maps[key + "_n"] = side.var(axis=0, ddof=1), side.shape[0]
 
     if kind == "deterministic":
         g = M.gonio_errors(ref, test, erode=int(limits.get("gonio_erode", 2)), roi=roi)

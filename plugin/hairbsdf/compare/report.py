@@ -66,7 +66,9 @@ def fmt(v):
 # --------------------------------------------------------------------------- case assets
 
 def write_case_assets(out_dir, result, maps):
-    """PNG previews and mean EXRs of one case; fills result['images'] and writes case.json."""
+    """PNG previews, and beside them EXRs of the means, variances and the Welch t map, of one
+    case; fills result['images'] and writes case.json.  The mean EXRs carry the header attributes
+    hairbsdf:seeds and hairbsdf:variance, so `hairbsdf judge` reads a case folder's means directly."""
     out_dir = Path(out_dir)
     cdir = out_dir / "cases" / result["dir"]
     cdir.mkdir(parents=True, exist_ok=True)
@@ -74,21 +76,31 @@ def write_case_assets(out_dir, result, maps):
     rel = lambda p: os.path.relpath(p, out_dir)  # noqa: E731
     ours_name = result.get("engine_label") or ("hairbsdf" if result.get("engine", "HAIRBSDF") == "HAIRBSDF"
                                                 else "Cycles (self-check)")
+    ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
+
+    def mean_exr(key, stem):
+        attrs, var = {}, None
+        if key + "_var" in maps:
+            var = cdir / (stem + "_var.exr")
+            I.write_exr(var, maps[key + "_var"])
+            attrs = {"hairbsdf:seeds": int(maps[key + "_n"]), "hairbsdf:variance": var.name}
+        I.write_exr(cdir / (stem + "_mean.exr"), maps[key], attrs)
+        return rel(cdir / (stem + "_mean.exr")), (rel(var) if var else None)
+
     if "cycles" in maps and "ours" in maps:
         ref, test = maps["cycles"], maps["ours"]
         ev = I.auto_exposure(ref)
         I.write_png(cdir / "cycles.png", I.display(ref, ev))
         I.write_png(cdir / "hairbsdf.png", I.display(test, ev))
-        I.write_exr(cdir / "cycles_mean.exr", ref)
-        I.write_exr(cdir / "hairbsdf_mean.exr", test)
+        c_exr, c_var = mean_exr("cycles", "cycles")
+        o_exr, o_var = mean_exr("ours", "hairbsdf")
         n_c = result["sizes"]["seeds"]
         n_o = result["sizes"].get("seeds_test", n_c)
-        ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
-        imgs["cycles"] = dict(path=rel(cdir / "cycles.png"), exr=rel(cdir / "cycles_mean.exr"),
+        imgs["cycles"] = dict(path=rel(cdir / "cycles.png"), exr=c_exr, var_exr=c_var, label=ref_name,
                               caption="%s (mean of %d render%s), display %+.1f EV" % (
                                   ref_name, n_c, "s" if n_c > 1 else "", ev),
-                              swap=rel(cdir / "hairbsdf.png"), swap_caption="%s (hover)" % ours_name)
-        imgs["ours"] = dict(path=rel(cdir / "hairbsdf.png"), exr=rel(cdir / "hairbsdf_mean.exr"),
+                              swap=rel(cdir / "hairbsdf.png"), swap_label=ours_name)
+        imgs["ours"] = dict(path=rel(cdir / "hairbsdf.png"), exr=o_exr, var_exr=o_var, label=ours_name,
                             caption="%s (mean of %d), display %+.1f EV" % (ours_name, n_o, ev))
         d = maps["diff"]
         scale = float(np.percentile(np.abs(d), 99.5)) if d.size else 0.0
@@ -108,7 +120,8 @@ def write_case_assets(out_dir, result, maps):
         if "zfail" in maps and np.any(maps["zfail"]):
             zimg[maps["zfail"]] = (0, 255, 0)
         I.write_png(cdir / "z.png", zimg)
-        imgs["z"] = dict(path=rel(cdir / "z.png"),
+        I.write_exr(cdir / "t.exr", z)
+        imgs["z"] = dict(path=rel(cdir / "z.png"), exr=rel(cdir / "t.exr"),
                          caption="Welch t per pixel (channel of largest |t|); green: fails after the Sidak "
                                  "correction (|t| > about %.1f at the median df)" % tc,
                          colorbar=dict(gradient=I.css_gradient(I.DIVERGING), labels=[-T, 0.0, T]))
@@ -120,11 +133,15 @@ def write_case_assets(out_dir, result, maps):
         imgs["rel"] = dict(path=rel(cdir / "rel.png"),
                            caption="per-pixel relative error (max over RGB), log scale; grey: not compared "
                                    "(silhouettes, background)",
-                           colorbar=dict(gradient=I.css_gradient(I.MAGMA), labels=["1e-7", "1e-4", "1e-1"]))
+                           colorbar=dict(gradient=I.css_gradient(I.SEQUENTIAL), labels=["1e-7", "1e-4", "1e-1"]))
     if "flip" in maps:
-        I.write_png(cdir / "flip.png", I.colormap(maps["flip"], I.MAGMA))
-        imgs["flip"] = dict(path=rel(cdir / "flip.png"), caption="FLIP error map (HDR)",
-                            colorbar=dict(gradient=I.css_gradient(I.MAGMA), labels=[0.0, 0.5, 1.0]))
+        I.write_png(cdir / "flip.png", I.colormap(maps["flip"], I.SEQUENTIAL))
+        fl = result.get("metrics", {}).get("flip", {})
+        ex = ""
+        if isinstance(fl.get("start_exposure"), (int, float)):
+            ex = ", exposures %+.1f to %+.1f EV from the reference" % (fl["start_exposure"], fl["stop_exposure"])
+        imgs["flip"] = dict(path=rel(cdir / "flip.png"), caption="FLIP error map (HDR%s)" % ex,
+                            colorbar=dict(gradient=I.css_gradient(I.SEQUENTIAL), labels=[0.0, 0.5, 1.0]))
     result["images"] = imgs
     with open(cdir / "case.json", "w") as f:
         json.dump(clean(result), f, indent=1)
