@@ -203,22 +203,43 @@ def _matrix(cases):
 
 
 def _figure(key, im, case):
-    cap_id = "cap-%s-%s" % (case["dir"], key)
+    """One image; a click opens it full size (the viewer in page.html).  The reference's figure is a
+    wipe: ours lies over it, and the slider below sets where ours begins."""
+    label = im.get("label") or key
     if key == "cycles" and im.get("swap"):
-        img = ('<img class="swap" src="%s" data-swap="%s" data-caption="%s" data-swap-label="%s" alt="%s">'
-               % (html.escape(im["path"]), html.escape(im["swap"]), cap_id, html.escape(im.get("swap_caption", "")),
-                  html.escape(key)))
+        img = ('<div class="wipe"><img class="view" src="%s" alt="%s" data-b="%s" data-title="%s | %s">'
+               '<img class="top" src="%s" alt="%s"></div>'
+               '<input class="wipe-range" type="range" min="0" max="100" value="50" aria-label="wipe position">'
+               % (html.escape(im["path"]), html.escape(label), html.escape(im["swap"]), html.escape(label),
+                  html.escape(im.get("swap_label", "")), html.escape(im["swap"]),
+                  html.escape(im.get("swap_label", ""))))
+        caption = "left: %s; right: %s (drag the slider). %s" % (label, im.get("swap_label", ""), im["caption"])
     else:
-        img = '<img src="%s" alt="%s">' % (html.escape(im["path"]), html.escape(key))
+        img = '<img class="view" src="%s" alt="%s" data-title="%s">' % (
+            html.escape(im["path"]), html.escape(key), html.escape(im["caption"]))
+        caption = im["caption"]
     cb = ""
     if im.get("colorbar"):
         labels = "".join("<span>%s</span>" % (fmt(l) if not isinstance(l, str) else html.escape(l))
                          for l in im["colorbar"]["labels"])
         cb = '<div class="cbar" style="background: %s"></div><div class="cbar-labels">%s</div>' % (
             im["colorbar"]["gradient"], labels)
-    link = ' <a href="%s">EXR</a>' % html.escape(im["exr"]) if im.get("exr") else ""
-    return '<figure>%s%s<figcaption id="%s">%s</figcaption>%s</figure>' % (
-        img, cb, cap_id, html.escape(im["caption"]), link)
+    links = [' <a href="%s">EXR</a>' % html.escape(im["exr"])] if im.get("exr") else []
+    if im.get("var_exr"):
+        links.append(' <a href="%s">variance EXR</a>' % html.escape(im["var_exr"]))
+    return '<figure class="%s">%s%s<figcaption>%s</figcaption>%s</figure>' % (
+        "pair" if key == "cycles" and im.get("swap") else key, img, cb, html.escape(caption), "".join(links))
+
+
+def _check_badge(ch):
+    """Gates: PASS or FAIL.  Informational rows never FAIL: a neutral 'within' or 'over' (their limit)."""
+    if ch["name"] == "exact_effect":
+        return "INFO"
+    if ch["gate"]:
+        return "PASS" if ch["passed"] else "FAIL"
+    if ch.get("value") is None:
+        return "n/a"
+    return "within" if ch["passed"] else "over"
 
 
 def _checks_table(case):
@@ -226,13 +247,10 @@ def _checks_table(case):
             '<th>detail</th></tr>']
     for ch in case.get("checks", []):
         limit = "" if ch.get("limit") is None else "%s %s" % (html.escape(ch["op"]), fmt(ch["limit"]))
-        res = "PASS" if ch["passed"] else "FAIL"
         cls = "failrow" if (ch["gate"] and not ch["passed"]) else ("inforow" if not ch["gate"] else "")
-        if ch["name"] == "exact_effect":
-            res = "INFO"
         rows.append('<tr class="%s"><td>%s</td><td class="num">%s</td><td class="num">%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td></tr>' % (
-                        cls, html.escape(ch["label"]), fmt(ch["value"]), limit, _badge(res),
+                        cls, html.escape(ch["label"]), fmt(ch["value"]), limit, _badge(_check_badge(ch)),
                         '<span class="badge gate">gate</span>' if ch["gate"] else
                         '<span class="badge infoonly">info</span>', html.escape(ch.get("detail", ""))))
     rows.append("</table>")
@@ -275,6 +293,9 @@ def _case_html(case):
             " (measured status: %s)" % case["pending_status"] if case.get("pending_status") else ""))
     if case.get("description"):
         parts.append('<p class="desc">%s</p>' % html.escape(case["description"]))
+    if case.get("reproduce"):
+        parts.append('<p class="repro">reproduce: <code>%s</code> <button type="button" class="copy">copy</button>'
+                     '</p>' % html.escape(case["reproduce"]))
     ims = case.get("images") or {}
     if ims:
         parts.append('<div class="figs">%s</div>' % "".join(
@@ -321,7 +342,10 @@ def summarize(cases):
     return dict(counts=counts, total=len(cases), bad=bad, ok=bad == 0 and len(cases) > 0)
 
 
-def render_index(cases, run):
+DEFAULT_TITLE = "hairbsdf vs Cycles"
+
+
+def render_index(cases, run, title=DEFAULT_TITLE, tool="hairbsdf compare"):
     summ = summarize(cases)
     cases = sorted(cases, key=lambda c: (ORDER.get(c["status"], 9), c["id"]))
     counts = ", ".join("%d %s" % (n, s) for s, n in sorted(summ["counts"].items(), key=lambda x: ORDER.get(x[0], 9)))
@@ -345,10 +369,10 @@ def render_index(cases, run):
               "Blender.")
     tpl = string.Template((TEMPLATES / "page.html").read_text())
     return tpl.substitute(
-        title="hairbsdf vs Cycles", verdict=html.escape(verdict), verdict_class=vcls,
+        title=html.escape(title), verdict=html.escape(verdict), verdict_class=vcls,
         summary=html.escape(counts), run=run_txt, matrix=_matrix(cases), legend=html.escape(legend),
         cases="\n".join(_case_html(c) for c in cases),
-        footer="Generated by hairbsdf compare. Metrics: docs/compare.md.",
+        footer="Generated by %s. Metrics: docs/compare.md." % html.escape(tool),
         css=(TEMPLATES / "report.css").read_text(), js=(TEMPLATES / "report.js").read_text())
 
 
@@ -367,8 +391,8 @@ def junit_xml(cases, seconds=0.0):
             tc = ET.SubElement(s, "testcase", classname="hairbsdf.compare.%s" % label.replace(".", "_"),
                                name=c["scene"] + ("-" + c["variant"] if c.get("variant") else ""), time="%.2f" % t)
             lines = ["%s: %s (limit %s %s) %s%s" % (ch["name"], ch["value"], ch["op"], ch["limit"],
-                                                     "PASS" if ch["passed"] else "FAIL",
-                                                     "" if ch["gate"] else " [info]") for ch in c.get("checks", [])]
+                                                     _check_badge(ch), "" if ch["gate"] else " [info]")
+                     for ch in c.get("checks", [])]
             st = c["status"]
             if st == "FAIL":
                 nf += 1
@@ -394,16 +418,17 @@ def junit_xml(cases, seconds=0.0):
 
 # --------------------------------------------------------------------------- write / merge
 
-def write_report(out_dir, cases, run):
+def write_report(out_dir, cases, run, title=DEFAULT_TITLE, tool="hairbsdf compare"):
+    """index.html (titled `title`), report.json and junit.xml in out_dir."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = [clean(c) for c in cases]
-    data = dict(format=FORMAT, format_version=FORMAT_VERSION, runs=run if isinstance(run, list) else [run],
-                summary=summarize(cases), cases=cases)
+    data = dict(format=FORMAT, format_version=FORMAT_VERSION, title=title, tool=tool,
+                runs=run if isinstance(run, list) else [run], summary=summarize(cases), cases=cases)
     _atomic(out_dir / "report.json", json.dumps(data, indent=1))
     secs = sum(float(r.get("seconds", 0) or 0) for r in data["runs"])
     _atomic(out_dir / "junit.xml", '<?xml version="1.0" encoding="UTF-8"?>\n' + junit_xml(cases, secs))
-    _atomic(out_dir / "index.html", render_index(cases, data["runs"]))
+    _atomic(out_dir / "index.html", render_index(cases, data["runs"], title, tool))
     return out_dir / "index.html"
 
 
@@ -428,10 +453,11 @@ def merge(dirs, out):
     junit.xml.  A case present in several inputs is taken from the last one."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    cases, runs, notes = {}, [], []
+    cases, runs, notes, titles = {}, [], [], []
     for d in dirs:
         d = Path(d)
         data = load_report(d)
+        titles.append(data.get("title", DEFAULT_TITLE))
         runs.extend(data.get("runs", []))
         for c in data["cases"]:
             if c["id"] in cases:
@@ -446,7 +472,8 @@ def merge(dirs, out):
     merged_run = dict(created=_now(), command="hairbsdf report merge " + " ".join(str(d) for d in dirs),
                       hairbsdf=runs[0].get("hairbsdf", "") if runs else "", merged_from=[str(d) for d in dirs],
                       seconds=sum(float(r.get("seconds", 0) or 0) for r in runs), notes=notes)
-    path = write_report(out, list(cases.values()), [merged_run] + runs)
+    path = write_report(out, list(cases.values()), [merged_run] + runs,
+                        title=titles[0] if titles else DEFAULT_TITLE, tool="hairbsdf report merge")
     return path, notes
 
 
