@@ -241,6 +241,40 @@ def test_flip():
     assert m1 > 0.01 and emap.shape == (H, W)
 
 
+def test_flip_exposures_compare_across_frames():
+    """The same 2 % error on dark hair scores alike in front of a lit background and a black one.
+    FLIP's automatic range (maximum to median of the frame) collapses to one exposure when the lit
+    background fills the frame's median, so the hair shows nearly black and scores ~6x lower
+    (0.0026 against 0.016); the fixed range from the reference's highlight scores 0.018 and 0.019."""
+    rng = np.random.default_rng(1)
+    hair = np.zeros((64, 96), bool)
+    hair[16:48, 8:88] = True
+    tex = (0.002 * 8 ** rng.uniform(0, 1, (64, 96, 1))) * np.array([0.9, 0.6, 0.4])
+    scores = {}
+    for name, background in (("lit", 1.0), ("dark", 0.0)):
+        ref = np.full((64, 96, 3), background)
+        ref[hair] = tex[hair]
+        test = ref.copy()
+        test[hair] *= 1.02
+        start, stop = M.flip_exposures(ref)
+        assert stop - start == M.FLIP_SPAN
+        scores[name], _, why = M.flip(ref.astype(np.float32), test.astype(np.float32))
+        if scores[name] is None:
+            skip_or_fail(why)
+    assert scores["lit"] > 0.005 and scores["dark"] > 0.005, scores
+    assert max(scores.values()) / min(scores.values()) < 1.5, scores
+
+
+def test_flip_exposures_recorded():
+    t = truth().astype(np.float32)
+    lim = Thresholds().for_case("swatch")
+    _, mets, _ = judge.evaluate("noisy", np.stack([t, t * 1.001]), np.stack([t * 1.01, t * 1.011]), lim, flip=True)
+    start, stop = M.flip_exposures(t * 1.0005)  # the reference: the mean of its stack
+    assert mets["flip"]["start_exposure"] == pytest.approx(start) and mets["flip"]["stop_exposure"] == stop
+    lum = M.luminance(t * 1.0005)
+    assert 0.85 / 2 ** start == pytest.approx(np.percentile(lum, 99.9))
+
+
 # --------------------------------------------------------------------------- goniometer metric
 
 def gonio_pair(rel_error):

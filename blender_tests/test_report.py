@@ -1,10 +1,13 @@
 """The comparison report without Blender: synthetic cases through the real judge and report
-writer (index.html, report.json, junit.xml, case folders), `report merge`, and a screenshot of
-the page in headless Chromium (Debian's chromium + chromium-driver through selenium): the page
-loads, every image is there, no console errors, hovering swaps the renders."""
+writer (index.html, report.json, junit.xml, case folders with PNGs and EXRs), `report merge`,
+and the page in headless Chromium (Debian's chromium + chromium-driver through selenium): it
+loads, every image is there, informational rows carry a neutral badge, the wipe slider moves,
+a click opens the full-size viewer whose zoom is linked between the two layers, and nothing
+is logged to the console.  Screenshots of the page and the viewer are saved."""
 
 import json
 import os
+import shlex
 import shutil
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -14,6 +17,7 @@ import pytest
 from ci import require_module, skip_or_fail as _skip_or_fail
 
 from hairbsdf.compare import judge, report
+from hairbsdf.compare.cli import build_parser, reproduce_command
 from hairbsdf.compare.images import write_png
 from hairbsdf.compare.thresholds import Thresholds
 
@@ -47,6 +51,7 @@ def synthetic_case(scene, label, status_kind, variant=None, seed=0):
     lim = Thresholds().for_case(scene)
     checks, mets, maps = judge.evaluate("noisy", a, b, lim, flip=True)
     res.update(checks=checks, metrics=mets, limits=lim, status=judge.status_of(checks))
+    res["reproduce"] = reproduce_command(res, build_parser().parse_args(["--ci"]))
     return res, maps
 
 
@@ -80,7 +85,21 @@ def test_report_files(tmp_path):
     case = next(c for c in data["cases"] if c["id"] == "swatch@bpy-4.5.15")
     for key in ("cycles", "ours", "diff", "z"):
         assert (tmp_path / case["images"][key]["path"]).is_file(), key
-    assert (tmp_path / case["images"]["cycles"]["exr"]).is_file()
+    cdir = tmp_path / "cases" / case["dir"]
+    for name in ("cycles_mean.exr", "cycles_var.exr", "hairbsdf_mean.exr", "hairbsdf_var.exr", "t.exr"):
+        assert (cdir / name).is_file(), name
+    assert case["images"]["cycles"]["exr"] == "cases/%s/cycles_mean.exr" % case["dir"]
+    assert case["images"]["z"]["exr"] == "cases/%s/t.exr" % case["dir"]
+    assert case["reproduce"] == ("hairbsdf compare --scene swatch --blender bpy --ci --res 32x24 --spp 4 --seeds 4 "
+                                 "--exact-seeds 0 --out out/reproduce/swatch__bpy-4.5.15")
+    args = build_parser().parse_args(shlex.split(case["reproduce"])[2:])  # a valid command line
+    assert args.scene == ["swatch"] and args.ci and args.seeds == 4
+    assert data["title"] == "hairbsdf vs Cycles"
+    # informational checks: never FAIL in the page or JUnit, a neutral "over" where over their limit
+    idiff = next(c for c in case["checks"] if c["name"] == "idiff")
+    assert not idiff["gate"] and not idiff["passed"] and case["status"] == "PASS"
+    assert report._check_badge(idiff) == "over"
+    assert "idiff: %s" % idiff["value"] in (tmp_path / "junit.xml").read_text()
     assert {c["name"] for c in case["checks"]} >= {"welch", "mean_bias_sigma", "mean_bias_rel", "psnr", "idiff",
                                                   "flip"} - ({"flip"} if "flip" not in case["metrics"] else set())
     root = ET.parse(tmp_path / "junit.xml").getroot()
@@ -115,6 +134,23 @@ def test_png_writer_roundtrip(tmp_path):
     assert np.array_equal(back, img)
 
 
+def test_case_means_are_judge_inputs(tmp_path):
+    """A case's mean EXRs name their variance and seed count in the header: `hairbsdf judge`
+    reads them as they are, and finds the same image-mean bias."""
+    from hairbsdf.compare import judge_cli
+    make_report(tmp_path / "rep", SPECS[:2])
+    case = tmp_path / "rep" / "cases" / "furnace__bpy-4.5.15"
+    rc = judge_cli.main([str(case / "cycles_mean.exr"), str(case / "hairbsdf_mean.exr"), "--out",
+                         str(tmp_path / "j"), "--exit-zero"])
+    data = report.load_report(tmp_path / "j")
+    orig = report.load_report(tmp_path / "rep")
+    furnace = next(c for c in orig["cases"] if c["scene"] == "furnace")
+    assert rc == 0 and data["title"] == "hairbsdf_mean vs cycles_mean"
+    rel = furnace["metrics"]["mean_bias"]["rel"]
+    assert data["cases"][0]["metrics"]["mean_bias"]["rel"] == pytest.approx(rel, rel=1e-4) and rel > 0.02
+    assert data["cases"][0]["status"] == furnace["status"] == "FAIL"
+
+
 def _chrome():
     try:
         from selenium import webdriver
@@ -135,28 +171,70 @@ def _chrome():
 
 
 def test_report_in_headless_chromium(tmp_path):
-    """The page loads, every image decodes, nothing is logged to the console, hovering over the
-    Cycles image shows hairbsdf's, and the filter hides passing cases.  Screenshot saved."""
+    """The page in headless Chromium: every image decodes; informational rows show a neutral
+    badge, never FAIL; the wipe slider moves ours over the reference; a click opens the viewer at
+    full size (at least 1 screen pixel per image pixel), zoom scales both layers alike, the
+    viewer's wipe works, Esc closes it; the filter hides passing cases; no console messages.
+    Screenshots of the page and of the open viewer are saved."""
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
 
     index, results = make_report(tmp_path, SPECS)
     d = _chrome()
+    rect = "var r = arguments[0].getBoundingClientRect(); return [r.width, r.height];"
     try:
         d.get(index.resolve().as_uri())
         assert d.title == "hairbsdf vs Cycles"
-        imgs = d.find_elements(By.TAG_NAME, "img")
         n_expected = sum(len(r.get("images", {})) for r in results)
-        assert len(imgs) == n_expected and n_expected >= 12
-        broken = [i.get_attribute("src") for i in imgs
-                  if not d.execute_script("return arguments[0].complete && arguments[0].naturalWidth > 0", i)]
+        views = d.find_elements(By.CSS_SELECTOR, "img.view")
+        assert len(views) == n_expected and n_expected >= 12
+        broken = [i.get_attribute("src") for i in d.find_elements(By.TAG_NAME, "img")
+                  if i.is_displayed() and not d.execute_script(
+                      "return arguments[0].complete && arguments[0].naturalWidth > 0", i)]
         assert not broken, broken
-        swap = d.find_element(By.CSS_SELECTOR, "img.swap")
-        src0 = swap.get_attribute("src")
-        d.execute_script("arguments[0].scrollIntoView()", swap)
-        ActionChains(d).move_to_element(swap).perform()
-        assert swap.get_attribute("src").endswith("hairbsdf.png") and src0.endswith("cycles.png")
-        ActionChains(d).move_by_offset(400, 400).perform()
+        # informational rows: "over" (neutral), never FAIL; the passing case has one
+        info_badges = [b.text for b in d.find_elements(By.CSS_SELECTOR, "tr.inforow .badge:not(.infoonly)")]
+        assert info_badges and "FAIL" not in info_badges and "PASS" not in info_badges, info_badges
+        swatch = d.find_element(By.ID, "case-swatch__bpy-4.5.15")
+        assert "over" in [b.text for b in swatch.find_elements(By.CSS_SELECTOR, "tr.inforow .badge")]
+        repro = swatch.find_element(By.CSS_SELECTOR, ".repro code").text
+        assert repro.startswith("hairbsdf compare --scene swatch --blender bpy")
+        # the wipe in the page
+        pair = swatch.find_element(By.CSS_SELECTOR, "figure.pair")
+        d.execute_script("arguments[0].scrollIntoView()", pair)
+        d.execute_script("var r = arguments[0]; r.value = 20; r.dispatchEvent(new Event('input'));",
+                         pair.find_element(By.CSS_SELECTOR, "input.wipe-range"))
+        top = pair.find_element(By.CSS_SELECTOR, "img.top")
+        assert "20%" in top.value_of_css_property("clip-path")
+        # the viewer: a click opens it full size, zoom is linked, its wipe moves ours
+        viewer = d.find_element(By.ID, "viewer")
+        assert not viewer.is_displayed()
+        ActionChains(d).move_to_element(pair.find_element(By.CSS_SELECTOR, "img.view")).click().perform()
+        assert viewer.is_displayed()
+        va, vb = d.find_element(By.ID, "v-a"), d.find_element(By.ID, "v-b")
+        assert va.get_attribute("src").endswith("cycles.png") and vb.get_attribute("src").endswith("hairbsdf.png")
+        natural = d.execute_script("return arguments[0].naturalWidth", va)
+        wa, _ = d.execute_script(rect, va)
+        wb, _ = d.execute_script(rect, vb)
+        assert natural == 32 and wa >= 4 * 240 and wa == pytest.approx(wb), (natural, wa, wb)
+        d.find_element(By.ID, "v-out").click()
+        wa2, _ = d.execute_script(rect, va)
+        wb2, _ = d.execute_script(rect, vb)
+        assert wa2 == pytest.approx(wa / 2) and wb2 == pytest.approx(wb / 2)
+        d.find_element(By.ID, "v-in").click()
+        d.execute_script("var r = document.getElementById('v-wipe'); r.value = 70;"
+                         "r.dispatchEvent(new Event('input'));")
+        assert "70%" in vb.value_of_css_property("clip-path")
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        assert d.save_screenshot(str(SHOTS / "report_viewer.png"))
+        ActionChains(d).send_keys(Keys.ESCAPE).perform()
+        assert not viewer.is_displayed()
+        # a single image opens without the wipe layer
+        ActionChains(d).move_to_element(swatch.find_element(By.CSS_SELECTOR, "figure.z img.view")).click().perform()
+        assert viewer.is_displayed() and not vb.is_displayed()
+        d.find_element(By.ID, "v-close").click()
+        assert not viewer.is_displayed()
         d.execute_script("var f = document.getElementById('filter'); f.value = 'bad';"
                          "f.dispatchEvent(new Event('change'));")
         visible = [s.get_attribute("data-status") for s in d.find_elements(By.CSS_SELECTOR, "section.case")
@@ -164,11 +242,11 @@ def test_report_in_headless_chromium(tmp_path):
         assert sorted(visible) == ["CRASH", "FAIL"]
         logs = [l for l in d.get_log("browser") if l.get("level") in ("SEVERE", "WARNING")]
         assert not logs, logs
-        SHOTS.mkdir(parents=True, exist_ok=True)
         shot = SHOTS / "report_screenshot.png"
-        d.execute_script("window.scrollTo(0, 0)")
+        d.execute_script("var f = document.getElementById('filter'); f.value = 'all';"
+                         "f.dispatchEvent(new Event('change')); window.scrollTo(0, 0)")
         assert d.save_screenshot(str(shot))
         assert shot.stat().st_size > 20000
-        print("\n[report] screenshot: %s" % shot)
+        print("\n[report] screenshots: %s, %s" % (shot, SHOTS / "report_viewer.png"))
     finally:
         d.quit()

@@ -6,7 +6,8 @@ import sys
 
 # extra -> (import name, pip name)
 EXTRAS = {
-    "compare": (("OpenImageIO", "OpenImageIO"), ("scipy", "scipy"), ("flip_evaluator", "flip-evaluator")),
+    "compare": (("OpenImageIO", "OpenImageIO"), ("scipy", "scipy"), ("flip_evaluator", "flip-evaluator"),
+                ("matplotlib", "matplotlib>=3.10")),
     "tools": (("scipy", "scipy"), ("matplotlib", "matplotlib")),
 }
 

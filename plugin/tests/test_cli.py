@@ -165,3 +165,17 @@ def test_subcommands():
     assert rc == 2 and "usage: hairbsdf report merge" in err, err
     from hairbsdf import cli as module
     assert module.main(["--help"]) == 0 and module.main(["nonsense"]) == 2
+
+
+def test_judge_title_and_reproduce(tmp_path):
+    """judge's report is titled "TEST vs REF" from the folder names (or --title), not "hairbsdf vs
+    Cycles", and its reproduce line is the judge command."""
+    a, b = _seeds(tmp_path / "cycles_seeds", 3), _seeds(tmp_path / "my_seeds", 3, seed=1)
+    rc, o, err = cli("judge", a, b, "--out", tmp_path / "rep", "--no-flip", "--exit-zero")
+    data = json.loads((tmp_path / "rep" / "report.json").read_text())
+    html = (tmp_path / "rep" / "index.html").read_text()
+    assert rc == 0 and data["title"] == "my_seeds vs cycles_seeds", o + err
+    assert "<title>my_seeds vs cycles_seeds</title>" in html and "hairbsdf vs Cycles" not in html
+    assert data["cases"][0]["reproduce"].startswith("hairbsdf judge %s %s" % (a, b))
+    rc, o, err = cli("judge", a, b, "--out", tmp_path / "rep2", "--no-flip", "--exit-zero", "--title", "mine <3")
+    assert rc == 0 and "<title>mine &lt;3</title>" in (tmp_path / "rep2" / "index.html").read_text(), o + err

@@ -69,7 +69,7 @@ def test_extras_match_pyproject():
 BLOCK = "import sys; sys.modules[%r] = None; "
 
 
-@pytest.mark.parametrize("module", ["scipy", "OpenImageIO", "flip_evaluator"])
+@pytest.mark.parametrize("module", ["scipy", "OpenImageIO", "flip_evaluator", "matplotlib"])
 def test_compare_without_a_dependency_names_the_extra(module, tmp_path):
     r = run_py(BLOCK % module + "from hairbsdf.cli import main; sys.exit(main(sys.argv[1:]))",
                "compare", "--scene", "swatch", "--ci", "--out", str(tmp_path))

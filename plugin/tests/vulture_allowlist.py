@@ -89,3 +89,6 @@ _.volume_bounces
 
 # Read by name: runner.load_catalog takes the catalog's DEFAULT_SCENE from its namespace.
 _.DEFAULT_SCENE
+
+# Read by libraries outside the repository.
+_.binary_location  # selenium's ChromeOptions: ChromeDriver starts this browser (lab/report_picture.py)

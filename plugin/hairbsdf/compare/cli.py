@@ -203,12 +203,15 @@ def run_compare(args, argv_text=""):
                                                           ", ".join(t.label for t in targets), out), file=sys.stderr)
 
     def on_case(res, maps):
+        res["reproduce"] = reproduce_command(res, args)
         if res["status"] not in ("SKIPPED",) and maps:
             report.write_case_assets(out, res, maps)
         elif res["status"] not in ("SKIPPED",):
             (out / "cases" / res["dir"]).mkdir(parents=True, exist_ok=True)
 
     results = runner.run(on_case=on_case)
+    for res in results:
+        res.setdefault("reproduce", reproduce_command(res, args))
     import hairbsdf
     ver = "hairbsdf %s" % hairbsdf.__version__
     run = dict(hairbsdf_file=hairbsdf.__file__, created=datetime.datetime.now().astimezone().isoformat(timespec="seconds"), git=_git_describe(),
@@ -225,6 +228,36 @@ def run_compare(args, argv_text=""):
         print(line)
     print("report: %s" % index.resolve())
     return 0 if (summ["bad"] == 0 or args.exit_zero) else 1
+
+
+def reproduce_command(res, args):
+    """The command line that renders and judges this case alone with the run's settings (the seeds
+    follow from the Blender version and the seed count, so the renders repeat)."""
+    scene = res.get("file") or (res["scene"] + (":" + res["variant"] if res.get("variant") else ""))
+    sz = res.get("sizes") or {}
+    cmd = ["hairbsdf", "compare", "--scene", scene, "--blender", res["blender"].get("spec") or res["blender"]["path"]]
+    if args.ci:
+        cmd.append("--ci")
+    if sz.get("res"):
+        cmd += ["--res", "%dx%d" % tuple(sz["res"])]
+    if sz.get("spp"):
+        cmd += ["--spp", str(sz["spp"])]
+    if sz.get("seeds") and res.get("kind") != "deterministic":
+        cmd += ["--seeds", str(sz["seeds"])]
+    cmd += ["--exact-seeds", str(sz.get("exact_seeds") or 0)]
+    for flag, on in (("--cycles-osl", args.cycles_osl), ("--no-flip", args.no_flip),
+                     ("--force-parity", args.force_parity)):
+        if on:
+            cmd.append(flag)
+    if args.engine.upper() != "HAIRBSDF":
+        cmd += ["--engine", args.engine.upper()]
+    for opt, val in (("--model", args.model), ("--thresholds", args.thresholds)):
+        if val:
+            cmd += [opt, val]
+    if args.threads:
+        cmd += ["--threads", str(args.threads)]
+    cmd += ["--out", "out/reproduce/" + res["dir"]]
+    return shlex.join(cmd)
 
 
 def _git_describe():

@@ -1,38 +1,37 @@
-"""Report images: display transforms, colour maps and a dependency-free PNG writer."""
+"""Report images: the display transform, colour maps (matplotlib's) and image files (OpenImageIO)."""
 
 from __future__ import annotations
 
 import math
-import struct
-import zlib
 
 import numpy as np
 
 from .._deps import require
 from .metrics import luminance, rgb, srgb_oetf
 
-# Anchors (0..255) of the colour maps; interpolated linearly.
-MAGMA = [(0, 0, 4), (28, 16, 68), (79, 18, 123), (129, 37, 129), (181, 54, 122), (229, 80, 100), (251, 135, 97),
-         (254, 194, 135), (252, 253, 191)]
-# Diverging on black, so that "no difference" is dark like an empty render: negative (hairbsdf
-# darker than Cycles) blue, positive (brighter) orange.
-DIVERGING = [(120, 200, 255), (40, 110, 230), (20, 30, 90), (0, 0, 0), (90, 30, 10), (230, 110, 30),
-             (255, 215, 120)]
+WHAT = "the hairbsdf compare report"
+# matplotlib colour maps. SEQUENTIAL for errors >= 0; DIVERGING ("berlin", matplotlib >= 3.10) is
+# black in the middle, so "no difference" is dark like an empty render: negative (ours darker than
+# the reference) blue, positive (brighter) orange.
+SEQUENTIAL = "magma"
+DIVERGING = "berlin"
 
 
-def colormap(x, anchors):
-    """x in [0, 1] (any shape) -> (..., 3) uint8."""
-    a = np.asarray(anchors, dtype=np.float64)
+def _cmap(name):
+    mpl = require("matplotlib", "compare", WHAT)
+    return mpl.colormaps[name]
+
+
+def colormap(x, name):
+    """x in [0, 1] (any shape; NaN as 0) -> (..., 3) uint8 through matplotlib's map `name`."""
     x = np.clip(np.nan_to_num(np.asarray(x, np.float64), nan=0.0), 0.0, 1.0)
-    pos = x * (len(a) - 1)
-    i = np.minimum(pos.astype(int), len(a) - 2)
-    f = (pos - i)[..., None]
-    return np.round(a[i] * (1 - f) + a[i + 1] * f).astype(np.uint8)
+    return np.round(_cmap(name)(x)[..., :3] * 255).astype(np.uint8)
 
 
-def css_gradient(anchors, steps=None):
-    a = anchors
-    stops = ["rgb(%d,%d,%d) %.1f%%" % (c[0], c[1], c[2], 100.0 * k / (len(a) - 1)) for k, c in enumerate(a)]
+def css_gradient(name, steps=9):
+    """CSS linear-gradient of matplotlib's map `name`, sampled at `steps` stops."""
+    c = colormap(np.linspace(0.0, 1.0, steps), name)
+    stops = ["rgb(%d,%d,%d) %.1f%%" % (r, g, b, 100.0 * k / (steps - 1)) for k, (r, g, b) in enumerate(c)]
     return "linear-gradient(to right, %s)" % ", ".join(stops)
 
 
@@ -47,7 +46,7 @@ def auto_exposure(ref):
 
 
 def display(img, ev=0.0):
-    """Blender's Standard view with an exposure of ev stops, as 8-bit RGB."""
+    """Blender's Standard view (the sRGB transfer function) with an exposure of ev stops, as 8-bit RGB."""
     return np.round(srgb_oetf(rgb(img) * (2.0 ** ev)) * 255).astype(np.uint8)
 
 
@@ -57,40 +56,41 @@ def signed_map(values, scale):
 
 def log_map(values, lo, hi):
     v = np.log10(np.maximum(np.asarray(values, np.float64), 10.0 ** lo))
-    return colormap((v - lo) / (hi - lo), MAGMA)
+    return colormap((v - lo) / (hi - lo), SEQUENTIAL)
 
 
-def write_png(path, img):
-    """8-bit RGB(A) or grey PNG, row 0 at the top (zlib only)."""
-    a = np.asarray(img)
-    if a.dtype != np.uint8:
-        a = np.clip(np.round(a), 0, 255).astype(np.uint8)
+def _write(path, a, fmt, attrs=None):
+    oiio = require("OpenImageIO", "compare", WHAT)
     if a.ndim == 2:
         a = a[..., None]
-    h, w, c = a.shape
-    ctype = {1: 0, 3: 2, 4: 6}[c]
-    raw = b"".join(b"\x00" + a[y].tobytes() for y in range(h))
-
-    def chunk(tag, data):
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, ctype, 0, 0, 0))
-    png += chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
-    with open(path, "wb") as f:
-        f.write(png)
+    spec = oiio.ImageSpec(a.shape[1], a.shape[0], a.shape[2], fmt)
+    for k, v in (attrs or {}).items():
+        spec.attribute(k, v)
+    out = oiio.ImageOutput.create(str(path))
+    if out is None:
+        raise OSError("OpenImageIO cannot write %s: %s" % (path, oiio.geterror()))
+    ok = out.open(str(path), spec) and out.write_image(a)
+    err = out.geterror()
+    out.close()
+    if not ok:
+        raise OSError("OpenImageIO could not write %s: %s" % (path, err))
     return path
 
 
-def write_exr(path, img):
-    """Linear float EXR through OpenImageIO."""
-    oiio = require("OpenImageIO", "compare", "hairbsdf compare")
+def write_png(path, img):
+    """8-bit RGB(A) or grey PNG (row 0 at the top) through OpenImageIO; img is display-referred
+    (uint8, or floats 0..255 rounded)."""
+    a = np.asarray(img)
+    if a.dtype != np.uint8:
+        a = np.clip(np.round(a), 0, 255).astype(np.uint8)
+    oiio = require("OpenImageIO", "compare", WHAT)
+    return _write(path, np.ascontiguousarray(a), oiio.UINT8, {"oiio:ColorSpace": "sRGB"})
+
+
+def write_exr(path, img, attrs=None):
+    """Linear float EXR (zip) through OpenImageIO; attrs: extra header attributes (str/int/float).
+    Returns True (an OSError says why a write failed)."""
+    oiio = require("OpenImageIO", "compare", WHAT)
     a = np.ascontiguousarray(img, dtype=np.float32)
-    spec = oiio.ImageSpec(a.shape[1], a.shape[0], a.shape[2], oiio.FLOAT)
-    spec.attribute("compression", "zip")
-    out = oiio.ImageOutput.create(str(path))
-    if out is None:  # pragma: no cover
-        return False
-    ok = out.open(str(path), spec)
-    ok = ok and out.write_image(a)
-    out.close()
-    return bool(ok)
+    _write(path, a, oiio.FLOAT, dict({"compression": "zip"}, **(attrs or {})))
+    return True

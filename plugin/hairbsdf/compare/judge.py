@@ -44,6 +44,12 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                   "Cycles %s vs hairbsdf %s" % (ref.shape[:2], test.shape[:2]), passed=False)
         return [c], {}, {}
     checks, mets, maps = [], {}, dict(cycles=ref, ours=test, diff=M.luminance(test) - M.luminance(ref))
+    # per-pixel variances of one render (ddof=1) and seed counts, for the report's EXRs
+    for key, side in (("cycles", cycles), ("ours", ours)):
+        if stats:
+            maps[key + "_var"], maps[key + "_n"] = side.var, side.n
+        elif side.shape[0] >= 2:
+            maps[key + "_var"], maps[key + "_n"] = side.var(axis=0, ddof=1), side.shape[0]
 
     if kind == "deterministic":
         g = M.gonio_errors(ref, test, erode=int(limits.get("gonio_erode", 2)), roi=roi)
@@ -140,12 +146,13 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
                         "%d of %d pixels fail, max error %.4f (%s)" % (idf["nfail"], idf["npix"], idf["maxerror"],
                                                                       idf["via"]), passed=idf["passed"]))
     if flip:
-        fm, fmap, why = M.flip(ref, test)
-        mets["flip"] = dict(mean=fm, note=why)
+        ex = M.flip_exposures(ref)
+        fm, fmap, why = M.flip(ref, test, ex)
+        mets["flip"] = dict(mean=fm, note=why, start_exposure=ex[0], stop_exposure=ex[1])
         if fm is not None:
             maps["flip"] = fmap
             checks.append(check("flip", "FLIP mean (HDR)", fm, limits["flip_max"], "<=", limits["flip_gate"],
-                                "flip-evaluator"))
+                                "flip-evaluator; exposures %+.2f to %+.2f EV, from the reference" % ex))
         else:
             checks.append(check("flip", "FLIP mean (HDR)", None, limits["flip_max"], "<=", False, why, passed=False))
     if exact is not None and len(exact):

@@ -58,6 +58,8 @@ def build_parser(prog="hairbsdf judge"):
                    help="fail the relative image-mean bound when the noise is too large to verify it "
                         "(default: informational then, and |z| <= 2 gates)")
     p.add_argument("--no-flip", action="store_true", help="skip FLIP (informational)")
+    p.add_argument("--title", default=None,
+                   help="the report's title (default: 'TEST vs REF' from the two folder or file names)")
     p.add_argument("--exit-zero", action="store_true", help="exit 0 even when the case fails")
     p.add_argument("--version", action="version", version="hairbsdf %s" % __version__)
     return p
@@ -212,18 +214,28 @@ def run(args, argv_text=""):
                metrics=report.clean(mets), renders=[], status=status,
                reason=("failed: " + "; ".join(failed)) if failed else "",
                inputs=dict(ref=ref_files, test=test_files))
+    res["reproduce"] = argv_text
     out = Path(args.out)
     report.write_case_assets(out, res, maps)
     run_info = dict(created=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
                     command=argv_text, hairbsdf="hairbsdf %s" % hairbsdf.__version__, host=platform.node(),
                     python=sys.version.split()[0], thresholds=thr.source)
-    index = report.write_report(out, [res], run_info)
+    index = report.write_report(out, [res], run_info, title=args.title or default_title(args.ref, args.test),
+                                tool="hairbsdf judge")
     for line in report.summary_lines([res]):
         print(line)
     if nf["value"]:
         print("  " + nf["detail"])
     print("report: %s" % index.resolve())
     return 0 if (status != "FAIL" or args.exit_zero) else 1
+
+
+def default_title(ref, test):
+    """'TEST vs REF' from the names of the two folders (or mean EXRs, without .exr)."""
+    def name(p):
+        p = Path(p).resolve()
+        return p.stem if p.suffix.lower() == ".exr" else p.name
+    return "%s vs %s" % (name(test), name(ref))
 
 
 def main(argv=None, prog="hairbsdf judge"):

@@ -6,7 +6,8 @@ independent renders (seeds) of one engine.
 
 * ``error_stats``    mean / RMS / max of the absolute and relative error, PSNR
 * ``idiff_rule``     OpenImageIO's idiff / ``oiiotool --fail --failpercent`` verdict
-* ``flip``           NVIDIA FLIP (flip-evaluator), HDR mode on linear images
+* ``flip``           NVIDIA FLIP (flip-evaluator), HDR mode on linear images, over a fixed
+                     exposure range taken from the reference (``flip_exposures``)
 * ``welch``          per-pixel Welch t-test between two stacks (or summary statistics, e.g.
                      variance passes) with a Sidak correction over all tested pixel-channels:
                      tells bias from Monte Carlo noise
@@ -128,15 +129,34 @@ def idiff_rule(ref, test, failthresh=0.016, failpercent=1.0, hardfail=float("inf
                 failpercent=failpercent, hardfail=hardfail, passed=ok, via=via, display=display)
 
 
-def flip(ref, test):
+FLIP_SPAN = 8  # stops below the reference's highlight that HDR-FLIP evaluates, one exposure per stop
+
+
+def flip_exposures(ref, span=FLIP_SPAN):
+    """(start, stop) exposures for HDR-FLIP, from the reference alone: start maps the reference's
+    highlight (99.9th percentile of its luminance) to 0.85, stop is `span` stops brighter.  The same
+    range serves the test image, and a fixed span makes scores compare across scenes: FLIP's own
+    choice (start from the maximum, stop from the median of the frame) collapses to one exposure
+    when a bright background fills half the frame, and then dark hair in front of it scores near 0."""
+    lum = luminance(np.maximum(rgb(ref), 0.0))
+    hi = float(np.percentile(lum, 99.9)) if lum.size else 0.0
+    start = math.log2(0.85 / hi) if (math.isfinite(hi) and hi > 0) else 0.0
+    return start, start + span
+
+
+def flip(ref, test, exposures=None):
     """Mean HDR-FLIP of test against ref (linear images) and the error map; (None, None, reason)
-    when flip-evaluator fails (MissingDependency when it is not installed)."""
+    when flip-evaluator fails (MissingDependency when it is not installed).  exposures: (start,
+    stop) in stops, default flip_exposures(ref); one exposure per stop between them."""
     flip_evaluator = require("flip_evaluator", "compare", WHAT)
     a = np.ascontiguousarray(np.maximum(rgb(ref), 0.0), dtype=np.float32)
     b = np.ascontiguousarray(np.maximum(rgb(test), 0.0), dtype=np.float32)
+    start, stop = flip_exposures(ref) if exposures is None else exposures
+    params = dict(startExposure=float(start), stopExposure=float(stop),
+                  numExposures=max(2, int(round(stop - start)) + 1))
     try:
         err, mean, _params = flip_evaluator.evaluate(a, b, "HDR", inputsRGB=False, applyMagma=False,
-                                                     computeMeanError=True)
+                                                     computeMeanError=True, parameters=params)
     except SystemExit as exc:  # it calls sys.exit on bad arguments
         return None, None, "flip-evaluator exited (%s)" % exc
     except Exception as exc:  # pragma: no cover

@@ -66,7 +66,9 @@ def fmt(v):
 # --------------------------------------------------------------------------- case assets
 
 def write_case_assets(out_dir, result, maps):
-    """PNG previews and mean EXRs of one case; fills result['images'] and writes case.json."""
+    """PNG previews, and beside them EXRs of the means, variances and the Welch t map, of one
+    case; fills result['images'] and writes case.json.  The mean EXRs carry the header attributes
+    hairbsdf:seeds and hairbsdf:variance, so `hairbsdf judge` reads a case folder's means directly."""
     out_dir = Path(out_dir)
     cdir = out_dir / "cases" / result["dir"]
     cdir.mkdir(parents=True, exist_ok=True)
@@ -74,21 +76,31 @@ def write_case_assets(out_dir, result, maps):
     rel = lambda p: os.path.relpath(p, out_dir)  # noqa: E731
     ours_name = result.get("engine_label") or ("hairbsdf" if result.get("engine", "HAIRBSDF") == "HAIRBSDF"
                                                 else "Cycles (self-check)")
+    ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
+
+    def mean_exr(key, stem):
+        attrs, var = {}, None
+        if key + "_var" in maps:
+            var = cdir / (stem + "_var.exr")
+            I.write_exr(var, maps[key + "_var"])
+            attrs = {"hairbsdf:seeds": int(maps[key + "_n"]), "hairbsdf:variance": var.name}
+        I.write_exr(cdir / (stem + "_mean.exr"), maps[key], attrs)
+        return rel(cdir / (stem + "_mean.exr")), (rel(var) if var else None)
+
     if "cycles" in maps and "ours" in maps:
         ref, test = maps["cycles"], maps["ours"]
         ev = I.auto_exposure(ref)
         I.write_png(cdir / "cycles.png", I.display(ref, ev))
         I.write_png(cdir / "hairbsdf.png", I.display(test, ev))
-        I.write_exr(cdir / "cycles_mean.exr", ref)
-        I.write_exr(cdir / "hairbsdf_mean.exr", test)
+        c_exr, c_var = mean_exr("cycles", "cycles")
+        o_exr, o_var = mean_exr("ours", "hairbsdf")
         n_c = result["sizes"]["seeds"]
         n_o = result["sizes"].get("seeds_test", n_c)
-        ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
-        imgs["cycles"] = dict(path=rel(cdir / "cycles.png"), exr=rel(cdir / "cycles_mean.exr"),
+        imgs["cycles"] = dict(path=rel(cdir / "cycles.png"), exr=c_exr, var_exr=c_var, label=ref_name,
                               caption="%s (mean of %d render%s), display %+.1f EV" % (
                                   ref_name, n_c, "s" if n_c > 1 else "", ev),
-                              swap=rel(cdir / "hairbsdf.png"), swap_caption="%s (hover)" % ours_name)
-        imgs["ours"] = dict(path=rel(cdir / "hairbsdf.png"), exr=rel(cdir / "hairbsdf_mean.exr"),
+                              swap=rel(cdir / "hairbsdf.png"), swap_label=ours_name)
+        imgs["ours"] = dict(path=rel(cdir / "hairbsdf.png"), exr=o_exr, var_exr=o_var, label=ours_name,
                             caption="%s (mean of %d), display %+.1f EV" % (ours_name, n_o, ev))
         d = maps["diff"]
         scale = float(np.percentile(np.abs(d), 99.5)) if d.size else 0.0
@@ -108,7 +120,8 @@ def write_case_assets(out_dir, result, maps):
         if "zfail" in maps and np.any(maps["zfail"]):
             zimg[maps["zfail"]] = (0, 255, 0)
         I.write_png(cdir / "z.png", zimg)
-        imgs["z"] = dict(path=rel(cdir / "z.png"),
+        I.write_exr(cdir / "t.exr", z)
+        imgs["z"] = dict(path=rel(cdir / "z.png"), exr=rel(cdir / "t.exr"),
                          caption="Welch t per pixel (channel of largest |t|); green: fails after the Sidak "
                                  "correction (|t| > about %.1f at the median df)" % tc,
                          colorbar=dict(gradient=I.css_gradient(I.DIVERGING), labels=[-T, 0.0, T]))
@@ -120,11 +133,15 @@ def write_case_assets(out_dir, result, maps):
         imgs["rel"] = dict(path=rel(cdir / "rel.png"),
                            caption="per-pixel relative error (max over RGB), log scale; grey: not compared "
                                    "(silhouettes, background)",
-                           colorbar=dict(gradient=I.css_gradient(I.MAGMA), labels=["1e-7", "1e-4", "1e-1"]))
+                           colorbar=dict(gradient=I.css_gradient(I.SEQUENTIAL), labels=["1e-7", "1e-4", "1e-1"]))
     if "flip" in maps:
-        I.write_png(cdir / "flip.png", I.colormap(maps["flip"], I.MAGMA))
-        imgs["flip"] = dict(path=rel(cdir / "flip.png"), caption="FLIP error map (HDR)",
-                            colorbar=dict(gradient=I.css_gradient(I.MAGMA), labels=[0.0, 0.5, 1.0]))
+        I.write_png(cdir / "flip.png", I.colormap(maps["flip"], I.SEQUENTIAL))
+        fl = result.get("metrics", {}).get("flip", {})
+        ex = ""
+        if isinstance(fl.get("start_exposure"), (int, float)):
+            ex = ", exposures %+.1f to %+.1f EV from the reference" % (fl["start_exposure"], fl["stop_exposure"])
+        imgs["flip"] = dict(path=rel(cdir / "flip.png"), caption="FLIP error map (HDR%s)" % ex,
+                            colorbar=dict(gradient=I.css_gradient(I.SEQUENTIAL), labels=[0.0, 0.5, 1.0]))
     result["images"] = imgs
     with open(cdir / "case.json", "w") as f:
         json.dump(clean(result), f, indent=1)
@@ -186,22 +203,43 @@ def _matrix(cases):
 
 
 def _figure(key, im, case):
-    cap_id = "cap-%s-%s" % (case["dir"], key)
+    """One image; a click opens it full size (the viewer in page.html).  The reference's figure is a
+    wipe: ours lies over it, and the slider below sets where ours begins."""
+    label = im.get("label") or key
     if key == "cycles" and im.get("swap"):
-        img = ('<img class="swap" src="%s" data-swap="%s" data-caption="%s" data-swap-label="%s" alt="%s">'
-               % (html.escape(im["path"]), html.escape(im["swap"]), cap_id, html.escape(im.get("swap_caption", "")),
-                  html.escape(key)))
+        img = ('<div class="wipe"><img class="view" src="%s" alt="%s" data-b="%s" data-title="%s | %s">'
+               '<img class="top" src="%s" alt="%s"></div>'
+               '<input class="wipe-range" type="range" min="0" max="100" value="50" aria-label="wipe position">'
+               % (html.escape(im["path"]), html.escape(label), html.escape(im["swap"]), html.escape(label),
+                  html.escape(im.get("swap_label", "")), html.escape(im["swap"]),
+                  html.escape(im.get("swap_label", ""))))
+        caption = "left: %s; right: %s (drag the slider). %s" % (label, im.get("swap_label", ""), im["caption"])
     else:
-        img = '<img src="%s" alt="%s">' % (html.escape(im["path"]), html.escape(key))
+        img = '<img class="view" src="%s" alt="%s" data-title="%s">' % (
+            html.escape(im["path"]), html.escape(key), html.escape(im["caption"]))
+        caption = im["caption"]
     cb = ""
     if im.get("colorbar"):
         labels = "".join("<span>%s</span>" % (fmt(l) if not isinstance(l, str) else html.escape(l))
                          for l in im["colorbar"]["labels"])
         cb = '<div class="cbar" style="background: %s"></div><div class="cbar-labels">%s</div>' % (
             im["colorbar"]["gradient"], labels)
-    link = ' <a href="%s">EXR</a>' % html.escape(im["exr"]) if im.get("exr") else ""
-    return '<figure>%s%s<figcaption id="%s">%s</figcaption>%s</figure>' % (
-        img, cb, cap_id, html.escape(im["caption"]), link)
+    links = [' <a href="%s">EXR</a>' % html.escape(im["exr"])] if im.get("exr") else []
+    if im.get("var_exr"):
+        links.append(' <a href="%s">variance EXR</a>' % html.escape(im["var_exr"]))
+    return '<figure class="%s">%s%s<figcaption>%s</figcaption>%s</figure>' % (
+        "pair" if key == "cycles" and im.get("swap") else key, img, cb, html.escape(caption), "".join(links))
+
+
+def _check_badge(ch):
+    """Gates: PASS or FAIL.  Informational rows never FAIL: a neutral 'within' or 'over' (their limit)."""
+    if ch["name"] == "exact_effect":
+        return "INFO"
+    if ch["gate"]:
+        return "PASS" if ch["passed"] else "FAIL"
+    if ch.get("value") is None:
+        return "n/a"
+    return "within" if ch["passed"] else "over"
 
 
 def _checks_table(case):
@@ -209,13 +247,10 @@ def _checks_table(case):
             '<th>detail</th></tr>']
     for ch in case.get("checks", []):
         limit = "" if ch.get("limit") is None else "%s %s" % (html.escape(ch["op"]), fmt(ch["limit"]))
-        res = "PASS" if ch["passed"] else "FAIL"
         cls = "failrow" if (ch["gate"] and not ch["passed"]) else ("inforow" if not ch["gate"] else "")
-        if ch["name"] == "exact_effect":
-            res = "INFO"
         rows.append('<tr class="%s"><td>%s</td><td class="num">%s</td><td class="num">%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td></tr>' % (
-                        cls, html.escape(ch["label"]), fmt(ch["value"]), limit, _badge(res),
+                        cls, html.escape(ch["label"]), fmt(ch["value"]), limit, _badge(_check_badge(ch)),
                         '<span class="badge gate">gate</span>' if ch["gate"] else
                         '<span class="badge infoonly">info</span>', html.escape(ch.get("detail", ""))))
     rows.append("</table>")
@@ -258,6 +293,9 @@ def _case_html(case):
             " (measured status: %s)" % case["pending_status"] if case.get("pending_status") else ""))
     if case.get("description"):
         parts.append('<p class="desc">%s</p>' % html.escape(case["description"]))
+    if case.get("reproduce"):
+        parts.append('<p class="repro">reproduce: <code>%s</code> <button type="button" class="copy">copy</button>'
+                     '</p>' % html.escape(case["reproduce"]))
     ims = case.get("images") or {}
     if ims:
         parts.append('<div class="figs">%s</div>' % "".join(
@@ -304,7 +342,10 @@ def summarize(cases):
     return dict(counts=counts, total=len(cases), bad=bad, ok=bad == 0 and len(cases) > 0)
 
 
-def render_index(cases, run):
+DEFAULT_TITLE = "hairbsdf vs Cycles"
+
+
+def render_index(cases, run, title=DEFAULT_TITLE, tool="hairbsdf compare"):
     summ = summarize(cases)
     cases = sorted(cases, key=lambda c: (ORDER.get(c["status"], 9), c["id"]))
     counts = ", ".join("%d %s" % (n, s) for s, n in sorted(summ["counts"].items(), key=lambda x: ORDER.get(x[0], 9)))
@@ -328,10 +369,10 @@ def render_index(cases, run):
               "Blender.")
     tpl = string.Template((TEMPLATES / "page.html").read_text())
     return tpl.substitute(
-        title="hairbsdf vs Cycles", verdict=html.escape(verdict), verdict_class=vcls,
+        title=html.escape(title), verdict=html.escape(verdict), verdict_class=vcls,
         summary=html.escape(counts), run=run_txt, matrix=_matrix(cases), legend=html.escape(legend),
         cases="\n".join(_case_html(c) for c in cases),
-        footer="Generated by hairbsdf compare. Metrics: docs/compare.md.",
+        footer="Generated by %s. Metrics: docs/compare.md." % html.escape(tool),
         css=(TEMPLATES / "report.css").read_text(), js=(TEMPLATES / "report.js").read_text())
 
 
@@ -350,8 +391,8 @@ def junit_xml(cases, seconds=0.0):
             tc = ET.SubElement(s, "testcase", classname="hairbsdf.compare.%s" % label.replace(".", "_"),
                                name=c["scene"] + ("-" + c["variant"] if c.get("variant") else ""), time="%.2f" % t)
             lines = ["%s: %s (limit %s %s) %s%s" % (ch["name"], ch["value"], ch["op"], ch["limit"],
-                                                     "PASS" if ch["passed"] else "FAIL",
-                                                     "" if ch["gate"] else " [info]") for ch in c.get("checks", [])]
+                                                     _check_badge(ch), "" if ch["gate"] else " [info]")
+                     for ch in c.get("checks", [])]
             st = c["status"]
             if st == "FAIL":
                 nf += 1
@@ -377,16 +418,17 @@ def junit_xml(cases, seconds=0.0):
 
 # --------------------------------------------------------------------------- write / merge
 
-def write_report(out_dir, cases, run):
+def write_report(out_dir, cases, run, title=DEFAULT_TITLE, tool="hairbsdf compare"):
+    """index.html (titled `title`), report.json and junit.xml in out_dir."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = [clean(c) for c in cases]
-    data = dict(format=FORMAT, format_version=FORMAT_VERSION, runs=run if isinstance(run, list) else [run],
-                summary=summarize(cases), cases=cases)
+    data = dict(format=FORMAT, format_version=FORMAT_VERSION, title=title, tool=tool,
+                runs=run if isinstance(run, list) else [run], summary=summarize(cases), cases=cases)
     _atomic(out_dir / "report.json", json.dumps(data, indent=1))
     secs = sum(float(r.get("seconds", 0) or 0) for r in data["runs"])
     _atomic(out_dir / "junit.xml", '<?xml version="1.0" encoding="UTF-8"?>\n' + junit_xml(cases, secs))
-    _atomic(out_dir / "index.html", render_index(cases, data["runs"]))
+    _atomic(out_dir / "index.html", render_index(cases, data["runs"], title, tool))
     return out_dir / "index.html"
 
 
@@ -411,10 +453,11 @@ def merge(dirs, out):
     junit.xml.  A case present in several inputs is taken from the last one."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    cases, runs, notes = {}, [], []
+    cases, runs, notes, titles = {}, [], [], []
     for d in dirs:
         d = Path(d)
         data = load_report(d)
+        titles.append(data.get("title", DEFAULT_TITLE))
         runs.extend(data.get("runs", []))
         for c in data["cases"]:
             if c["id"] in cases:
@@ -429,7 +472,8 @@ def merge(dirs, out):
     merged_run = dict(created=_now(), command="hairbsdf report merge " + " ".join(str(d) for d in dirs),
                       hairbsdf=runs[0].get("hairbsdf", "") if runs else "", merged_from=[str(d) for d in dirs],
                       seconds=sum(float(r.get("seconds", 0) or 0) for r in runs), notes=notes)
-    path = write_report(out, list(cases.values()), [merged_run] + runs)
+    path = write_report(out, list(cases.values()), [merged_run] + runs,
+                        title=titles[0] if titles else DEFAULT_TITLE, tool="hairbsdf report merge")
     return path, notes
 
 
