@@ -53,7 +53,7 @@ def cpu_seconds():
 
 # --------------------------------------------------------------------------- renders
 
-def render_pool(scene, pool, jobs, threads, out, log=print):  # noqa: A002
+def render_pool(scene, pool, jobs, threads, out, log=print):
     """Per-seed Cycles EXRs of `scene` (NAME or NAME:VARIANT) at CI size, seeds 0..pool-1, bpy.
     Returns (paths, ledger entry) where the ledger records the compute of renders made now."""
     from hairbsdf.compare import runner
