@@ -92,8 +92,8 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
             checks.append(check(
                 "welch", "per-pixel Welch test: failing pixel-channels", w["n_fail"], limits["welch_max_failures"],
                 "<=", True,
-                "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f (fewer seeds - 1 where noisy), max |t| %.2f "
-                "(critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
+                "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f (fewer seeds - 1 "
+                "where noisy), max |t| %.2f (critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
                                           w["t_critical_median_df"])))
             if stats:
                 b = M.mean_bias_from_stats(cycles, ours, floor_rel=limits["welch_floor_rel"])
