@@ -66,8 +66,9 @@ def test_welch_does_not_flag_pure_noise():
         failed.append(r["n_fail"])
         uncorrected += int(np.count_nonzero(r["p"] < 0.01))
     assert sum(1 for f in failed if f) <= 1, failed
-    # Without the Sidak correction the same data would fail every image: the test can fail.
-    assert uncorrected > 20 * 0.005 * H * W * 3
+    # Without the Sidak correction the same data would fail every image: the test can fail. (With the
+    # conservative df = min(n) - 1, p < 0.01 holds for about 0.35 % of these normal pixel-channels, not 1 %.)
+    assert uncorrected > 20 * 0.002 * H * W * 3
 
 
 def test_welch_pure_noise_skewed_monte_carlo_samples():

@@ -29,8 +29,9 @@ examples:
   hairbsdf judge cycles_seeds/ my_mean.exr --out rep/    TEST as a mean + my_mean_var.exr + my_mean.json
 
 gates (docs/compare.md): no NaN/Inf; per-pixel Welch test, Sidak-corrected to family-wise 1%%
-  (no failing pixel-channel); image-mean bias |z| <= 2 and |relative| <= 0.5%% (the relative bound
-  gates only where 2 sigma resolves it, unless --strict).
+  (no failing pixel-channel); image-mean bias |z| <= t(1 - 0.01/2, Welch df), a 1%% false-alarm
+  level per case, and |relative| <= 0.5%% (the relative bound gates only where the critical |z|
+  times sigma resolves it, unless --strict). Measured rates: docs/statistics.md.
 
 exit status: 0 pass, 1 fail, 2 bad arguments or input.
 """
@@ -56,7 +57,7 @@ def build_parser(prog="hairbsdf judge"):
                    help="thresholds TOML ([defaults] applies; may tighten the fixed floors, never loosen them)")
     p.add_argument("--strict", action="store_true",
                    help="fail the relative image-mean bound when the noise is too large to verify it "
-                        "(default: informational then, and |z| <= 2 gates)")
+                        "(default: informational then, and the |z| test gates)")
     p.add_argument("--no-flip", action="store_true", help="skip FLIP (informational)")
     p.add_argument("--title", default=None,
                    help="the report's title (default: 'TEST vs REF' from the two folder or file names)")

@@ -26,7 +26,8 @@ FLOORS = {
     "image_mean_rel": (5e-3, "max", "furnace: |image mean / Cycles' image mean - 1|"),
     "welch_alpha": (0.01, "min", "family-wise level of the per-pixel Welch test (Sidak-corrected)"),
     "welch_max_failures": (0, "max", "pixel-channels allowed to fail the Welch test"),
-    "mean_bias_sigma": (2.0, "max", "image-mean bias bound in standard errors"),
+    "mean_bias_alpha": (0.01, "min", "per-case false-alarm level of the image-mean test: |z| <= t(1 - alpha/2, "
+                                     "Welch df)"),
     "mean_bias_rel": (5e-3, "max", "image-mean bias bound, relative"),
     "welch_floor_rel": (1e-4, "max", "standard-error floor of the Welch test, relative to the pixel"),
     "welch_floor_abs": (1e-6, "max", "standard-error floor of the Welch test, absolute"),
@@ -43,6 +44,12 @@ INFO_DEFAULTS = {
     "gonio_erode": 2,
 }
 KNOWN = set(FLOORS) | set(INFO_DEFAULTS) | {"pending", "pending_blender", "note"}
+# Keys that no longer exist, with what replaced them (an old TOML gets told, not just "unknown").
+RETIRED = {
+    "mean_bias_sigma": "the image-mean test's fixed |z| <= 2 became a per-case level, mean_bias_alpha (floor 0.01; "
+                       "the critical |z| is t(1 - alpha/2) with the Welch degrees of freedom, docs/statistics.md); "
+                       "tighten with mean_bias_alpha = 0.05 instead",
+}
 
 
 class ThresholdError(ValueError):
@@ -50,6 +57,8 @@ class ThresholdError(ValueError):
 
 
 def _check(key, value, where):
+    if key in RETIRED:
+        raise ThresholdError("%s: '%s' was retired: %s" % (where, key, RETIRED[key]))
     if key not in KNOWN:
         raise ThresholdError("%s: unknown threshold '%s' (known: %s)" % (where, key, ", ".join(sorted(KNOWN))))
     if key == "pending_blender" and not (isinstance(value, dict) and all(isinstance(v, str) for v in value.values())):
