@@ -191,7 +191,7 @@ def curves_grid(name="Curves", nx=4, ny=3, size=1.0, n_points=6, length=0.5, rad
         line.inputs["Start"].default_value = (0.0, 0.0, z0)
         line.inputs["End"].default_value = (0.0, 0.0, z0 + length)
         res = N.new("GeometryNodeResampleCurve")
-        res.mode = "COUNT"
+        fg.set_node_mode(res, "mode", "COUNT")
         res.inputs["Count"].default_value = npts
         stype = N.new("GeometryNodeCurveSplineType")
         stype.spline_type = "CATMULL_ROM"

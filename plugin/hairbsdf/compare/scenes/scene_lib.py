@@ -452,7 +452,7 @@ def curves_from_polylines(scene, name, polylines, radii, material, curve_normal=
     last = srad.outputs["Curve"]
     if curve_normal is not None:
         sn = N.new("GeometryNodeSetCurveNormal")
-        sn.mode = curve_normal
+        fg.set_node_mode(sn, "mode", curve_normal)
         L.new(last, sn.inputs["Curve"])
         last = sn.outputs["Curve"]
     L.new(last, setmat.inputs["Geometry"])
