@@ -319,7 +319,6 @@ def showcase_scene(width=240, height=160, spp=64, curve_shape="THICK", children=
                       shape="RECTANGLE", size=0.8, color=(0.7, 0.8, 1.0))
     area.data.size_y = 0.4
     world = bpy.data.worlds.new("SkyGrey")
-    world.use_nodes = False
-    world.color = (0.05, 0.06, 0.08)
+    fg.set_world_color(world, (0.05, 0.06, 0.08))
     scene.world = world
     return scene
