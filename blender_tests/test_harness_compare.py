@@ -1,7 +1,7 @@
 """`hairbsdf compare` end to end, in subprocesses, as a user or CI runs it.
 
 * The CI gate: every library scene at CI size, our engine (-E HAIRBSDF) against Cycles, in
-  bpy 4.5, bpy 5.3 (the second venv, .venv-bpy5) and Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
+  bpy 4.5, bpy 5.3 (the second venv of scripts/setup) and Debian's Blender 3.4; a FAIL, CRASH, NO OUTPUT or ERROR fails the test.
   Scenes marked pending in plugin/hairbsdf/compare/thresholds.toml xfail with their reason.  An engine
   that cannot be imported (`import hairbsdf._render` fails) fails the gate, locally and in CI
   (test_gate_fails_without_the_engine plants that fault); a Blender that is not installed
