@@ -15,6 +15,7 @@ examples:
   hairbsdf compare                                  the swatch scene, bpy 4.5, full size -> out/compare/
   hairbsdf compare --scene all --ci                 every library scene at CI size
   hairbsdf compare --scene fiber_gonio --blender /usr/bin/blender
+  hairbsdf compare --scene all --ci --blender all   in Blender 3.4, bpy 4.5 and bpy 5.3 (those installed)
   hairbsdf compare --scene my_groom.blend --seeds 8 --spp 64
   hairbsdf compare --scene all --blender bpy --blender blender --ci --shard 2/4 --out out/shard2
   hairbsdf report merge out/shard1 out/shard2 out/shard3 out/shard4 --out out/compare
