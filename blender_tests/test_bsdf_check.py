@@ -62,19 +62,38 @@ def _bpy_python():
     return py
 
 
+def _bpy5_python():
+    """bpy 5.x: $BSDF_CHECK_BPY5_PYTHON, else the second venv of scripts/setup (its name is
+    declared there once; hairbsdf.compare.runner.bpy5_venv reads it)."""
+    py = os.environ.get("BSDF_CHECK_BPY5_PYTHON")
+    if py:
+        return py
+    try:
+        from hairbsdf.compare.runner import bpy5_venv
+    except ImportError:
+        return None
+    venv = bpy5_venv()
+    return str(venv / "bin" / "python") if venv else None
+
+
 def _blender_exe():
     return os.environ.get("BLENDER") or shutil.which("blender")
 
 
 def _runner(which, script=RENDER_SCRIPT):
     """(version string, command prefix) or (None, reason)."""
-    if which == "bpy":
-        py = _bpy_python()
+    if which in ("bpy", "bpy5"):
+        py = _bpy_python() if which == "bpy" else _bpy5_python()
+        if not py or not os.path.exists(py):
+            return None, "no Python with bpy 5.x (%s; run scripts/setup)" % py
         r = subprocess.run([py, "-c", "import importlib.metadata as m; print(m.version('bpy'))"],
                            capture_output=True, text=True)
         if r.returncode != 0:
             return None, "no bpy module in %s" % py
-        return "bpy-" + r.stdout.strip(), [py, script]
+        version = r.stdout.strip()
+        if which == "bpy5" and int(version.split(".")[0]) < 5:
+            return None, "%s has bpy %s, not 5.x" % (py, version)
+        return "bpy-" + version, [py, script]
     exe = _blender_exe()
     if not exe:
         return None, "no `blender` executable (set BLENDER=...)"
@@ -88,7 +107,7 @@ def _runner(which, script=RENDER_SCRIPT):
 
 def _cache_key(version, case_set, script=RENDER_SCRIPT):
     h = hashlib.sha256()
-    for path in (SCENE_FILE, script, CASES_FILE):
+    for path in (SCENE_FILE, script, CASES_FILE, RENDER_SCRIPT):
         with open(path, "rb") as f:
             h.update(f.read())
     h.update(case_set.encode())
@@ -122,12 +141,13 @@ def _render(which, case_set, script=RENDER_SCRIPT):
 
 
 pytestmark = pytest.mark.blender
+BLENDERS = (("bpy", "bpy4.5"), ("bpy5", "bpy5.3"), ("blender", "blender3.4"))
 
 
 def _params():
     out = []
     for case_set in CASE_SETS:
-        for which, label in (("bpy", "bpy4.5"), ("blender", "blender3.4")):
+        for which, label in BLENDERS:
             out.append(pytest.param((which, case_set), id="%s-%s" % (label, case_set)))
     return out
 
@@ -179,6 +199,9 @@ def test_scene_facts(cycles_data):
     assert ck["bounces12_max_rel_dev"] <= 1e-6  # bounce limits irrelevant (direct light only)
     if "light_tree_toggled_max_rel_dev" in ck:
         assert ck["light_tree_toggled_max_rel_dev"] <= 1e-6
+    problem = compare.edge_alpha_problem(ck)  # the filter samples the pixel centre
+    assert problem is None, problem
+    assert ck["edge_alpha_rows_covered"] == round(meta["scene"]["pixels_across"])
     dh = np.abs(arrays["h_probe"] - arrays["h"])
     assert np.all(np.isfinite(dh))
     assert dh.max() <= 2e-5, "h from the pixel position differs from Cycles' hit by %.2e" % dh.max()
@@ -266,7 +289,7 @@ def test_model_spec_errors_name_the_problem(tmp_path):
 # --------------------------------------------------------------------------
 # Cycles' legacy Hair BSDF node (render_cycles_hair.py: 48 renders, about 1 s in 4.5, 4 s in 3.4)
 
-@pytest.fixture(scope="module", params=[pytest.param("bpy", id="bpy4.5"), pytest.param("blender", id="blender3.4")])
+@pytest.fixture(scope="module", params=[pytest.param(which, id=label) for which, label in BLENDERS])
 def cycles_hair_data(request):
     return _render(request.param, "cycles_hair", script=LEGACY_SCRIPT)
 
@@ -281,6 +304,40 @@ def test_cycles_hair_node_defaults(cycles_hair_data):
     for key in ("offset", "roughness_u", "roughness_v"):
         assert d[key] == pytest.approx(ours[key], abs=1e-7), key
     assert d["color"] == pytest.approx(ours["color"], abs=1e-7)
+
+
+def test_cycles_hair_samples_pixel_centres(cycles_hair_data):
+    """The legacy renders rely on the same pixel filter: its edge pixels are empty or covered."""
+    _, meta, _ = cycles_hair_data
+    problem = compare.edge_alpha_problem(meta.get("checks", {}))
+    assert problem is None, problem
+
+
+@pytest.mark.parametrize("which,label", [pytest.param(w, l, id=l) for w, l in BLENDERS])
+def test_edge_alpha_catches_a_spread_filter(which, label, tmp_path):
+    """Planted fault: the same render with a BOX filter (which Cycles spreads over the whole pixel
+    whatever filter_width says) must fail the edge-alpha check that test_scene_facts applies."""
+    version, cmd = _runner(which)
+    if version is None:
+        _skip_or_fail("Blender for %s not available: %s" % (label, cmd))
+    first = compare_cases_first_name()
+    out = tmp_path / "box.npz"
+    r = subprocess.run(cmd + ["--out", str(out), "--cases", "small", "--filter", first, "--no-probe",
+                              "--pixel-filter", "BOX", "--filter-width", "0.01"],
+                       capture_output=True, text=True, timeout=600, cwd=CHECK_DIR)
+    assert r.returncode == 0 and out.exists(), (r.stdout + r.stderr)[-3000:]
+    _, meta = compare.load(str(out))
+    ck = meta["checks"]
+    assert ck["edge_alpha_filter"][0] == "BOX"
+    problem = compare.edge_alpha_problem(ck)
+    assert problem is not None and "does not sample the pixel centre" in problem, ck
+    edge = sorted(float(np.mean(row)) for row in ck["edge_alpha_values"])
+    assert edge[0] == pytest.approx(0.3, abs=0.15) and edge[1] == pytest.approx(0.7, abs=0.15), edge
+
+
+def compare_cases_first_name():
+    import cases
+    return cases.get_cases("small")[0]["name"]
 
 
 def test_cycles_hair_bsdf_matches_cycles(cycles_hair_data, capsys):

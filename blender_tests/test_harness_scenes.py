@@ -1,4 +1,4 @@
-"""The comparison harness's scene library in real Blenders (bpy 4.5 and Debian's Blender 3.4):
+"""The comparison harness's scene library in real Blenders (bpy 4.5, bpy 5.3 and Debian's Blender 3.4):
 every scene builds, sets every parity-relevant setting explicitly, and the noise-free
 fiber_gonio scene is what it claims to be: Cycles' pixels equal hairbsdf.eval (the BSDF alone,
 no engine) to the parity floors, so the scene can meet them.
@@ -19,7 +19,7 @@ from hairbsdf.compare.runner import Options, Runner, TargetError, expand_cases, 
 pytestmark = pytest.mark.blender
 
 REPO = Path(__file__).resolve().parent.parent
-BLENDERS = {"bpy4.5": "bpy", "blender3.4": os.environ.get("HAIRBSDF_BLENDER") or "blender"}
+BLENDERS = {"bpy4.5": "bpy", "bpy5.3": "bpy5", "blender3.4": os.environ.get("HAIRBSDF_BLENDER") or "blender"}
 _TARGETS = {}
 
 

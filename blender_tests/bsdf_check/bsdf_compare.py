@@ -94,6 +94,27 @@ def hairbsdf_evaluator(hairbsdf):
 # docs/models.md §6). Pixels below LEGACY_ABS_FLOOR (case peaks are 5e-3 to 0.7) are zero at this scale (Cycles' float
 # cos(pi/2) leaves +3e-8 in 3.4 and -1.5e-7 (negative pixels) in 4.5 where the stretched azimuth is
 # clamped to pi; ours is ~1e-17).
+# render_cases.edge_alpha_check: with the camera 0.3 px off, a filter that samples the pixel centre
+# leaves every pixel empty or covered (a far Blackman-Harris sample may move one of 16 samples);
+# a filter spread over the pixel gives the edge rows alpha 0.3 and 0.7.
+EDGE_ALPHA_TOL = 0.1
+
+
+def edge_alpha_problem(checks):
+    """None when the render sampled pixel centres (meta['checks'] of render_cases.py or
+    render_cycles_hair.py), else what is wrong."""
+    if "edge_alpha_max_fraction" not in checks:
+        return "the render has no edge-alpha check (render_cases.edge_alpha_check)"
+    if len(checks["edge_alpha_rows"]) != 2:
+        return "no strand in the edge-alpha render"
+    if checks["edge_alpha_max_fraction"] > EDGE_ALPHA_TOL:
+        return ("the pixel filter %s does not sample the pixel centre: with the camera %.1f px off, the strand's "
+                "edge rows %s have alpha %s (0 or 1 expected); the setting is ignored or too wide"
+                % (checks["edge_alpha_filter"], checks["edge_alpha_shift_px"], checks["edge_alpha_rows"],
+                   [["%.3f" % a for a in row] for row in checks["edge_alpha_values"]]))
+    return None
+
+
 LEGACY_MEDIAN_TOL = 1e-3
 LEGACY_P99_TOL = 2e-3
 LEGACY_ABS_FLOOR = 1e-4

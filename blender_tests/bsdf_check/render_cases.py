@@ -148,6 +148,44 @@ def render_case(rig, case, probe=True):
     return out
 
 
+EDGE_SHIFT_PX = 0.3   # the alpha check moves the camera by this fraction of a pixel across the strand
+EDGE_ALPHA_SPP = 16
+
+
+def edge_alpha_check(scene, camera, pixel, render):
+    """Does the pixel filter sample the pixel centre? The check relies on it (README, "Why 1 spp
+    with a narrow Blackman-Harris filter"), and a Blender that ignores the setting (another
+    property name, a BOX filter that is always 1 px wide) would spread the samples over the
+    pixel. The strand's edges lie on pixel boundaries; this moves the camera by EDGE_SHIFT_PX
+    of a pixel across the strand and renders EDGE_ALPHA_SPP samples with the scene's filter:
+    sampled at the centre, every edge pixel is empty or covered (alpha 0 or 1, up to the rare
+    far filter sample); spread over the pixel, the two edge rows get alpha 0.3 and 0.7.
+    `render()` returns the RGBA pixels (row 0 = bottom). Returns the facts for meta['checks']."""
+    cy = scene.cycles
+    saved_spp = cy.samples
+    m = camera.matrix_world.copy()
+    up = m.to_3x3().col[1].normalized()  # the image's up axis Yc in world space
+    shifted = m.copy()
+    shifted.translation = m.translation + up * (EDGE_SHIFT_PX * pixel)
+    camera.matrix_world = shifted
+    cy.samples = EDGE_ALPHA_SPP
+    try:
+        px = render()
+    finally:
+        camera.matrix_world = m
+        cy.samples = saved_spp
+    alpha = np.asarray(px, dtype=np.float64)[..., 3]
+    row_max = alpha.max(axis=1)
+    covered = np.nonzero(row_max > 0.0)[0]
+    edge_rows = [int(covered[0]), int(covered[-1])] if covered.size else []
+    return dict(edge_alpha_spp=EDGE_ALPHA_SPP, edge_alpha_shift_px=EDGE_SHIFT_PX,
+                edge_alpha_filter=[cy.pixel_filter_type, float(cy.filter_width)],
+                edge_alpha_rows=edge_rows,
+                edge_alpha_values=[[float(a) for a in alpha[r]] for r in edge_rows],
+                edge_alpha_max_fraction=float(np.max(np.minimum(alpha, 1.0 - alpha))),
+                edge_alpha_rows_covered=int(np.sum(alpha.min(axis=1) >= 0.5)))
+
+
 def run_checks(rig, case):
     """One-off facts measured on this Blender (stored in meta['checks'])."""
     checks = {}
@@ -190,6 +228,8 @@ def run_checks(rig, case):
     cy.pixel_filter_type, cy.filter_width = "BOX", 0.01
     checks["spp16_box001_max_rel_dev"] = rel(rig.render())
     cy.samples, cy.pixel_filter_type, cy.filter_width = spp, pf, fw
+    # 4b. the filter samples the pixel centre: the strand's edge pixels are empty or covered
+    checks.update(edge_alpha_check(sc, rig.camera, rig.pixel, rig.render))
     # 5. Hair Info of the strand: Random (curve 0), Is Strand
     info = rig.hair_info()
     checks["hair_info_random"] = [float(info[keep, :, 0].min()), float(info[keep, :, 0].max())]

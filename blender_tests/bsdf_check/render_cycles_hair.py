@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 
 import cases as case_defs  # noqa: E402
 import fiber_gonio as fg  # noqa: E402
+from render_cases import edge_alpha_check  # noqa: E402
 
 # Node inputs (Offset in radians) per material; component as Blender's enum ('Reflection' | 'Transmission').
 MATERIALS = {
@@ -126,7 +127,19 @@ def render_to_npz(out_path, threads=2, verbose=True):
     hrow = np.array(fg.pixel_offsets(cfg["width"], cfg["height"], image_height)) / cfg["radius"]
     tmp = tempfile.mkdtemp(prefix="legacy_hair_gonio_")
     parts = []
+    checks = {}
     try:
+        # the filter samples the pixel centre (render_cases.edge_alpha_check), on the first case's view
+        wo = fg.view_direction(cases[0]["theta_o"], cases[0]["psi"])
+        fg.place_camera(camera, wo, image_height, distance=cfg["camera_distance"])
+
+        def _render_rgba():
+            path = os.path.join(tmp, "edge_alpha.exr")
+            fg.render_exr(path, scene)
+            px, _ = fg.read_exr_rgba(path)
+            os.remove(path)
+            return np.asarray(px, dtype=np.float64)
+        checks.update(edge_alpha_check(scene, camera, pixel, _render_rgba))
         for k, case in enumerate(cases):
             t = time.time()
             wo = fg.view_direction(case["theta_o"], case["psi"])
@@ -158,7 +171,7 @@ def render_to_npz(out_path, threads=2, verbose=True):
     arrays = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     meta = dict(blender_version=list(fg.blender_version()), blender_version_string=fg.blender_version_string(),
                 tilt=fg.default_tilt_convention(), case_set="cycles_hair", scene=cfg, cases=cases,
-                node_defaults=defaults, render_seconds=time.time() - t0, rgb_is="pixel / sun strength")
+                node_defaults=defaults, checks=checks, render_seconds=time.time() - t0, rgb_is="pixel / sun strength")
     arrays["meta"] = np.array(json.dumps(meta))
     tmpout = "%s.%d.tmp.npz" % (out_path, os.getpid())
     np.savez_compressed(tmpout, **arrays)

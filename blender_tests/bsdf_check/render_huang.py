@@ -50,7 +50,7 @@ def add_curve_normal_node(strand):
     src = link.from_socket
     ng.links.remove(link)
     node = ng.nodes.new("GeometryNodeSetCurveNormal")
-    node.mode = "FREE"
+    fg.set_node_mode(node, "mode", "FREE")
     ng.links.new(src, node.inputs["Curve"])
     ng.links.new(node.outputs["Curve"], realize.inputs["Geometry"])
     return node

@@ -191,7 +191,7 @@ def curves_grid(name="Curves", nx=4, ny=3, size=1.0, n_points=6, length=0.5, rad
         line.inputs["Start"].default_value = (0.0, 0.0, z0)
         line.inputs["End"].default_value = (0.0, 0.0, z0 + length)
         res = N.new("GeometryNodeResampleCurve")
-        res.mode = "COUNT"
+        fg.set_node_mode(res, "mode", "COUNT")
         res.inputs["Count"].default_value = npts
         stype = N.new("GeometryNodeCurveSplineType")
         stype.spline_type = "CATMULL_ROM"
@@ -319,7 +319,6 @@ def showcase_scene(width=240, height=160, spp=64, curve_shape="THICK", children=
                       shape="RECTANGLE", size=0.8, color=(0.7, 0.8, 1.0))
     area.data.size_y = 0.4
     world = bpy.data.worlds.new("SkyGrey")
-    world.use_nodes = False
-    world.color = (0.05, 0.06, 0.08)
+    fg.set_world_color(world, (0.05, 0.06, 0.08))
     scene.world = world
     return scene

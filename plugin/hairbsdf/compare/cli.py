@@ -15,6 +15,7 @@ examples:
   hairbsdf compare                                  the swatch scene, bpy 4.5, full size -> out/compare/
   hairbsdf compare --scene all --ci                 every library scene at CI size
   hairbsdf compare --scene fiber_gonio --blender /usr/bin/blender
+  hairbsdf compare --scene all --ci --blender all   in Blender 3.4, bpy 4.5 and bpy 5.3 (those installed)
   hairbsdf compare --scene my_groom.blend --seeds 8 --spp 64
   hairbsdf compare --scene all --blender bpy --blender blender --ci --shard 2/4 --out out/shard2
   hairbsdf report merge out/shard1 out/shard2 out/shard3 out/shard4 --out out/compare
@@ -49,9 +50,10 @@ def build_parser(prog="hairbsdf compare"):
     p.add_argument("--scene", action="append", metavar="NAME|FILE.blend",
                    help="library scene (%s; NAME:VARIANT for one variant; 'all'), or any .blend file; repeat or "
                         "comma-separate (default: %s)" % (scenes, default_scene))
-    p.add_argument("--blender", action="append", metavar="bpy|PATH",
-                   help="'bpy' (the bpy module from pip, e.g. 4.5 LTS in .venv) or a Blender executable such as "
-                        "Debian's /usr/bin/blender (3.4); repeat for several (default: bpy)")
+    p.add_argument("--blender", action="append", metavar="bpy|bpy5|all|PATH",
+                   help="'bpy' (the bpy module from pip, e.g. 4.5 LTS in .venv), 'bpy5' (bpy 5.3 in the second venv "
+                        "scripts/setup makes), a Blender executable such as Debian's /usr/bin/blender (3.4), or "
+                        "'all' (every one of these that is installed); repeat for several (default: bpy)")
     p.add_argument("--cycles-osl", action="store_true",
                    help="render the Cycles reference with its OSL backend (its hair closure differs slightly from "
                         "the SVM one; docs/compare.md)")
@@ -146,7 +148,7 @@ def run_compare(args, argv_text=""):
         return 1
     from . import report
     from .runner import (Options, Runner, TargetError, default_cache_dir, default_thresholds, expand_cases,
-                         load_catalog, resolve_target, shard)
+                         load_catalog, resolve_target, shard, all_target_specs)
     from .thresholds import ThresholdError, Thresholds
 
     catalog, default_scene = load_catalog()
@@ -173,7 +175,10 @@ def run_compare(args, argv_text=""):
         print("error: %s" % exc, file=sys.stderr)
         return 2
     targets = []
+    specs = []
     for spec in (args.blender or ["bpy"]):
+        specs.extend(all_target_specs() if spec == "all" else [spec])
+    for spec in dict.fromkeys(specs):
         try:
             targets.append(resolve_target(spec))
         except TargetError as exc:

@@ -163,11 +163,49 @@ def _bpy_pythons():
         yield str(REPO / ".venv" / "bin" / "python")
 
 
+def bpy5_venv():
+    """The repository's second venv (bpy 5.x on Python 3.13): its name is declared once, as
+    BPY5_VENV=... in scripts/setup, and read from there."""
+    if not REPO:
+        return None
+    try:
+        text = (REPO / "scripts" / "setup").read_text()
+    except OSError:
+        return None
+    m = re.search(r"^BPY5_VENV=(\S+)\s*$", text, re.M)
+    return REPO / m.group(1) if m else None
+
+
+def _bpy5_pythons():
+    env = os.environ.get("HAIRBSDF_BPY5_PYTHON")
+    if env:
+        yield env
+    venv = bpy5_venv()
+    if venv:
+        yield str(venv / "bin" / "python")
+
+
+DEBIAN_BLENDER = "/usr/bin/blender"
+
+
+def all_target_specs():
+    """`--blender all`: every Blender that scripts/setup installs and that is here: bpy 4.5
+    (.venv), bpy 5.x (the second venv) and Debian's Blender 3.4."""
+    specs = ["bpy"]
+    if any(p and os.path.exists(p) for p in _bpy5_pythons()):
+        specs.append("bpy5")
+    if shutil.which("blender") or os.path.exists(DEBIAN_BLENDER):
+        specs.append(shutil.which("blender") or DEBIAN_BLENDER)
+    return specs
+
+
 def resolve_target(spec):
-    """'bpy' (the bpy module: this Python or the repository's .venv), a Blender executable,
-    or a Python interpreter that has bpy."""
-    if spec == "bpy" or os.path.basename(spec).startswith("python"):
-        cands = list(_bpy_pythons()) if spec == "bpy" else [spec]
+    """'bpy' (the bpy module: this Python or the repository's .venv), 'bpy5' (bpy 5.x: the
+    repository's second venv or $HAIRBSDF_BPY5_PYTHON), a Blender executable, or a Python
+    interpreter that has bpy."""
+    if spec in ("bpy", "bpy5") or os.path.basename(spec).startswith("python"):
+        cands = (list(_bpy_pythons()) if spec == "bpy" else list(_bpy5_pythons()) if spec == "bpy5"
+                 else [spec])
         for py in cands:
             if not py or not os.path.exists(py):
                 continue

@@ -113,7 +113,8 @@ def setup_render(scene=None, width=4, height=160, spp=1, seed=0, threads=2,
     cy.pixel_filter_type = pixel_filter
     cy.filter_width = filter_width
     cy.film_exposure = 1.0
-    cy.film_transparent = False
+    if hasattr(cy, "film_transparent"):  # an alias of render.film_transparent, gone in 5.0
+        cy.film_transparent = False
     # curves
     scene.cycles_curves.shape = curve_shape
     scene.cycles_curves.subdivisions = 2
@@ -147,13 +148,47 @@ def setup_render(scene=None, width=4, height=160, spp=1, seed=0, threads=2,
     # black world
     world = scene.world or bpy.data.worlds.new("GonioWorld")
     scene.world = world
-    world.use_nodes = False
-    world.color = (0.0, 0.0, 0.0)
+    set_world_color(world, (0.0, 0.0, 0.0))
     return scene
+
+
+def set_world_color(world, color):
+    """A world of one colour in every Blender. Before 5.0: nodes off and world.color. From 5.0
+    a world always renders its node tree (use_nodes is deprecated, reads True and ignores
+    False), and a new world comes with a Background of 0.05 grey: that node gets the colour
+    (docs/blender5.md)."""
+    world.color = tuple(color[:3])
+    if blender_version() < (5, 0, 0):
+        world.use_nodes = False
+        return
+    nt = world.node_tree
+    bg = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeBackground"), None)
+    out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputWorld"), None)
+    if bg is None:
+        bg = nt.nodes.new("ShaderNodeBackground")
+    if out is None:
+        out = nt.nodes.new("ShaderNodeOutputWorld")
+    for link in list(out.inputs["Surface"].links):
+        nt.links.remove(link)
+    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+    bg.inputs["Color"].default_value = tuple(color[:3]) + (1.0,)
+    bg.inputs["Strength"].default_value = 1.0
 
 
 # --------------------------------------------------------------------------
 # strand
+
+def set_node_mode(node, prop, value, socket="Mode"):
+    """Sets a node's enum option: a property (3.4, 4.x) or, where Blender 5.x turned it into a
+    menu input socket (Resample Curve, Set Curve Normal: "Mode"), that socket, whose values are
+    the items' names ('COUNT' -> 'Count', 'Z_UP' -> 'Z Up', 'MINIMUM_TWIST' -> 'Minimum Twist')."""
+    if hasattr(node, prop):
+        setattr(node, prop, value)
+        return
+    sock = node.inputs[socket]
+    names = {"Z_UP": "Z Up"}
+    sock.default_value = names.get(value, value.replace("_", " ").title())
+
 
 def _new_geometry_node_group(name):
     ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
@@ -179,7 +214,7 @@ def make_strand_geometry_nodes(length=1.0, radius=0.05, n_points=9, name=STRAND_
     line.inputs["Start"].default_value = (-0.5 * length, 0.0, 0.0)
     line.inputs["End"].default_value = (0.5 * length, 0.0, 0.0)
     resample = nodes.new("GeometryNodeResampleCurve")
-    resample.mode = "COUNT"
+    set_node_mode(resample, "mode", "COUNT")
     resample.inputs["Count"].default_value = n_points
     stype = nodes.new("GeometryNodeCurveSplineType")
     stype.spline_type = "CATMULL_ROM"

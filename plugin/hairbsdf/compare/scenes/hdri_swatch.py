@@ -36,6 +36,13 @@ def sky_pixels():
     return out
 
 
+def linear_colorspace():
+    """The scene-linear Rec.709 colour space's name: 'Linear' in 3.4, 'Linear Rec.709' from 4.0."""
+    names = {i.identifier for i in
+             bpy.types.ColorManagedInputColorspaceSettings.bl_rna.properties["name"].enum_items}
+    return "Linear Rec.709" if "Linear Rec.709" in names else "Linear"
+
+
 def write_sky(path):
     """Writes the sky as a float EXR with Blender's image API (works in 3.4 and 4.5)."""
     img = bpy.data.images.new("HdriSkySource", WIDTH, HEIGHT, float_buffer=True, alpha=True)
@@ -61,6 +68,9 @@ def build(scene, cfg):
     bg = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeBackground")
     tex = nt.nodes.new("ShaderNodeTexEnvironment")
     tex.image = bpy.data.images.load(path)
+    # Blender 5.x tags the EXR it saved as sRGB display-referred (colorInteropID) and reads it back
+    # as sRGB; 3.4 and 4.5 read it as linear. The sky is linear in every Blender (docs/blender5.md).
+    tex.image.colorspace_settings.name = linear_colorspace()
     nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
     lines, radii = swatch.strands()
     mat = lib.hair_material("HdriHair", swatch.MATERIAL)

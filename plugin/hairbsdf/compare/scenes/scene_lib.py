@@ -103,7 +103,8 @@ def parity_settings(scene, *, width, height, spp, seed=0, threads=0, bounces=Non
     cy.pixel_filter_type = pixel_filter
     cy.filter_width = float(filter_width)
     cy.film_exposure = 1.0
-    cy.film_transparent = bool(film_transparent)
+    if hasattr(cy, "film_transparent"):  # an alias of render.film_transparent, gone in 5.0
+        cy.film_transparent = bool(film_transparent)
     scene.cycles_curves.shape = curve_shape
     scene.cycles_curves.subdivisions = int(subdivisions)
     for vl in scene.view_layers:
@@ -151,7 +152,7 @@ PARITY_KEYS = (
     ("cycles.transparent_max_bounces", None), ("cycles.min_light_bounces", None),
     ("cycles.caustics_reflective", None), ("cycles.caustics_refractive", None),
     ("cycles.pixel_filter_type", None), ("cycles.filter_width", None), ("cycles.film_exposure", None),
-    ("cycles.film_transparent", None), ("cycles.shading_system", None), ("cycles.device", None),
+    ("render.film_transparent", None), ("cycles.shading_system", None), ("cycles.device", None),
     ("cycles_curves.shape", None), ("cycles_curves.subdivisions", None),
     ("render.resolution_x", None), ("render.resolution_y", None), ("render.resolution_percentage", None),
     ("render.use_motion_blur", False),
@@ -452,7 +453,7 @@ def curves_from_polylines(scene, name, polylines, radii, material, curve_normal=
     last = srad.outputs["Curve"]
     if curve_normal is not None:
         sn = N.new("GeometryNodeSetCurveNormal")
-        sn.mode = curve_normal
+        fg.set_node_mode(sn, "mode", curve_normal)
         L.new(last, sn.inputs["Curve"])
         last = sn.outputs["Curve"]
     L.new(last, setmat.inputs["Geometry"])
