@@ -1,7 +1,7 @@
 """What an artist installs (issue 21): the extension zip (Blender 4.2+) and the legacy add-on zip
 (Blender 3.4) from scripts/build_extension, installed through Blender's own path into fresh, empty
 Blender user folders, enabled, and rendering `swatch` with HAIRBSDF from the installed package
-alone. Its EXR pixels equal those of the checkout's engine on the same .blend, seed and settings.
+alone. Its EXR pixels equal those of the checkout's engine on the same .blend, seed and settings, in Blender 3.4, 4.5 and 5.3.
 A planted import failure (hairbsdf._core failing as on a too old glibc) gives a one-line report
 naming the requirement, not a traceback."""
 
@@ -45,8 +45,15 @@ def run(cmd, env, cwd, timeout=600):
     return r, time.monotonic() - t0
 
 
-def bpy_python():
-    return ROOT / ".venv" / "bin" / "python"
+def bpy_python(blender):
+    """The bpy module's Python for Blender 4.5 (.venv) or 5.3 (setup's second venv)."""
+    if blender == "4.5":
+        return ROOT / ".venv" / "bin" / "python"
+    from hairbsdf.compare.runner import bpy5_venv
+    py = bpy5_venv() / "bin" / "python"
+    if not py.exists():
+        skip_or_fail("no bpy 5.3 venv (%s; scripts/setup makes it)" % bpy5_venv())
+    return py
 
 
 def site_packages(python):
@@ -55,10 +62,10 @@ def site_packages(python):
     return r.stdout.strip()
 
 
-BLENDERS = {
-    # name: (package kind, how to run a script with Blender)
+BLENDERS = {  # Blender -> what it installs
     "3.4": "legacy",
     "4.5": "extension",
+    "5.3": "extension",
 }
 
 
@@ -68,7 +75,8 @@ def command(blender, script, spec):
         if not exe:
             skip_or_fail("no Debian blender (scripts/setup installs it)")
         return [exe, "-b", "--factory-startup", "--python-exit-code", "1", "--python", script, "--", spec]
-    return [bpy_python(), "-S", script, spec] if script.name == "extension_job.py" else [bpy_python(), script, spec]
+    py = bpy_python(blender)
+    return [py, "-S", script, spec] if script.name == "extension_job.py" else [py, script, spec]
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +95,7 @@ def blender_job(blender, job, folder, env):
     """One job of the harness's own blender_job.py (the checkout's copy)."""
     path = folder / ("%s.json" % job.get("action"))
     path.write_text(json.dumps(job))
-    r, seconds = run(command(blender, JOB, path) if blender == "3.4" else [bpy_python(), JOB, path], env, folder)
+    r, seconds = run(command(blender, JOB, path), env, folder)
     out = json.loads(Path(job.get("meta_out") or job["info_out"]).read_text())
     assert out.get("ok"), (out, r.stdout[-2000:], r.stderr[-2000:])
     return out, seconds
@@ -104,7 +112,7 @@ def exr_pixels(path):
 def install_and_render(blender, package, folder, blend=None, plant_import_error=False):
     folder.mkdir(parents=True, exist_ok=True)
     spec = dict(package=str(package), out=str(folder / "result.json"), plant_import_error=plant_import_error,
-                site_packages=None if blender == "3.4" else site_packages(bpy_python()))
+                site_packages=None if blender == "3.4" else site_packages(bpy_python(blender)))
     if blend:
         spec["job"] = dict(action="render", blend=str(blend), engine="HAIRBSDF", accuracy="CYCLES",
                            exr_out=str(folder / "installed.exr"), meta_out=str(folder / "installed_meta.json"),
