@@ -31,7 +31,13 @@ RENDER = dict(res=[128, 96], spp=8, seed=0, threads=2)
 def user_env(folder):
     """A user's environment with empty Blender user folders of its own: nothing of the checkout
     or of this machine's Blender configuration."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "HAIRBSDF_", "BLENDER_USER_"))}
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PYTHON", "HAIRBSDF_", "BLENDER_USER_", "VIRTUAL_ENV"))}
+    # No folder of the checkout on PATH: Debian's Blender takes the first python3.11 on PATH as its
+    # program name, so with .venv/bin there (scripts/test puts it first) it adopts the venv, whose
+    # editable install then shadows the add-on's own copy of hairbsdf.
+    env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
+                                  if p and not Path(p).resolve().is_relative_to(ROOT))
     for name in ("RESOURCES", "CONFIG", "SCRIPTS", "DATAFILES"):
         d = folder / name.lower()
         d.mkdir(parents=True, exist_ok=True)
