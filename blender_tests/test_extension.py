@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ci import skip_or_fail
+from hairbsdf.compare.metrics import load_image
 
 pytestmark = pytest.mark.blender
 
@@ -107,14 +108,6 @@ def blender_job(blender, job, folder, env):
     return out, seconds
 
 
-def exr_pixels(path):
-    import OpenImageIO as oiio
-    buf = oiio.ImageBuf(str(path))
-    px = buf.get_pixels(oiio.FLOAT)
-    assert px is not None and px.size, buf.geterror()
-    return np.asarray(px)
-
-
 def install_and_render(blender, package, folder, blend=None, plant_import_error=False):
     folder.mkdir(parents=True, exist_ok=True)
     spec = dict(package=str(package), out=str(folder / "result.json"), plant_import_error=plant_import_error,
@@ -156,7 +149,7 @@ def test_installs_enables_and_renders_bit_identically(blender, packages, tmp_pat
     for f in (res["hairbsdf_file"], res["job_script"], res["render"]["hairbsdf_file"]):
         assert Path(f).resolve().is_relative_to(user), "%s is not from the installed package in %s" % (f, user)
     assert res["render"].get("ok"), res["render"]
-    ours, ref = exr_pixels(tmp_path / "installed" / "installed.exr"), exr_pixels(tmp_path / "ref.exr")
+    ours, ref = load_image(tmp_path / "installed" / "installed.exr"), load_image(tmp_path / "ref.exr")
     assert ours.shape == ref.shape == (RENDER["res"][1], RENDER["res"][0], 4)
     assert ref[..., :3].max() > 0
     assert np.array_equal(ours, ref), "installed and checkout renders differ: max |d| %g" % np.abs(ours - ref).max()

@@ -32,6 +32,7 @@ bl_info = {
 
 import os
 import sys
+import textwrap
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _added_path = None
@@ -89,21 +90,10 @@ def _preferences_class():
         def draw(self, context):
             col = self.layout.column()
             col.label(text="hairbsdf is not available:", icon="ERROR")
-            for line in _wrap(_unavailable or ""):
+            for line in textwrap.wrap(_unavailable or "", 90):
                 col.label(text=line)
 
     return HairbsdfAddonPreferences
-
-
-def _wrap(text, width=90):
-    words, lines, line = text.split(), [], ""
-    for w in words:
-        if line and len(line) + 1 + len(w) > width:
-            lines.append(line)
-            line = w
-        else:
-            line = (line + " " + w).strip()
-    return lines + ([line] if line else [])
 
 
 def register():
