@@ -48,8 +48,17 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         sp.self = {PrimKind::Curve, curve};
         sp.p = ray.org + hit.t * ray.dir;
         const CurvePoint cp = s.geometry.curve_point(hit.segment, hit.u);
+        // A curve in its object's space (Cycles' untransformed curves): the frame is built there
+        // from the ray taken into that space, then the normal goes back by the inverse transpose
+        // and the tangent as a direction (geom/curve_intersect.h's curve_shader_setup).
+        const ObjectSpace* space = s.geometry.curve_object_space(curve);
+        const Vec3 p_local = space ? space->point_to_object(sp.p) : sp.p;
+        const Vec3 wo_local = space ? -1.0 * normalize(space->direction_to_object(ray.dir)) : sp.g.wo;
+        auto normal_to_world = [&](Vec3 n) { return space ? normalize(space->normal_to_world(n)) : n; };
         Vec3 x = normalize(cp.dp);
-        if (!(dot(x, x) > 0)) x = normalize(cross(sp.g.wo, std::fabs(sp.g.wo.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        if (!(dot(x, x) > 0)) x = normalize(cross(wo_local, std::fabs(wo_local.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        const Vec3 x_local = x;
+        if (space) x = normalize(space->direction_to_world(x));
         sp.g.tangent = x;
         sp.g.curve_normal = s.geometry.curve_normal(hit.segment, hit.u);
         // Huang's pixel coverage for camera rays: half the ray footprint at the hit over the
@@ -57,12 +66,15 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         const double r_lin = s.geometry.curve_radius_linear(hit.segment, hit.u);
         const double footprint = ray.dP + hit.t * ray.dD;
         if (footprint > 0 && r_lin > 0) sp.g.pixel_coverage = 0.5 * footprint / r_lin;
-        Vec3 y = cross(x, sp.g.wo);
-        const double ly = length(y);
-        y = ly > 1e-12 ? (1.0 / ly) * y : normalize(cross(x, std::fabs(x.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        auto bitangent = [](Vec3 t, Vec3 w) {  // normalize(cross(t, w)), or any normal of t
+            const Vec3 b = cross(t, w);
+            const double lb = length(b);
+            return lb > 1e-12 ? (1.0 / lb) * b : normalize(cross(t, std::fabs(t.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        };
+        const Vec3 y = bitangent(x, sp.g.wo);
         if (s.geometry.curve_shape() == CurveShape::Thick) {
-            const Vec3 d = sp.p - cp.p;
-            const Vec3 n = dot(d, d) > 0 ? normalize(d) : sp.g.wo;
+            const Vec3 d = p_local - cp.p;
+            const Vec3 n = dot(d, d) > 0 ? normal_to_world(normalize(d)) : sp.g.wo;
             sp.g.n = n;
             sp.g.ng = n;
             sp.g.h = -dot(n, y);  // = dot(cross(N, X), Z) of Cycles' frame
@@ -78,7 +90,9 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         } else {
             const double sine = clamp(hit.v, -1.0, 1.0);
             sp.g.h = -sine;
-            sp.g.n = normalize(sine * y - cos_from_sin(sine) * normalize(cross(x, y)));
+            const Vec3 y_local = space ? bitangent(x_local, wo_local) : y;
+            sp.g.n = normal_to_world(
+                normalize(sine * y_local - cos_from_sin(sine) * normalize(cross(x_local, y_local))));
             sp.g.ng = sp.g.wo;
         }
     } else {

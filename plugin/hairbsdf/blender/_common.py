@@ -83,6 +83,20 @@ def radius_scale(matrix: np.ndarray) -> float:
     return abs(det) ** (1.0 / 3.0)
 
 
+def curves_object_space(matrix: np.ndarray):
+    """None when Cycles applies `matrix` to an object's curves (a uniform scale with rotation
+    and translation, by its transform_uniform_scale test: the squared lengths of the 3 x 3
+    part's rows and columns agree within 1e-6, in float32); otherwise the matrix's top 3 rows
+    flattened (12 float64), and the curves stay in object space (docs/cycles.md §3.1)."""
+    m = np.asarray(matrix, dtype=np.float64)
+    m3 = m[:3, :3].astype(np.float32)
+    rows = [m3[i, 0] * m3[i, 0] + m3[i, 1] * m3[i, 1] + m3[i, 2] * m3[i, 2] for i in range(3)]
+    cols = [m3[0, j] * m3[0, j] + m3[1, j] * m3[1, j] + m3[2, j] * m3[2, j] for j in range(3)]
+    if all(abs(float(rows[0] - v)) < 1e-6 for v in rows[1:] + cols):
+        return None
+    return np.ascontiguousarray(m[:3, :4].reshape(12))
+
+
 def find_socket(sockets, name: str):
     """Socket by identifier, then by name, without `sockets[name]` (in 4.5 that raises
     KeyError for sockets hidden by the node's current mode)."""
