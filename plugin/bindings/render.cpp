@@ -304,6 +304,28 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
         md.normals.resize(size_t(n.shape(0)));
         std::memcpy(md.normals.data(), n.data(), md.normals.size() * sizeof(float) * 9);
     }
+    if (auto o = get_optional(m, "attributes")) {
+        if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
+            throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
+        size_t i = 0;
+        for (py::handle item : *o) {
+            const std::string ak = sub(key, "attributes") + "[" + std::to_string(i++) + "]";
+            const py::dict a = as_dict(item, ak);
+            MeshData::CornerAttribute attr;
+            attr.name = as_str(get(a, ak, "name"), sub(ak, "name"));
+            auto data = array_shape<float>(get(a, ak, "data"), sub(ak, "data"), 12);
+            if (data.shape(0) != t.shape(0)) fail(sub(ak, "data"), "expected one row of 3 RGBA corners per triangle");
+            attr.corners.resize(size_t(data.shape(0)));
+            std::memcpy(attr.corners.data(), data.data(), attr.corners.size() * sizeof(float) * 12);
+            md.attributes.push_back(std::move(attr));
+        }
+        const auto& curve_attributes = out.curves.attributes;
+        for (size_t k = 0; k < std::min(curve_attributes.size(), md.attributes.size()); ++k)
+            if (curve_attributes[k].name != md.attributes[k].name)
+                fail(sub(key, "attributes") + "[" + std::to_string(k) + "]['name']",
+                     "expected '" + curve_attributes[k].name + "', the curves' attribute " + std::to_string(k) +
+                         " (one attribute list for both, in the programs' order)");
+    }
 }
 
 PrincipledHairInputs read_hair_inputs(const py::dict& in, const std::string& key, bool& random_from_curve,

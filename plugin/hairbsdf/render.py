@@ -239,6 +239,22 @@ def _check_meshes(scene, out):
             raise ValueError(f"{key}['triangle_normals']: expected one row of 3 corner normals per triangle "
                              f"({len(triangles)})")
         out["meshes"]["triangle_normals"] = normals
+    if m.get("attributes") is not None:
+        attrs = []
+        curve_names = [a["name"] for a in (out.get("curves") or {}).get("attributes", [])]
+        for i, a in enumerate(_Checker.list(f"{key}['attributes']", m["attributes"])):
+            ak = f"{key}['attributes'][{i}]"
+            a = _Checker.dict(ak, a)
+            name = _Checker.string(f"{ak}['name']", _Checker.required(ak, a, "name"))
+            if i < len(curve_names) and name != curve_names[i]:
+                raise ValueError(f"{ak}['name']: expected {curve_names[i]!r}, the curves' attribute {i} (one attribute "
+                                 "list for both, in the programs' order)")
+            data = _Checker.array(f"{ak}['data']", _Checker.required(ak, a, "data"), np.float32, 12)
+            if len(data) != len(triangles):
+                raise ValueError(f"{ak}['data']: expected one row of 3 RGBA corners per triangle ({len(triangles)}), "
+                                 f"got {len(data)}")
+            attrs.append({"name": name, "data": data})
+        out["meshes"]["attributes"] = attrs
 
 
 def _check_model_param(key, value):

@@ -262,6 +262,11 @@ def test_callback_errors_propagate():
 # --------------------------------------------------------------------------------------
 # (d) bad scenes: warnings or clear errors, never crashes or NaN pixels
 
+def _one_triangle():
+    return {"vertices": np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32),
+            "triangles": np.array([[0, 1, 2]], np.int32), "triangle_material": np.array([0], np.int32)}
+
+
 def _small_scene():
     camera, _ = _ortho_camera(_unit((0.0, 0.3, 1.0)), 1.2, (16, 16))
     return {"curves": _clump(n=5), "materials": [_hair_material()], "camera": camera,
@@ -414,6 +419,11 @@ def test_lights_visible_to_camera_only_when_set(visible):
      r"\['curves'\]\['curve_object'\]: expected -1 \(world space\) or an index into object_transforms \(0 to 0\)"),
     (lambda s: s["curves"].update(curve_object=np.zeros(5, np.int32), object_transforms=np.zeros((1, 12))),
      ValueError, r"\['curves'\]\['object_transforms'\]\[0\]: expected a finite, invertible"),
+    (lambda s: s.update(meshes=dict(_one_triangle(), attributes=[{"name": "<uv>", "data": np.zeros((2, 12))}])),
+     ValueError, r"\['meshes'\]\['attributes'\]\[0\]\['data'\]: expected one row of 3 RGBA corners per triangle"),
+    (lambda s: (s["curves"].update(attributes=[{"name": "<uv>", "domain": "CURVE", "data": np.zeros((5, 4))}]),
+                s.update(meshes=dict(_one_triangle(), attributes=[{"name": "<uv>Other", "data": np.zeros((1, 12))}]))),
+     ValueError, r"\['meshes'\]\['attributes'\]\[0\]\['name'\]: expected '<uv>', the curves' attribute 0"),
 ])
 def test_structural_errors_name_the_key(mutate, error, match):
     scene = _small_scene()

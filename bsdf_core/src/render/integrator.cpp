@@ -1,6 +1,7 @@
 // The path tracer; see render/integrator.h for the Cycles behaviour it follows.
 #include "hairbsdf/render/integrator.h"
 
+#include <algorithm>
 #include <cfloat>
 #include <limits>
 
@@ -138,11 +139,13 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
 const float* run_material_program(const PreparedScene& s, const Hit& hit, const SurfacePoint& sp,
                                   const ShadingProgram& program, PathScratch& scratch) {
     const CurveData& cd = s.desc.curves;
+    const MeshData& md = s.desc.meshes;
+    const size_t attribute_count = std::max(cd.attributes.size(), md.attributes.size());
     ShadingHitContext ctx;
-    if (scratch.attributes.size() < 4 * cd.attributes.size()) scratch.attributes.resize(4 * cd.attributes.size());
+    if (scratch.attributes.size() < 4 * attribute_count) scratch.attributes.resize(4 * attribute_count);
     std::fill(scratch.attributes.begin(), scratch.attributes.end(), 0.0f);
     ctx.attributes = scratch.attributes.data();
-    ctx.attribute_count = int(cd.attributes.size());
+    ctx.attribute_count = int(attribute_count);
     ctx.images = s.images.data();
     ctx.image_count = int(s.images.size());
     if (hit.kind == PrimKind::Curve) {
@@ -160,6 +163,15 @@ const float* run_material_program(const PreparedScene& s, const Hit& hit, const 
                 scratch.attributes[4 * i + size_t(c)] =
                     attr.point_domain ? along(attr.rgba[k0][size_t(c)], attr.rgba[k0 + 1][size_t(c)])
                                       : attr.rgba[size_t(curve)][size_t(c)];
+        }
+    } else if (hit.kind == PrimKind::Triangle) {
+        // Corner attributes (UV maps) at the hit: barycentric weights of corners 0, 1, 2 as in
+        // surface_point's position.
+        const float w[3] = {float(1.0 - hit.u - hit.v), float(hit.u), float(hit.v)};
+        for (size_t i = 0; i < md.attributes.size(); ++i) {
+            const auto& row = md.attributes[i].corners[size_t(hit.prim)];
+            for (size_t c = 0; c < 4; ++c)
+                scratch.attributes[4 * i + c] = w[0] * row[c] + w[1] * row[4 + c] + w[2] * row[8 + c];
         }
     }
     if (scratch.registers.size() < size_t(program.register_count)) scratch.registers.resize(size_t(program.register_count));

@@ -66,7 +66,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
     // Shading programs: an invalid one (or a link outside its registers) is dropped, so the
     // inputs keep their constant values.
-    const int attribute_count = int(s.curves.attributes.size());
+    const int attribute_count = int(std::max(s.curves.attributes.size(), s.meshes.attributes.size()));
     // Images: a bad size empties the image (it reads 0); NaN/Inf texels read 0.
     size_t bad_image_values = 0;
     for (ImageDesc& im : s.images) {
@@ -266,6 +266,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         size_t dropped = 0, bad_material = 0;
         MeshData out;
         out.vertices = md.vertices;
+        std::vector<size_t> kept;
         for (size_t t = 0; t < md.triangles.size(); ++t) {
             const auto& tri = md.triangles[t];
             bool ok = true;
@@ -293,6 +294,19 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             out.material.push_back(mat);
             if (t < md.normals.size()) out.normals.push_back(md.normals[t]);
+            kept.push_back(t);
+        }
+        for (auto& attr : md.attributes) {  // the kept triangles' rows; a wrong length reads 0
+            MeshData::CornerAttribute a{attr.name, {}};
+            const bool sized = attr.corners.size() == md.triangles.size();
+            if (!sized) warnings.push_back("meshes: attribute '" + attr.name + "' has the wrong length; read as 0");
+            for (size_t t : kept) {
+                std::array<float, 12> row{};
+                if (sized)
+                    for (size_t k = 0; k < 12; ++k) row[k] = std::isfinite(attr.corners[t][k]) ? attr.corners[t][k] : 0.0f;
+                a.corners.push_back(row);
+            }
+            out.attributes.push_back(std::move(a));
         }
         if (out.normals.size() != out.triangles.size()) out.normals.clear();  // all or none
         if (dropped) warnings.push_back("meshes: dropped " + plural(dropped, "triangle") + " with bad indices, NaN/Inf vertices or no area");

@@ -54,6 +54,15 @@ struct MeshData {
     // Optional corner normals per triangle (x, y, z of corners 0, 1, 2): Cycles' smooth shading
     // normal N is their barycentric interpolation. Empty: N = the face normal.
     std::vector<std::array<float, 9>> normals;
+    // Optional, for shading programs: the attributes they read on meshes (UV maps), RGBA at each
+    // triangle corner (corners 0, 1, 2), interpolated over the triangle as Cycles interpolates
+    // corner attributes. Entry i is the programs' attribute i: the same names, in the same
+    // order, as CurveData::attributes.
+    struct CornerAttribute {
+        std::string name;
+        std::vector<std::array<float, 12>> corners;  // one row per triangle
+    };
+    std::vector<CornerAttribute> attributes;
 };
 
 // One entry of a material's flat weighted closure sum.
