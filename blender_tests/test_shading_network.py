@@ -228,21 +228,22 @@ def test_compiler_folds_evaluates_and_warns(run_blender, blender_kind, renderer_
 
 # ---------------------------------------------------------------------------- per pixel
 
-EMISSION = r'''
+EMISSION_COMMON = r'''
 import os
 import scene_lib as lib
-hb = register_engine()
-from hairbsdf.blender import engine
-W, H = ARGS["w"], ARGS["h"]
-scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
-scene.cycles.max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.hairbsdf.threads = 2
 V = tuple(bpy.app.version)
 
 def sock(coll, identifier):
     """A socket by identifier (the Mix node's A / B / Factor names repeat per data type)."""
     return next(s for s in coll if s.identifier == identifier)
+
+def emission_scene(w, h):
+    """Emission only: one sample per pixel at its centre (filter 0.01 px), no bounces."""
+    scene = hs.reset(width=w, height=h, spp=1, film_transparent=True)
+    scene.cycles.max_bounces = 0
+    scene.cycles.filter_width = 0.01
+    scene.hairbsdf.threads = 2
+    return scene
 
 def emission_material(name):
     m = bpy.data.materials.new(name); m.use_nodes = True
@@ -252,6 +253,14 @@ def emission_material(name):
     e = nt.nodes.new("ShaderNodeEmission")
     nt.links.new(e.outputs[0], out.inputs["Surface"])
     return m, nt, e
+
+'''
+
+EMISSION = EMISSION_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = emission_scene(W, H)
 
 def ramp_node(nt, interpolation, stops):
     r = nt.nodes.new("ShaderNodeValToRGB")
@@ -432,13 +441,7 @@ def test_emission_networks_match_cycles_per_pixel(run_blender, blender_kind, ren
 
 # ---------------------------------------------------------------------------- Image Texture
 
-IMAGE_COMMON = r'''
-import os
-import scene_lib as lib
-V = tuple(bpy.app.version)
-
-def sock(coll, identifier):
-    return next(s for s in coll if s.identifier == identifier)
+IMAGE_COMMON = EMISSION_COMMON + r'''
 
 def make_images():
     """An 8 x 4 float EXR (alpha 0.4..1, premultiplied as Blender stores float buffers) and the
@@ -495,20 +498,8 @@ IMAGE_EMISSION = IMAGE_COMMON + r'''
 hb = register_engine()
 from hairbsdf.blender import engine
 W, H = ARGS["w"], ARGS["h"]
-scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
-scene.cycles.max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.hairbsdf.threads = 2
+scene = emission_scene(W, H)
 images = make_images()
-
-def emission_material(name):
-    m = bpy.data.materials.new(name); m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes): nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    e = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(e.outputs[0], out.inputs["Surface"])
-    return m, nt, e
 
 # Curves: per material 3 horizontal strands whose surface_uv_coordinate v sits between texel
 # centres, at an edge and outside the image; u is swept along the strand (Intercept) from
@@ -647,10 +638,7 @@ IMAGE_MESH = IMAGE_COMMON + r'''
 hb = register_engine()
 from hairbsdf.blender import engine
 W, H = ARGS["w"], ARGS["h"]
-scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
-scene.cycles.max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.hairbsdf.threads = 2
+scene = emission_scene(W, H)
 images = make_images()
 # Two emissive quads facing the camera: the left one reads the active-render UV map
 # (Texture Coordinate > UV, Linear), the right one a second, rotated and scaled UV map through
@@ -664,12 +652,7 @@ for k, (name, source, interp) in enumerate((("MeshUV", None, "Linear"), ("MeshNa
     c, s = np.cos(0.5), np.sin(0.5)
     uv2 = uv0.reshape(-1, 2) @ np.array([[c, s], [-s, c]], np.float32) * np.float32(1.7) + np.float32(0.3)
     second.data.foreach_set("uv", uv2.astype(np.float32).ravel())
-    m = bpy.data.materials.new(name); m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes): nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    e = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    m, nt, e = emission_material(name)
     t = image_node(nt, images["tex.exr"], interp, "REPEAT")
     if source is None:
         tc = nt.nodes.new("ShaderNodeTexCoord")

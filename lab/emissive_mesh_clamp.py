@@ -9,82 +9,38 @@ Prints, per clamp, each engine's image mean over the hair pixels (mean of the se
 its standard error), the ratio and z. 64 x 48 px, 2 threads, bpy."""
 import argparse
 import math
+import os
+import sys
 
 import bpy
 import numpy as np
 
+import hairbsdf.compare
 
-def hair_curves(material):
-    """Twelve vertical strands (radius 0.02, 5 keys) in two rows."""
-    curves = bpy.data.hair_curves.new("Hair")
-    obj = bpy.data.objects.new("Hair", curves)
-    bpy.context.scene.collection.objects.link(obj)
-    xs = np.linspace(-0.4, 0.4, 6)
-    roots = [(x, y, 0.0) for y in (-0.2, 0.2) for x in xs]
-    curves.add_curves([5] * len(roots))
-    pos = np.array([(x, y, 0.6 * k / 4) for x, y, _ in roots for k in range(5)], np.float32)
-    curves.position_data.foreach_set("vector", pos.ravel())
-    radius = curves.attributes.new("radius", "FLOAT", "POINT")
-    radius.data.foreach_set("value", np.full(len(pos), 0.02, np.float32))
-    curves.materials.append(material)
-    return obj
-
-
-def hair_material():
-    m = bpy.data.materials.new("Hair")
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    ph = nt.nodes.new("ShaderNodeBsdfHairPrincipled")
-    ph.parametrization = "MELANIN"
-    ph.inputs["Melanin"].default_value = 0.2
-    ph.inputs["Roughness"].default_value = 0.3
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(ph.outputs[0], out.inputs["Surface"])
-    return m
+sys.path.insert(0, os.path.join(os.path.dirname(hairbsdf.compare.__file__), "scenes"))
+import scene_lib as lib  # noqa: E402  (the harness's scene helpers)
 
 
 def emission_material(strength):
-    m = bpy.data.materials.new("Lamp")
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    mat, nt, out = lib._fresh_material("Lamp")
     e = nt.nodes.new("ShaderNodeEmission")
     e.inputs["Color"].default_value = (1.0, 0.9, 0.8, 1.0)
     e.inputs["Strength"].default_value = strength
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
     nt.links.new(e.outputs[0], out.inputs["Surface"])
-    return m
+    return mat
 
 
 def build(spp):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    r = scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = 64, 48, 100
-    r.threads_mode, r.threads = "FIXED", 2
-    r.image_settings.file_format = "OPEN_EXR"
-    scene.view_settings.view_transform = "Standard"
-    scene.cycles.samples = spp
-    scene.cycles.max_bounces = 2
-    scene.cycles.device = "CPU"
-    scene.cycles_curves.shape = "THICK"
-    r.film_transparent = True  # alpha marks the hair pixels
-    world = bpy.data.worlds.new("W")
-    world.use_nodes = False
-    world.color = (0.0, 0.0, 0.0)
-    scene.world = world
-    hair_curves(hair_material())
+    scene = lib.reset_scene()
+    lib.parity_settings(scene, width=64, height=48, spp=spp, threads=2, bounces=dict(max_bounces=2), film_transparent=True)
+    lib.set_world(scene)  # black
+    hair = lib.hair_material("Hair", {"parametrization": "MELANIN", "melanin": 0.2, "roughness": 0.3})
+    strands = [[(x, y, 0.15 * k) for k in range(5)] for y in (-0.2, 0.2) for x in np.linspace(-0.4, 0.4, 6)]
+    lib.curves_from_polylines(scene, "Hair", strands, 0.02, hair)
     # a 0.5 quad above and in front of the hair, facing it, outside the camera's view
     bpy.ops.mesh.primitive_plane_add(size=0.5, location=(0.0, -1.0, 1.5), rotation=(3.83, 0.0, 0.0))
     bpy.context.active_object.data.materials.append(emission_material(30.0))
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, -3.0, 0.3)
-    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
-    scene.camera = cam
+    lib.perspective_camera(scene, (0.0, -3.0, 0.3), (0.0, 0.0, 0.3))
     return scene
 
 
@@ -104,8 +60,6 @@ def main():
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--out", default="/tmp/emissive_mesh_clamp")
     a = ap.parse_args()
-    import os
-
     import hairbsdf.blender
     os.makedirs(a.out, exist_ok=True)
     for clamp in (0.0, 1.0):
