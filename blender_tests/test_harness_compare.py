@@ -161,7 +161,8 @@ def test_cycles_against_cycles_passes(tmp_path):
     for c in st.values():
         assert c["status"] == "PASS", (c["id"], c["reason"], c["checks"])
     assert st["fiber_gonio-back"]["metrics"]["gonio"]["p99"] == 0.0
-    assert st["swatch"]["metrics"]["welch"]["m"] == 128 * 96 * 3
+    w = st["swatch"]["metrics"]["welch"]  # tested + unresolved (one side constant, 4 seeds): every pixel-channel
+    assert w["m"] + w["n_unresolved"] == 128 * 96 * 3
     assert rc == 0
     assert (tmp_path / "index.html").exists() and (tmp_path / "junit.xml").exists()
 

@@ -3,6 +3,8 @@
 nothing of the checkout on sys.path:
   - `hairbsdf compare --scene swatch --ci` PASSes, and report.json shows that the client and
     every engine render imported hairbsdf from that venv;
+  - `hairbsdf judge` on two folders of those per-seed EXRs (Cycles and the engine) writes a PASS
+    report from that venv with `import bpy` blocked (a user with only hairbsdf[compare]);
   - the example plugin builds against get_cmake_dir() / get_include() and passes test_plugin.
 One test, in steps, so that the venv is built once; each step's time is printed."""
 
@@ -110,6 +112,26 @@ def test_wheel_outside_the_checkout(tmp_path):
     assert renders and all(renders), case["renders"]
     for f in [client] + renders:
         assert inside(f, venv), "hairbsdf imported from %s, not from the venv %s" % (f, venv)
+
+    # 3b. hairbsdf judge on two folders of per-seed EXRs, bpy blocked: what a user of another
+    #     renderer runs with only hairbsdf[compare] (issue 22).
+    folders = {}
+    for kind in ("cycles", "ours"):
+        folders[kind] = tmp / ("judge_" + kind)
+        folders[kind].mkdir()
+        for i, r in enumerate(x for x in case["renders"] if x["kind"] == kind):
+            shutil.copy(r["exr"], folders[kind] / ("seed%02d.exr" % i))
+    no_bpy = ("import sys; sys.modules['bpy'] = None; import hairbsdf; from hairbsdf.cli import main; "
+              "print(hairbsdf.__file__); sys.exit(main(sys.argv[1:]))")
+    t0 = time.monotonic()
+    j = subprocess.run([py, "-I", "-c", no_bpy, "judge", folders["cycles"], folders["ours"], "--out", tmp / "judge"],
+                       cwd=tmp, env=uenv, capture_output=True, text=True, timeout=300)
+    times["hairbsdf judge"] = time.monotonic() - t0
+    assert j.returncode == 0, j.stdout[-4000:] + j.stderr[-4000:]
+    assert inside(j.stdout.splitlines()[0], venv), j.stdout
+    (jcase,) = json.loads((tmp / "judge" / "report.json").read_text())["cases"]
+    assert jcase["status"] == "PASS" and (tmp / "judge" / "index.html").is_file(), jcase.get("reason")
+    assert {c["name"] for c in jcase["checks"] if c["gate"]} >= {"welch", "mean_bias_sigma", "nonfinite"}
 
     # 4. Two TBBs in one process (docs/packaging.md): bpy keeps its own libtbb.so.12, the engine
     #    uses the wheel's renamed copy, whichever loads first; the engine's pixels equal those of

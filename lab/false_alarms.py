@@ -127,11 +127,16 @@ def null_stats(X, I, ia, ib, limits):
     mb, vb = B.mean(axis=0), B.var(axis=0, ddof=1)
     w = M.welch_from_stats(ma, va, len(ia), mb, vb, len(ib), alpha=limits["welch_alpha"],
                            floor_abs=limits["welch_floor_abs"], floor_rel=limits["welch_floor_rel"])
+    # the rule before 2026-11-26 (evening): pixels with one constant side tested at any seed count
+    w_before = M.welch_from_stats(ma, va, len(ia), mb, vb, len(ib), alpha=limits["welch_alpha"],
+                                  floor_abs=limits["welch_floor_abs"], floor_rel=limits["welch_floor_rel"],
+                                  constant_side_seeds=0)
     b = M.mean_bias(I[ia], I[ib], floor_rel=limits["welch_floor_rel"])
     crit = M.mean_bias_critical(b["df"], limits["mean_bias_alpha"])
     noisy = (va + vb) > 0
     return dict(z=b["z"], df=b["df"], crit=crit, p_mean=float(2 * M.t_sf(abs(b["z"]), b["df"])[()]),
-                welch_fail=w["n_fail"] > 0,
+                welch_fail=w["n_fail"] > 0, welch_fail_before=w_before["n_fail"] > 0,
+                unresolved=w["n_unresolved"] / (w["m"] + w["n_unresolved"]),
                 welch_case_p=float(-np.expm1(w["m"] * np.log1p(-w["min_p"]))) if w["min_p"] < 1 else 1.0,
                 frac_p1e3=float(np.count_nonzero(w["p"] < 1e-3)) / w["m"],
                 frac_p1e3_noisy=float(np.count_nonzero((w["p"] < 1e-3) & noisy)) / max(int(noisy.sum()), 1),
@@ -244,6 +249,8 @@ def main(argv=None):
                     mean_old=float(np.mean(np.abs(zn) > 2.0)),
                     mean_p_below_1pct=float(np.mean([x["p_mean"] < 0.01 for x in nulls])),
                     welch=float(np.mean([x["welch_fail"] for x in nulls])),
+                    welch_before=float(np.mean([x["welch_fail_before"] for x in nulls])),
+                    unresolved=float(np.mean([x["unresolved"] for x in nulls])),
                     welch_case_p_below_1pct=float(np.mean([x["welch_case_p"] < 0.01 for x in nulls])),
                     welch_case_p_below_10pct=float(np.mean([x["welch_case_p"] < 0.10 for x in nulls])),
                     pixels_below_1e3=float(np.mean([x["frac_p1e3"] for x in nulls])),
@@ -281,17 +288,19 @@ def main(argv=None):
         for s, sr in results["scenes"].items() for k, rs in sr["sizes"].items()))
     print()
     print("Resampled null distributions (overlapping splits, point estimates only)")
-    print("%-22s %4s %6s %8s %8s %8s %8s %8s %8s %8s %10s %10s %7s %7s" % (
-        "scene", "k", "n", "z new", "z old", "p<1%", "sd(z)", "q99|z|", "crit", "welch", "px p<1e-3", "noisy px",
-        "df", "rel sd"))
+    print("%-22s %4s %6s %8s %8s %8s %8s %8s %8s %8s %8s %8s %10s %10s %7s %7s" % (
+        "scene", "k", "n", "z new", "z old", "p<1%", "sd(z)", "q99|z|", "crit", "welch", "w before", "unres",
+        "px p<1e-3", "noisy px", "df", "rel sd"))
     for scene, sres in results["scenes"].items():
         for k, rs in sres["sizes"].items():
             r = rs.get("resampled")
             if not r:
                 continue
-            print("%-22s %4s %6d %7.2f%% %7.2f%% %7.2f%% %8.2f %8.2f %8.2f %7.2f%% %9.3f%% %9.3f%% %7.1f %6.2f%%" % (
+            print("%-22s %4s %6d %7.2f%% %7.2f%% %7.2f%% %8.2f %8.2f %8.2f %7.2f%% %7.2f%% %7.3f%% %9.3f%% %9.3f%% "
+                  "%7.1f %6.2f%%" % (
                 scene, k, r["n"], 100 * r["mean_new"], 100 * r["mean_old"], 100 * r["mean_p_below_1pct"], r["z_sd"],
-                r["z_q99"], r["median_crit"], 100 * r["welch"], 100 * r["pixels_below_1e3"],
+                r["z_q99"], r["median_crit"], 100 * r["welch"], 100 * r["welch_before"], 100 * r["unresolved"],
+                100 * r["pixels_below_1e3"],
                 100 * r["noisy_pixels_below_1e3"], r["median_df"], 100 * r["rel_sigma_median"]))
     print()
     print("Image-mean gate on resampled per-seed image means (overlapping splits, point estimates only)")

@@ -95,12 +95,18 @@ def evaluate(kind, cycles, ours, limits, exact=None, image_mean=False, flip=True
             maps["z"], maps["zfail"] = w.pop("t_map"), w.pop("fail_map")
             w.pop("p")
             mets["welch"] = w
-            checks.append(check(
-                "welch", "per-pixel Welch test: failing pixel-channels", w["n_fail"], limits["welch_max_failures"],
-                "<=", True,
-                "%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f (fewer seeds - 1 "
-                "where noisy), max |t| %.2f (critical about %.1f)" % (w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
-                                          w["t_critical_median_df"])))
+            det = ("%d tests, Sidak level %.2e for family-wise %.3g; seeds %d vs %d, median df %.1f (fewer seeds - 1 "
+                   "where noisy), max |t| %.2f (critical about %.1f)" % (
+                       w["m"], w["level"], w["alpha"], n_a, n_b, w["median_df"], w["max_abs_t"],
+                       w["t_critical_median_df"]))
+            if w["n_unresolved"]:
+                det += ("; %d pixel-channels unresolved, not tested: their renders are all identical on one side "
+                        "only, and below %d seeds per side that zero variance does not bound the noise (a strand "
+                        "edge is background in some seeds and strand in others, and few seeds can land all in one "
+                        "mode); render %d or more seeds per side to test them" % (
+                            w["n_unresolved"], w["constant_side_seeds"], w["constant_side_seeds"]))
+            checks.append(check("welch", "per-pixel Welch test: failing pixel-channels", w["n_fail"],
+                                limits["welch_max_failures"], "<=", True, det))
             if stats:
                 b = M.mean_bias_from_stats(cycles, ours, floor_rel=limits["welch_floor_rel"])
             else:

@@ -202,8 +202,16 @@ def stack_stats(stack):
     return mean, var, n
 
 
+# Below this many seeds on either side, a pixel-channel whose renders are all identical on one side
+# only (zero sample variance there, not on the other side) is not tested by the per-pixel Welch test
+# ("unresolved"; docs/statistics.md).  Strand-edge pixels are bimodal across seeds (exact background,
+# or a grazed strand); with few seeds one side can land entirely on the background and the other
+# entirely on the strand, and then neither variance sees the gap between the modes.
+WELCH_CONSTANT_SIDE_SEEDS = 8
+
+
 def welch_from_stats(mean_a, var_a, n_a, mean_b, var_b, n_b, alpha=0.01, floor_abs=1e-6, floor_rel=1e-4,
-                     mask=None):
+                     mask=None, constant_side_seeds=WELCH_CONSTANT_SIDE_SEEDS):
     """Per-pixel, per-channel Welch t-test of E[b] = E[a] from means and variances of the
     per-render estimates (n renders each; variance passes give the same numbers).
 
@@ -212,7 +220,11 @@ def welch_from_stats(mean_a, var_a, n_a, mean_b, var_b, n_b, alpha=0.01, floor_a
     use the Welch-Satterthwaite degrees of freedom; a pixel-channel fails when p < the Sidak
     level for a family-wise alpha over all m tested pixel-channels.  Under the null hypothesis
     the whole image fails with probability about alpha; a bias fails it when it stands out of
-    the per-pixel noise."""
+    the per-pixel noise.
+
+    With fewer than `constant_side_seeds` renders on either side, pixel-channels with zero
+    variance on exactly one side are unresolved: not tested, not counted in m, counted in
+    n_unresolved (their zero variance does not bound that side's noise; docs/statistics.md)."""
     ma, va = np.asarray(mean_a, np.float64), np.asarray(var_a, np.float64)
     mb, vb = np.asarray(mean_b, np.float64), np.asarray(var_b, np.float64)
     if n_a < 2 or n_b < 2:
@@ -234,6 +246,11 @@ def welch_from_stats(mean_a, var_a, n_a, mean_b, var_b, n_b, alpha=0.01, floor_a
         sel = np.ones(t.shape, dtype=bool)
     else:
         sel = np.broadcast_to(np.asarray(mask, bool)[..., None] if np.ndim(mask) == t.ndim - 1 else mask, t.shape)
+    unresolved = np.zeros(t.shape, dtype=bool)
+    if min(n_a, n_b) < constant_side_seeds:
+        unresolved = sel & ((va == 0) != (vb == 0))
+        sel = sel & ~unresolved
+    n_unresolved = int(np.count_nonzero(unresolved))
     m = int(np.count_nonzero(sel))
     p = np.ones_like(t)
     p[sel] = np.minimum(1.0, 2.0 * t_sf(np.abs(t[sel]), df[sel]))
@@ -247,18 +264,21 @@ def welch_from_stats(mean_a, var_a, n_a, mean_b, var_b, n_b, alpha=0.01, floor_a
     df_sel = df[sel]
     df_fin = df_sel[np.isfinite(df_sel)]  # pixels with noise (noise-free ones have df = inf)
     med_df = float(np.median(df_fin)) if df_fin.size else float("inf")
-    return dict(n_fail=n_fail, m=m, alpha=alpha, level=level, min_p=min_p,
+    return dict(n_fail=n_fail, m=m, alpha=alpha, level=level, min_p=min_p, n_unresolved=n_unresolved,
+                constant_side_seeds=int(constant_side_seeds),
                 max_abs_t=float(np.abs(t[sel]).max()) if m else 0.0,
                 fail_fraction=n_fail / max(m, 1), n_a=int(n_a), n_b=int(n_b), median_df=med_df,
                 t_critical_median_df=t_isf(level / 2.0, med_df) if m else float("inf"),
                 passed=n_fail == 0, t_map=tmap, fail_map=fail.any(axis=-1), p=p)
 
 
-def welch(stack_a, stack_b, alpha=0.01, floor_abs=1e-6, floor_rel=1e-4, mask=None):
+def welch(stack_a, stack_b, alpha=0.01, floor_abs=1e-6, floor_rel=1e-4, mask=None,
+          constant_side_seeds=WELCH_CONSTANT_SIDE_SEEDS):
     """welch_from_stats on two stacks (n, H, W, C); only RGB is tested."""
     ma, va, na = stack_stats(rgb(stack_a))
     mb, vb, nb = stack_stats(rgb(stack_b))
-    return welch_from_stats(ma, va, na, mb, vb, nb, alpha=alpha, floor_abs=floor_abs, floor_rel=floor_rel, mask=mask)
+    return welch_from_stats(ma, va, na, mb, vb, nb, alpha=alpha, floor_abs=floor_abs, floor_rel=floor_rel, mask=mask,
+                            constant_side_seeds=constant_side_seeds)
 
 
 def _image_means(stack, mask=None):
