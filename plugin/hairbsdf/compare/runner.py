@@ -15,7 +15,6 @@ from __future__ import annotations
 import concurrent.futures as cf
 import dataclasses
 import fcntl
-import functools
 import hashlib
 import json
 import os
@@ -122,15 +121,16 @@ def file_hash(path):
     return h.hexdigest()[:16]
 
 
-@functools.lru_cache(maxsize=256)
-def _file_hash_of_version(path, mtime_ns, size):
-    return file_hash(path)
+_CONTENT_HASHES = {}  # (path, mtime, size) -> file_hash
 
 
 def blend_content_hash(path):
     """file_hash, computed once per version of the file."""
     st = os.stat(path)
-    return _file_hash_of_version(os.path.abspath(path), st.st_mtime_ns, st.st_size)
+    key = (os.path.abspath(path), st.st_mtime_ns, st.st_size)
+    if key not in _CONTENT_HASHES:
+        _CONTENT_HASHES[key] = file_hash(path)
+    return _CONTENT_HASHES[key]
 
 
 def safe(s):
