@@ -445,7 +445,7 @@ class Runner:
         d = self.o.cache / "blend"
         d.mkdir(parents=True, exist_ok=True)
         key = self.blend_key(case)
-        base = d / ("%s-%s" % (safe(case.id.split("@")[0]), key))
+        base = d / ("%s-%s" % (safe(case.id.split("@")[0].split("[")[0]), key))  # a sweep's points share it
         blend, info = str(base) + ".blend", str(base) + ".json"
         with _Lock(base):
             if self.o.use_cache and not self.o.refresh and os.path.exists(blend) and os.path.exists(info):
