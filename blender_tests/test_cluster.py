@@ -15,7 +15,8 @@ can only come from the wheel. Steps, sharing one storage folder:
 2. the same sweep again, locally from the checkout (a second run on the same storage): every
    Cycles render comes from the shared cache the workers filled, the verdicts are the same and
    our engine's images are bit-identical;
-and, separately, a worker with another hairbsdf version is an error (a real LocalCluster).
+and, separately: a Blender crash on a worker is CRASH; Ctrl-C in the client leaves no worker,
+guard or Blender; a worker with another hairbsdf version is an error (a real LocalCluster).
 
 HAIRBSDF_CLUSTER_SWEEP=FILE runs another sweep file (the default is the 24-case example).
 """
@@ -206,7 +207,7 @@ def test_sweep_on_a_local_cluster(wheel_venv):
         for r in c["renders"]:
             if r["kind"] == "ours":
                 assert inside(r["hairbsdf_file"], tmp / "venv"), r["hairbsdf_file"]
-    assert "cluster:" in text and "running" in text  # progress from task states
+    assert "cluster:" in text and "on workers" in text  # progress from task states
     sweep_page = (tmp / "out1" / "sweep.html").read_text()
     assert sweep_page.count('class="badge PASS') == n and "data:image/png;base64," in sweep_page
     assert run["sweep"]["heatmap"] == ["melanin", "roughness"] and len(run["sweep"]["matrix"]) == n
@@ -273,3 +274,45 @@ def test_blender_crash_on_a_worker_is_crash(wheel_venv):
     assert case["status"] == "CRASH" and "signal 6" in case["reason"], case["reason"]
     assert rep["runs"][0]["cluster"]["task_worker_losses"] == 0
     assert not blender_jobs(tmp)
+
+
+def descendants(pid):
+    kids = [int(d.name) for d in Path("/proc").iterdir() if d.name.isdigit() and ppid(int(d.name)) == pid]
+    return kids + [g for k in kids for g in descendants(k)]
+
+
+def running_blenders(pid):
+    out = []
+    for d in descendants(pid):
+        try:
+            if b"blender_job.py" in Path("/proc/%d/cmdline" % d).read_bytes():
+                out.append(d)
+        except OSError:
+            pass
+    return out
+
+
+def test_ctrl_c_leaves_no_process(wheel_venv):
+    """Ctrl-C (SIGINT) in the client while renders run on the cluster: exit 130 within seconds, and
+    no worker, guard or Blender of the run is left."""
+    tmp, py, env = wheel_venv
+    cmd = [str(py), "-m", "hairbsdf.compare", "--sweep", str(SWEEP), "--ci", "--no-exact", "--no-flip", "--out",
+           str(tmp / "out_int"), "--scheduler", "local:2", "--cache", str(tmp / "cache_int")]
+    proc = subprocess.Popen(cmd, cwd=tmp, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as in a terminal
+    try:
+        deadline = time.monotonic() + 120
+        while not running_blenders(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert running_blenders(proc.pid), "no render started"
+        family = descendants(proc.pid)
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "interrupted" in out, out[-3000:]
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(alive(p) for p in family):
+        time.sleep(0.2)
+    assert not [p for p in family if alive(p)], "left after Ctrl-C: %s" % [p for p in family if alive(p)]

@@ -39,7 +39,8 @@ how it judges (details: docs/compare.md):
 
 exit status: 0 when no case FAILs, CRASHes or has NO OUTPUT / ERROR (PENDING and SKIPPED are fine),
   1 otherwise, 2 for bad arguments (a bad sweep file included), 3 when the Dask cluster cannot be
-  used (no scheduler within --scheduler-timeout, no workers, a worker with another hairbsdf).
+  used (no scheduler within --scheduler-timeout, no workers, a worker with another hairbsdf), 130 when
+  interrupted (Ctrl-C).
 """
 
 
@@ -280,6 +281,9 @@ def run_compare(args, argv_text=""):
                                                           ", ".join(t.label for t in targets), out), file=sys.stderr)
     try:
         return _run_and_report(args, argv_text, runner, out, targets, opts, hair_model, thr, sweep, workers)
+    except KeyboardInterrupt:
+        print("\nhairbsdf compare: interrupted; no report written", file=sys.stderr)
+        return 130
     finally:
         _close(client, cluster)
 

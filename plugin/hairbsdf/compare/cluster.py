@@ -209,6 +209,7 @@ class ClusterRunner(R.Runner):
             self.threads = threads
         self.version = R.hairbsdf_version()
         self.futures = []  # in flight
+        self.aborted = False
         self.done = self.losses = self.submitted = 0
         self.lock = threading.Lock()
         self.scattered = {}
@@ -246,6 +247,8 @@ class ClusterRunner(R.Runner):
 
     def _run_job(self, target, job, job_path, log_path):
         from distributed import KilledWorker
+        if self.aborted:
+            raise ClusterError("the run was interrupted")
         name = "%s-%s" % (job["action"], uuid.uuid4().hex)
         fut = self.client.submit(run_task, self.version, target.spec, target.label, job, self._inputs(job),
                                  str(self.storage) if self.storage else None, self.o.timeout, name, pure=False,
@@ -315,7 +318,7 @@ class ClusterRunner(R.Runner):
                 nworkers = len(self.client.scheduler_info(n_workers=-1)["workers"])
             except Exception:  # a scheduler that is going away: no line this time
                 continue
-            line = ("cluster: %d running, %d queued, %d done, %d failed; %d worker%s; tasks hit by a worker loss: %d"
+            line = ("cluster: %d on workers, %d waiting, %d done, %d failed; %d worker%s; tasks hit by a worker loss: %d"
                     % (running, max(states.get("pending", 0) - running, 0), self.done,
                        states.get("error", 0) + states.get("lost", 0), nworkers, "" if nworkers == 1 else "s",
                        losses))
@@ -325,6 +328,7 @@ class ClusterRunner(R.Runner):
 
     def _abort(self):
         with self.lock:
+            self.aborted = True
             futs = list(self.futures)
         self.client.cancel(futs)
 

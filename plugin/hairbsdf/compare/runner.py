@@ -551,8 +551,9 @@ class Runner:
                 results[c.id] = res
                 if on_case:
                     on_case(res, maps)
-        except BaseException:
+        except BaseException:  # Ctrl-C: drop the renders not started yet
             self._abort()
+            pool.shutdown(wait=True, cancel_futures=True)
             raise
         finally:
             pool.shutdown(wait=True)
