@@ -282,12 +282,15 @@ def descendants(pid):
 
 
 def running_blenders(pid):
+    """pid's descendants that are Blender render jobs (not scene builds)."""
     out = []
     for d in descendants(pid):
         try:
-            if b"blender_job.py" in Path("/proc/%d/cmdline" % d).read_bytes():
+            args = Path("/proc/%d/cmdline" % d).read_bytes().decode(errors="replace").split("\0")
+            if any(a.endswith("blender_job.py") for a in args) and json.loads(
+                    Path([a for a in args if a][-1]).read_text())["action"] == "render":
                 out.append(d)
-        except OSError:
+        except (OSError, ValueError, KeyError):
             pass
     return out
 
