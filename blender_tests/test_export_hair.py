@@ -61,6 +61,27 @@ emit({"ref": ref, "matrix": [list(r) for r in ev.matrix_world], "status": engine
 '''
 
 
+def _cycles_applies(matrix) -> bool:
+    """Cycles moves curves to world space only under a uniform scale (rows and columns of the
+    3 x 3 part of equal length); otherwise they stay in object space (docs/cycles.md §3.1)."""
+    m3 = np.asarray(matrix, np.float64)[:3, :3]
+    lengths = np.concatenate([(m3 ** 2).sum(axis=1), (m3 ** 2).sum(axis=0)])
+    return bool(np.all(np.abs(lengths - lengths[0]) < 1e-6))
+
+
+def _world_keys(curves):
+    """The exported keys in world space (object-space curves through their transforms)."""
+    pts = np.asarray(curves["points"], np.float64)
+    if curves.get("curve_object") is None:
+        return pts
+    key_object = np.repeat(curves["curve_object"], np.diff(curves["curve_offsets"]))
+    out = pts.copy()
+    for k, m in enumerate(np.asarray(curves["object_transforms"]).reshape(-1, 3, 4)):
+        sel = key_object == k
+        out[sel, :3] = pts[sel, :3] @ m[:, :3].T + m[:, 3]
+    return out
+
+
 def _expected_radius(keys_world, matrix, sysref):
     """Cycles' particle radius from Blender's co_hair keys (independent of the exporter)."""
     m = np.asarray(matrix, np.float64)
@@ -81,7 +102,7 @@ def _expected_radius(keys_world, matrix, sysref):
     rad = r * (root - tip) + tip
     if sysref["close_tip"]:
         rad[:, -1] = 0.0
-    return rad * abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0)
+    return rad * abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0) if _cycles_applies(m) else rad
 
 
 def test_particle_hair(run_blender, blender_kind, tmp_path):
@@ -94,7 +115,11 @@ def test_particle_hair(run_blender, blender_kind, tmp_path):
     c = desc["curves"]
     offsets = c["curve_offsets"]
     counts = np.diff(offsets)
-    pts = c["points"]
+    pts = _world_keys(c)
+    # the emitter's scale (1, 2, 0.5) is not uniform: its strands stay in its object space
+    assert not _cycles_applies(m)
+    assert np.all(c["curve_object"] == 0)
+    np.testing.assert_allclose(np.asarray(c["object_transforms"]).reshape(3, 4), m[:3], atol=1e-6)
     ref = out["ref"]
     n_expected = [len(s["keys"]) for s in ref]
     assert ref[0]["child_type"] == "INTERPOLATED" and n_expected[0] == 30 * 2  # children only
@@ -126,7 +151,7 @@ def test_particle_hair(run_blender, blender_kind, tmp_path):
     assert np.all(rcounts[n1:] == 2 ** ref[1]["render_step"] + 1)
     np.testing.assert_allclose(rc["curve_random"], hairbsdf.cycles_curve_random(np.arange(n1 + n2)), atol=1e-7)
     rp = rc["points"]
-    det3 = abs(np.linalg.det(m[:3, :3])) ** (1 / 3)
+    det3 = 1.0  # object space: radii unscaled
     first = rp[rc["curve_offsets"][:-1], 3]
     last = rp[rc["curve_offsets"][1:] - 1, 3]
     np.testing.assert_allclose(first[:n1], 0.5 * 0.02 * 1.0 * det3, rtol=1e-5)   # root radius
@@ -134,7 +159,8 @@ def test_particle_hair(run_blender, blender_kind, tmp_path):
     np.testing.assert_allclose(first[n1:], 0.5 * 0.03 * 0.8 * det3, rtol=1e-5)
     np.testing.assert_allclose(last[n1:], 0.5 * 0.03 * 0.1 * det3, rtol=1e-5)     # open tip
     # the parents' roots are the same in viewport and render
-    np.testing.assert_allclose(rp[rc["curve_offsets"][n1:-1], :3], pts[offsets[n_expected[0]:-1], :3], atol=1e-5)
+    np.testing.assert_allclose(rp[rc["curve_offsets"][n1:-1], :3], c["points"][offsets[n_expected[0]:-1], :3],
+                               atol=1e-5)
     assert rdesc["source"]["render"] is True and desc["source"]["render"] is False
 
 
@@ -201,7 +227,8 @@ def test_curves(run_blender, blender_kind, tmp_path):
         p = np.asarray(r["pos"], np.float64).reshape(-1, 3)
         world = p @ m[:3, :3].T + m[:3, 3]
         rad = np.full(len(p), 0.005) if r["radius"] is None else np.asarray(r["radius"])
-        rad = rad * abs(np.linalg.det(m[:3, :3])) ** (1 / 3)
+        if _cycles_applies(m):
+            rad = rad * abs(np.linalg.det(m[:3, :3])) ** (1 / 3)
         exp_pts.append(np.column_stack([world, rad]))
         exp_counts.append(r["counts"])
         exp_rand.append(hairbsdf.cycles_curve_random(np.arange(len(r["counts"]))))
@@ -209,14 +236,16 @@ def test_curves(run_blender, blender_kind, tmp_path):
     exp_counts = np.concatenate(exp_counts)
     assert sorted(set(exp_counts.tolist())) == [4, 5, 7]  # varying key counts in one object
     np.testing.assert_array_equal(counts, exp_counts)
-    np.testing.assert_allclose(c["points"], np.concatenate(exp_pts), rtol=1e-5, atol=2e-6)
+    np.testing.assert_allclose(_world_keys(c), np.concatenate(exp_pts), rtol=1e-5, atol=2e-6)
     np.testing.assert_allclose(c["curve_random"], np.concatenate(exp_rand), atol=1e-7)
     mat_names = [desc["materials"][i]["name"] for i in c["curve_material"]]
     assert mat_names == exp_mat
     assert "CurvesHair" in mat_names and "Other" in mat_names
     # radius defaults and transform scale, spelled out
-    a = names.index("A")
-    assert np.allclose(exp_pts[a][:, 3], 0.01 * 2 ** (1 / 3), rtol=1e-5)
+    a = names.index("A")  # scale (2, 2, 0.5): kept in object space, radius unscaled
+    assert np.allclose(exp_pts[a][:, 3], 0.01, rtol=1e-5)
+    kept = np.flatnonzero(c["curve_object"] >= 0)
+    assert kept.size == len(ref[a]["counts"]) and np.all(c["curve_object"][kept] == c["curve_object"][kept[0]])
     assert np.allclose(exp_pts[names.index("C")][:, 3], 0.005)
     scaled = [e for r, e in zip(ref, exp_pts) if r["name"] == "Src"]
     assert sorted(np.round([e[0, 3] for e in scaled], 6)) == pytest.approx([0.02, 0.06])

@@ -18,6 +18,7 @@
 import importlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -258,6 +259,35 @@ def test_shards_merge_into_the_full_report(tmp_path):
     assert sorted(c["id"].split("@")[0] for c in data["cases"]) == ["fiber_gonio-back", "fiber_gonio-front",
                                                                     "fiber_gonio-side"]
     assert all((tmp_path / "all" / c["images"]["cycles"]["path"]).exists() for c in data["cases"])
+
+
+@pytest.mark.blender
+def test_one_geometry_per_case(tmp_path):
+    """Blender distributes particle hair anew on every build of a scene, so Cycles' cached renders of
+    an earlier build show other strands.  After the built scene is lost (a cleaned cache, another
+    machine), a second run must render Cycles again from the new .blend, and every render of the
+    case must record that one file."""
+    if not _have_blender("bpy4.5"):
+        _skip_or_fail("bpy is not installed")
+    cache = tmp_path / "cache"
+    small = ["--scene", "fur_ball", "--ci", "--res", "48x48", "--spp", "2", "--seeds", "2", "--no-flip",
+             "--jobs", "2", "--cache", str(cache)]
+    from hairbsdf.compare.runner import file_hash
+    runs = []
+    for i in (1, 2):
+        if i == 2:
+            shutil.rmtree(cache / "blend")
+        rc, log, data = compare(*small, "--out", str(tmp_path / ("run%d" % i)))
+        assert data is not None, log[-3000:]
+        (case,) = data["cases"]
+        assert case["status"] in ("PASS", "FAIL"), (case["status"], case["reason"])
+        (blend,) = (cache / "blend").glob("fur_ball-*.blend")
+        runs.append((case, file_hash(blend)))
+    for case, blend_hash in runs:
+        assert {r["blend_sha256"] for r in case["renders"]} == {blend_hash}, case["renders"]
+    # the rebuilt scene is another file, and Cycles rendered it again instead of reusing run 1's images
+    assert runs[0][1] != runs[1][1]
+    assert not any(r["cached"] for r in runs[1][0]["renders"] if r["kind"] == "cycles")
 
 
 def test_command_line_help():

@@ -141,7 +141,7 @@ def test_fiber_gonio_cycles_matches_the_bsdf(label, variant, tmp_path):
     run = runner([case], tmp_path)
     b = run.build(case)
     assert b.get("ok"), b.get("log_tail")
-    r = run.render_one(case, b["blend"], run.blend_key(case), "CYCLES", "CYCLES", 0, tmp_path)
+    r = run.render_one(case, b["blend"], "CYCLES", "CYCLES", 0, tmp_path)
     assert r.get("ok"), r.get("log_tail")
     cyc = M.load_image(r["exr"])
     info = b["info"]
@@ -153,7 +153,7 @@ def test_fiber_gonio_cycles_matches_the_bsdf(label, variant, tmp_path):
     assert g["n_strands"] == 12 and g["n_pixels"] > 3000
     assert g["median"] <= 2e-5 and g["p99"] <= 4e-4, g
     # one render per seed is enough: the render does not depend on the seed (sample 0 at the centre)
-    r1 = run.render_one(case, b["blend"], run.blend_key(case), "CYCLES", "CYCLES", 1, tmp_path)
+    r1 = run.render_one(case, b["blend"], "CYCLES", "CYCLES", 1, tmp_path)
     assert np.array_equal(M.load_image(r1["exr"]), cyc)
 
 

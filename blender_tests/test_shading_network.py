@@ -228,21 +228,22 @@ def test_compiler_folds_evaluates_and_warns(run_blender, blender_kind, renderer_
 
 # ---------------------------------------------------------------------------- per pixel
 
-EMISSION = r'''
+EMISSION_COMMON = r'''
 import os
 import scene_lib as lib
-hb = register_engine()
-from hairbsdf.blender import engine
-W, H = ARGS["w"], ARGS["h"]
-scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
-scene.cycles.max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.hairbsdf.threads = 2
 V = tuple(bpy.app.version)
 
 def sock(coll, identifier):
     """A socket by identifier (the Mix node's A / B / Factor names repeat per data type)."""
     return next(s for s in coll if s.identifier == identifier)
+
+def emission_scene(w, h):
+    """Emission only: one sample per pixel at its centre (filter 0.01 px), no bounces."""
+    scene = hs.reset(width=w, height=h, spp=1, film_transparent=True)
+    scene.cycles.max_bounces = 0
+    scene.cycles.filter_width = 0.01
+    scene.hairbsdf.threads = 2
+    return scene
 
 def emission_material(name):
     m = bpy.data.materials.new(name); m.use_nodes = True
@@ -252,6 +253,14 @@ def emission_material(name):
     e = nt.nodes.new("ShaderNodeEmission")
     nt.links.new(e.outputs[0], out.inputs["Surface"])
     return m, nt, e
+
+'''
+
+EMISSION = EMISSION_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = emission_scene(W, H)
 
 def ramp_node(nt, interpolation, stops):
     r = nt.nodes.new("ShaderNodeValToRGB")
@@ -432,13 +441,7 @@ def test_emission_networks_match_cycles_per_pixel(run_blender, blender_kind, ren
 
 # ---------------------------------------------------------------------------- Image Texture
 
-IMAGE_COMMON = r'''
-import os
-import scene_lib as lib
-V = tuple(bpy.app.version)
-
-def sock(coll, identifier):
-    return next(s for s in coll if s.identifier == identifier)
+IMAGE_COMMON = EMISSION_COMMON + r'''
 
 def make_images():
     """An 8 x 4 float EXR (alpha 0.4..1, premultiplied as Blender stores float buffers) and the
@@ -495,20 +498,8 @@ IMAGE_EMISSION = IMAGE_COMMON + r'''
 hb = register_engine()
 from hairbsdf.blender import engine
 W, H = ARGS["w"], ARGS["h"]
-scene = hs.reset(width=W, height=H, spp=1, film_transparent=True)
-scene.cycles.max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.hairbsdf.threads = 2
+scene = emission_scene(W, H)
 images = make_images()
-
-def emission_material(name):
-    m = bpy.data.materials.new(name); m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes): nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    e = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(e.outputs[0], out.inputs["Surface"])
-    return m, nt, e
 
 # Curves: per material 3 horizontal strands whose surface_uv_coordinate v sits between texel
 # centres, at an edge and outside the image; u is swept along the strand (Intercept) from
@@ -641,6 +632,65 @@ def test_image_texture_emission_matches_cycles_per_pixel(run_blender, blender_ki
     for name, b in r["bands"].items():
         assert b["covered"] > 100, (name, summary)
     assert r["median"] <= 1e-4 and r["p99"] <= 2e-3, summary
+
+
+IMAGE_MESH = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = emission_scene(W, H)
+images = make_images()
+# Two emissive quads facing the camera: the left one reads the active-render UV map
+# (Texture Coordinate > UV, Linear), the right one a second, rotated and scaled UV map through
+# a UV Map node (Closest, REPEAT: texels outside 0..1 too).
+for k, (name, source, interp) in enumerate((("MeshUV", None, "Linear"), ("MeshNamedUV", "Second", "Closest"))):
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(-0.55 + 1.1 * k, 0.0, 0.0), rotation=(1.5708, 0.0, 0.0))
+    quad = bpy.context.active_object
+    me = quad.data
+    uv0 = np.empty(len(me.uv_layers[0].data) * 2, np.float32); me.uv_layers[0].data.foreach_get("uv", uv0)
+    second = me.uv_layers.new(name="Second")
+    c, s = np.cos(0.5), np.sin(0.5)
+    uv2 = uv0.reshape(-1, 2) @ np.array([[c, s], [-s, c]], np.float32) * np.float32(1.7) + np.float32(0.3)
+    second.data.foreach_set("uv", uv2.astype(np.float32).ravel())
+    m, nt, e = emission_material(name)
+    t = image_node(nt, images["tex.exr"], interp, "REPEAT")
+    if source is None:
+        tc = nt.nodes.new("ShaderNodeTexCoord")
+        nt.links.new(tc.outputs["UV"], t.inputs["Vector"])
+    else:
+        uvm = nt.nodes.new("ShaderNodeUVMap"); uvm.uv_map = source
+        nt.links.new(uvm.outputs["UV"], t.inputs["Vector"])
+    nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    me.materials.append(m)
+hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
+r = render_engines(scene, "mesh_")
+assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
+cy, ours = r["CYCLES"], r["HAIRBSDF"]
+covered = (cy[..., 3] > 0.999) & (ours[..., 3] > 0.999)
+rel = np.abs(ours[..., :3] - cy[..., :3]) / np.maximum(np.abs(cy[..., :3]), 1e-3)
+out = {"version": bpy.app.version_string, "warnings": engine.LAST_RENDER.get("warnings", []), "quads": {}}
+for k, name in enumerate(("MeshUV", "MeshNamedUV")):
+    side = np.zeros(W, bool); side[k * W // 2:(k + 1) * W // 2] = True
+    sel = covered & side[None, :]
+    vals = rel[sel].max(-1)
+    out["quads"][name] = {"covered": int(sel.sum()), "median": float(np.median(vals)),
+                          "p99": float(np.percentile(vals, 99)), "texel_spread": float(cy[sel][:, :3].std())}
+emit(out)
+'''
+
+
+def test_image_texture_on_mesh_uvs_matches_cycles_per_pixel(run_blender, blender_kind, renderer_available):
+    """Shading programs on meshes read the mesh's UV maps at the hit (the active-render map and a
+    named one), per pixel against Cycles; before mesh UVs were exported they read (0, 0), one
+    texel over the whole quad."""
+    need_renderer(blender_kind, renderer_available)
+    r = run_blender(blender_kind, IMAGE_MESH, args={"w": 192, "h": 96}).result
+    print(f"\n[mesh UVs] {r['version']}: {r['quads']}")
+    assert r["warnings"] == ["the scene has no hair to render (no visible Curves objects or particle hair)"], \
+        r["warnings"]
+    for name, q in r["quads"].items():
+        assert q["covered"] > 2000 and q["texel_spread"] > 0.05, (name, q)
+        assert q["median"] <= 1e-4 and q["p99"] <= 2e-3, (name, q)
 
 
 IMAGE_HAIR = IMAGE_COMMON + r'''

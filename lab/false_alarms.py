@@ -65,13 +65,12 @@ def render_pool(scene, pool, jobs, threads, out, log=print):
     b = r.build(case)
     if not b.get("ok"):
         raise SystemExit("building %s failed: %s\n%s" % (scene, b.get("error"), b.get("log_tail", "")))
-    bkey = r.blend_key(case)
     case_dir = opts.out / "cases" / case.dirname
     t0, c0 = time.time(), cpu_seconds()
     done = [0, 0]  # rendered now, cached
 
     def one(seed):
-        res = r.render_one(case, b["blend"], bkey, "CYCLES", "CYCLES", seed, case_dir)
+        res = r.render_one(case, b["blend"], "CYCLES", "CYCLES", seed, case_dir)
         if not res.get("ok"):
             raise RuntimeError("Cycles seed %d of %s: %s %s\n%s" % (seed, scene, res.get("status"), res.get("error"),
                                                                     res.get("log_tail", "")))

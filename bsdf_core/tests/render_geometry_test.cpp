@@ -119,3 +119,38 @@ TEST(RenderGeometry, TrianglesAndSelfSkip) {
     EXPECT_GT(o.z, 0.0);
     EXPECT_LT(o.z, 1e-4);
 }
+
+// Curves kept in their object's space (CurveData::object): strand 1 is scaled 3x along y by
+// its object (world from object = diag(1, 3, 1) + a shift of 2 in y), strand 0 stays in world
+// space. Rays down -z see strand 1 three times as wide; each hit names its own curve and
+// segment, and a ray leaving a strand skips it, object space or not.
+TEST(RenderGeometry, CurvesInObjectSpaceAreIntersectedThere) {
+    SceneDesc s = strands({{0, 0}, {0, 0}}, 0.05f, CurveShape::Thick);
+    s.curves.object = {-1, 0};
+    s.curves.object_transforms = {{1, 0, 0, 0, 0, 3, 0, 2, 0, 0, 1, 0}};
+    const Geometry g(s);
+    ASSERT_EQ(g.curve_object_space(0), nullptr);
+    ASSERT_NE(g.curve_object_space(1), nullptr);
+    for (double y : {2.0, 2.14, 1.86}) {  // inside 3 r = 0.15 of the object-space strand's axis at y = 2
+        const Hit h = g.intersect(ray({0.3, y, 1}, {0, 0, -1}), {});
+        ASSERT_TRUE(h) << y;
+        EXPECT_EQ(h.prim, 1);
+        EXPECT_EQ(g.segment_curve(h.segment), 1);
+        const CurvePoint c = g.curve_point(h.segment, h.u);  // object space
+        EXPECT_NEAR(g.curve_object_space(1)->point_to_world(c.p).x, 0.3, 1e-4);
+        EXPECT_FALSE(g.intersect(ray({0.3, y, 1}, {0, 0, -1}), {PrimKind::Curve, 1}));
+        EXPECT_TRUE(g.occluded(ray({0.3, y, 1}, {0, 0, -1}), {}));
+    }
+    EXPECT_FALSE(g.intersect(ray({0.3, 2.17, 1}, {0, 0, -1}), {}));
+    const Hit world = g.intersect(ray({0.3, 0.04, 1}, {0, 0, -1}), {});  // the world-space strand: r = 0.05
+    ASSERT_TRUE(world);
+    EXPECT_EQ(world.prim, 0);
+    EXPECT_FALSE(g.intersect(ray({0.3, 0.06, 1}, {0, 0, -1}), {}));
+    // The inverse and the normal transform.
+    const ObjectSpace& os = *g.curve_object_space(1);
+    const Vec3 p = os.point_to_object(os.point_to_world({0.2, -0.4, 0.7}));
+    EXPECT_NEAR(p.x, 0.2, 1e-12);
+    EXPECT_NEAR(p.y, -0.4, 1e-12);
+    const Vec3 n = os.normal_to_world({0, 1, 0});
+    EXPECT_NEAR(n.y, 1.0 / 3.0, 1e-12);
+}

@@ -194,6 +194,32 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
         if (size_t(a.shape(0)) != n_curves) fail(sub(key, "curve_intercept_total"), "expected one value per curve");
         cd.length.assign(a.data(), a.data() + n_curves);
     }
+    if (auto o = get_optional(c, "curve_object")) {
+        auto a = array_shape<int32_t>(*o, sub(key, "curve_object"), 0);
+        if (size_t(a.shape(0)) != n_curves) fail(sub(key, "curve_object"), "expected one value per curve");
+        auto t = get_optional(c, "object_transforms");
+        if (!t) fail(sub(key, "object_transforms"), "missing (required with curve_object)");
+        auto m = array_shape<double>(*t, sub(key, "object_transforms"), 12);
+        const size_t n_objects = size_t(m.shape(0));
+        for (size_t k = 0; k < n_objects; ++k) {
+            const double* r = m.data() + 12 * k;
+            bool finite = true;
+            for (int i = 0; i < 12; ++i) finite = finite && std::isfinite(r[i]);
+            const double det = r[0] * (r[5] * r[10] - r[6] * r[9]) - r[1] * (r[4] * r[10] - r[6] * r[8]) +
+                               r[2] * (r[4] * r[9] - r[5] * r[8]);
+            if (!finite || !(std::fabs(det) > 0))
+                fail(sub(key, "object_transforms") + "[" + std::to_string(k) + "]",
+                     "expected a finite, invertible row-major 3x4 matrix (world from object)");
+            cd.object_transforms.emplace_back();
+            std::copy(r, r + 12, cd.object_transforms.back().begin());
+        }
+        for (size_t i = 0; i < n_curves; ++i)
+            if (a.data()[i] < -1 || a.data()[i] >= int32_t(n_objects))
+                fail(sub(key, "curve_object"), "expected -1 (world space) or an index into object_transforms (0 to " +
+                                                   std::to_string(int64_t(n_objects) - 1) + "), got " +
+                                                   std::to_string(a.data()[i]));
+        cd.object.assign(a.data(), a.data() + n_curves);
+    }
     if (auto o = get_optional(c, "attributes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
@@ -277,6 +303,28 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
         if (n.shape(0) != t.shape(0)) fail(sub(key, "triangle_normals"), "expected one row of 3 corner normals per triangle");
         md.normals.resize(size_t(n.shape(0)));
         std::memcpy(md.normals.data(), n.data(), md.normals.size() * sizeof(float) * 9);
+    }
+    if (auto o = get_optional(m, "attributes")) {
+        if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
+            throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
+        size_t i = 0;
+        for (py::handle item : *o) {
+            const std::string ak = sub(key, "attributes") + "[" + std::to_string(i++) + "]";
+            const py::dict a = as_dict(item, ak);
+            MeshData::CornerAttribute attr;
+            attr.name = as_str(get(a, ak, "name"), sub(ak, "name"));
+            auto data = array_shape<float>(get(a, ak, "data"), sub(ak, "data"), 12);
+            if (data.shape(0) != t.shape(0)) fail(sub(ak, "data"), "expected one row of 3 RGBA corners per triangle");
+            attr.corners.resize(size_t(data.shape(0)));
+            std::memcpy(attr.corners.data(), data.data(), attr.corners.size() * sizeof(float) * 12);
+            md.attributes.push_back(std::move(attr));
+        }
+        const auto& curve_attributes = out.curves.attributes;
+        for (size_t k = 0; k < std::min(curve_attributes.size(), md.attributes.size()); ++k)
+            if (curve_attributes[k].name != md.attributes[k].name)
+                fail(sub(key, "attributes") + "[" + std::to_string(k) + "]['name']",
+                     "expected '" + curve_attributes[k].name + "', the curves' attribute " + std::to_string(k) +
+                         " (one attribute list for both, in the programs' order)");
     }
 }
 

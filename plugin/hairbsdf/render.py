@@ -178,6 +178,21 @@ def _check_curves(scene, out):
             raise ValueError(f"{key}['point_intercept']: expected one value per point ({len(points)}), "
                              f"got {len(intercept)}")
         curves["point_intercept"] = intercept
+    if c.get("curve_object") is not None:
+        curve_object = _Checker.array(f"{key}['curve_object']", c["curve_object"], np.int32, None)
+        if len(curve_object) != n_curves:
+            raise ValueError(f"{key}['curve_object']: expected one value per curve ({n_curves}), got {len(curve_object)}")
+        if c.get("object_transforms") is None:
+            raise ValueError(f"{key}['object_transforms']: missing (required with curve_object)")
+        transforms = _Checker.array(f"{key}['object_transforms']", c["object_transforms"], np.float64, 12)
+        for k, m in enumerate(transforms.reshape(-1, 3, 4)):
+            if not np.all(np.isfinite(m)) or np.linalg.det(m[:, :3]) == 0.0:
+                raise ValueError(f"{key}['object_transforms'][{k}]: expected a finite, invertible row-major 3x4 "
+                                 "matrix (world from object)")
+        if len(curve_object) and (curve_object.min() < -1 or curve_object.max() >= len(transforms)):
+            raise ValueError(f"{key}['curve_object']: expected -1 (world space) or an index into object_transforms "
+                             f"(0 to {len(transforms) - 1})")
+        curves["curve_object"], curves["object_transforms"] = curve_object, transforms
     if c.get("attributes") is not None:
         attrs = []
         for i, a in enumerate(_Checker.list(f"{key}['attributes']", c["attributes"])):
@@ -224,6 +239,22 @@ def _check_meshes(scene, out):
             raise ValueError(f"{key}['triangle_normals']: expected one row of 3 corner normals per triangle "
                              f"({len(triangles)})")
         out["meshes"]["triangle_normals"] = normals
+    if m.get("attributes") is not None:
+        attrs = []
+        curve_names = [a["name"] for a in (out.get("curves") or {}).get("attributes", [])]
+        for i, a in enumerate(_Checker.list(f"{key}['attributes']", m["attributes"])):
+            ak = f"{key}['attributes'][{i}]"
+            a = _Checker.dict(ak, a)
+            name = _Checker.string(f"{ak}['name']", _Checker.required(ak, a, "name"))
+            if i < len(curve_names) and name != curve_names[i]:
+                raise ValueError(f"{ak}['name']: expected {curve_names[i]!r}, the curves' attribute {i} (one attribute "
+                                 "list for both, in the programs' order)")
+            data = _Checker.array(f"{ak}['data']", _Checker.required(ak, a, "data"), np.float32, 12)
+            if len(data) != len(triangles):
+                raise ValueError(f"{ak}['data']: expected one row of 3 RGBA corners per triangle ({len(triangles)}), "
+                                 f"got {len(data)}")
+            attrs.append({"name": name, "data": data})
+        out["meshes"]["attributes"] = attrs
 
 
 def _check_model_param(key, value):

@@ -262,6 +262,11 @@ def test_callback_errors_propagate():
 # --------------------------------------------------------------------------------------
 # (d) bad scenes: warnings or clear errors, never crashes or NaN pixels
 
+def _one_triangle():
+    return {"vertices": np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32),
+            "triangles": np.array([[0, 1, 2]], np.int32), "triangle_material": np.array([0], np.int32)}
+
+
 def _small_scene():
     camera, _ = _ortho_camera(_unit((0.0, 0.3, 1.0)), 1.2, (16, 16))
     return {"curves": _clump(n=5), "materials": [_hair_material()], "camera": camera,
@@ -407,12 +412,58 @@ def test_lights_visible_to_camera_only_when_set(visible):
     (lambda s: s["integrator"].update(filter_type="MITCHELL"), ValueError, r"\['filter_type'\]"),
     (lambda s: s["curves"].update(curve_material=np.array([0.5] * 5)), TypeError, r"\['curve_material'\]"),
     (lambda s: s["integrator"].update(light_tree="yes"), TypeError, r"\['integrator'\]\['light_tree'\]"),
+    (lambda s: s["curves"].update(curve_object=np.zeros(5, np.int32)), ValueError,
+     r"\['curves'\]\['object_transforms'\]: missing \(required with curve_object\)"),
+    (lambda s: s["curves"].update(curve_object=np.array([0, 0, 1, -1, 0], np.int32),
+                                  object_transforms=np.eye(3, 4).reshape(1, 12)), ValueError,
+     r"\['curves'\]\['curve_object'\]: expected -1 \(world space\) or an index into object_transforms \(0 to 0\)"),
+    (lambda s: s["curves"].update(curve_object=np.zeros(5, np.int32), object_transforms=np.zeros((1, 12))),
+     ValueError, r"\['curves'\]\['object_transforms'\]\[0\]: expected a finite, invertible"),
+    (lambda s: s.update(meshes=dict(_one_triangle(), attributes=[{"name": "<uv>", "data": np.zeros((2, 12))}])),
+     ValueError, r"\['meshes'\]\['attributes'\]\[0\]\['data'\]: expected one row of 3 RGBA corners per triangle"),
+    (lambda s: (s["curves"].update(attributes=[{"name": "<uv>", "domain": "CURVE", "data": np.zeros((5, 4))}]),
+                s.update(meshes=dict(_one_triangle(), attributes=[{"name": "<uv>Other", "data": np.zeros((1, 12))}]))),
+     ValueError, r"\['meshes'\]\['attributes'\]\[0\]\['name'\]: expected '<uv>', the curves' attribute 0"),
 ])
 def test_structural_errors_name_the_key(mutate, error, match):
     scene = _small_scene()
     mutate(scene)
     with pytest.raises(error, match=match):
         render(scene)
+
+
+@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+def test_curves_in_object_space(shape):
+    """curve_object: a uniform object transform renders the same strand as its world-space
+    copy with the radius scaled (what Cycles' applied transform gives); a scale across the
+    strand widens its silhouette by that factor, one along it changes nothing."""
+    camera, _ = _ortho_camera(_unit((0.0, 0.0, 1.0)), 0.6, (256, 256))
+    base = {"version": 1, "curve_shape": shape, "curve_subdivisions": 2, "materials": [_hair_material()],
+            "camera": camera, "lights": [{"type": "SUN", "direction": (0.3, 0.2, 1.0), "strength": (2, 2, 2)}],
+            "world": {"color": (0, 0, 0)}, "integrator": _integrator(samples=1)}
+
+    def image(scale, rotation_z=0.0, object_space=True):
+        c, s = math.cos(rotation_z), math.sin(rotation_z)
+        m = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0]]) @ np.diag([*scale, 1.0])
+        strand = _straight_strand(length=0.15, radius=0.02)
+        if object_space:
+            strand.update(curve_object=np.zeros(1, np.int32), object_transforms=m.reshape(1, 12))
+        else:  # Cycles' applied transform: keys to world, radius x |det|^(1/3)
+            pts = strand["points"].copy()
+            pts[:, :3] = pts[:, :3] @ m[:, :3].T.astype(np.float32) + m[:, 3].astype(np.float32)
+            pts[:, 3] *= abs(np.linalg.det(m[:, :3])) ** (1 / 3)
+            strand["points"] = pts
+        out = render(dict(base, curves=strand))
+        assert out["stats"]["nan_count"] == 0 and not out["stats"]["warnings"]
+        return out["combined"]
+
+    uniform, applied = image((1.5, 1.5, 1.5), 0.4), image((1.5, 1.5, 1.5), 0.4, object_space=False)
+    differ = np.any(np.abs(uniform - applied) > 2e-5, axis=-1)  # float rounding flips a few edge pixels (1 spp-like: centred samples)
+    assert differ.mean() < 0.005 and uniform.sum() == pytest.approx(applied.sum(), rel=0.02)
+    area = image((1, 1, 1))[..., 3].sum()
+    assert image((1, 3, 1))[..., 3].sum() == pytest.approx(3 * area, rel=0.05)  # across the strand (+x)
+    assert image((3, 1, 1))[..., 3].sum() == pytest.approx(3 * area, rel=0.05)  # along: 3x longer, as wide
+    assert image((1, 1, 3))[..., 3].sum() == pytest.approx(area, rel=0.05)      # along the view: unchanged
 
 
 def test_light_tree_changes_only_the_noise_with_delta_lights():

@@ -3,10 +3,12 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace hairbsdf::render {
 
@@ -16,7 +18,6 @@ namespace {
 struct QueryContext {
     RTCIntersectContext rtc;
     SkipPrim skip;
-    const int32_t* segment_curve;
 };
 
 struct MemoryCounter {
@@ -39,7 +40,11 @@ void curve_filter(const RTCFilterFunctionNArguments* args) {
     if (args->valid[0] == 0) return;
     const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
     const unsigned prim = RTCHitN_primID(args->hit, args->N, 0);
-    if (ctx->skip.kind == PrimKind::Curve && ctx->segment_curve[prim] == ctx->skip.id) {
+    // The geometry's user data: the curve of each of its segments (primID counts from the
+    // geometry's first segment). For curves in object space, Embree passes the ray and Ng of
+    // that space, so the back-face sign below is the world's.
+    const auto* segment_curve = static_cast<const int32_t*>(args->geometryUserPtr);
+    if (ctx->skip.kind == PrimKind::Curve && segment_curve[prim] == ctx->skip.id) {
         args->valid[0] = 0;
         return;
     }
@@ -81,6 +86,9 @@ struct Geometry::Impl {
     RTCScene scene = nullptr;
     unsigned curve_geom = RTC_INVALID_GEOMETRY_ID;
     unsigned triangle_geom = RTC_INVALID_GEOMETRY_ID;
+    // Curves in object space: one instanced scene per object; instance geomID -> first segment.
+    std::vector<RTCScene> object_scenes;
+    std::vector<std::pair<unsigned, uint32_t>> instance_first_segment;
     MemoryCounter memory;
     size_t own_bytes = 0;
 };
@@ -108,8 +116,13 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_MEDIUM);
 
     // Curves: per curve n + 2 control points (end keys duplicated), one index per segment.
+    // Segments are laid out by space: world-space curves first, then each object's, so that
+    // every space is one range of the index buffer and one Embree geometry.
     const CurveData& cd = scene.curves;
     const size_t n_curves = cd.curve_count();
+    const bool by_object = cd.object.size() == n_curves && !cd.object_transforms.empty();
+    const size_t n_spaces = 1 + (by_object ? cd.object_transforms.size() : 0);
+    auto space_of = [&](size_t c) { return by_object && cd.object[c] >= 0 ? size_t(cd.object[c]) + 1 : size_t(0); };
     size_t n_segments = 0, n_cp = 0;
     for (size_t c = 0; c < n_curves; ++c) {
         const size_t n = size_t(cd.offsets[c + 1] - cd.offsets[c]);
@@ -123,40 +136,77 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         if (with_normals) normals_.reserve(n_cp);
         segment_first_.reserve(n_segments);
         segment_curve_.reserve(n_segments);
-        for (size_t c = 0; c < n_curves; ++c) {
-            const size_t b = size_t(cd.offsets[c]), e = size_t(cd.offsets[c + 1]);
-            if (e - b < 2) continue;
-            const uint32_t base = uint32_t(control_points_.size());
-            control_points_.push_back(cd.points[b]);
-            for (size_t k = b; k < e; ++k) control_points_.push_back(cd.points[k]);
-            control_points_.push_back(cd.points[e - 1]);
-            if (with_normals) {
-                normals_.push_back(cd.normals[b]);
-                for (size_t k = b; k < e; ++k) normals_.push_back(cd.normals[k]);
-                normals_.push_back(cd.normals[e - 1]);
+        std::vector<size_t> space_first_segment(n_spaces + 1, 0);
+        for (size_t space = 0; space < n_spaces; ++space) {
+            space_first_segment[space] = segment_first_.size();
+            for (size_t c = 0; c < n_curves; ++c) {
+                const size_t b = size_t(cd.offsets[c]), e = size_t(cd.offsets[c + 1]);
+                if (e - b < 2 || space_of(c) != space) continue;
+                const uint32_t base = uint32_t(control_points_.size());
+                control_points_.push_back(cd.points[b]);
+                for (size_t k = b; k < e; ++k) control_points_.push_back(cd.points[k]);
+                control_points_.push_back(cd.points[e - 1]);
+                if (with_normals) {
+                    normals_.push_back(cd.normals[b]);
+                    for (size_t k = b; k < e; ++k) normals_.push_back(cd.normals[k]);
+                    normals_.push_back(cd.normals[e - 1]);
+                }
+                for (size_t s = 0; s + 1 < e - b; ++s) {
+                    segment_first_.push_back(base + uint32_t(s));
+                    segment_curve_.push_back(int32_t(c));
+                }
             }
-            for (size_t s = 0; s + 1 < e - b; ++s) {
-                segment_first_.push_back(base + uint32_t(s));
-                segment_curve_.push_back(int32_t(c));
-            }
+        }
+        space_first_segment[n_spaces] = segment_first_.size();
+        if (by_object) {
+            curve_object_ = cd.object;
+            for (const auto& m : cd.object_transforms) object_spaces_.emplace_back(m);
         }
         if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
         const bool thick = scene.curve_shape == CurveShape::Thick;
         const bool cull = thick && scene.cull_curve_back_faces;
-        RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
-                                                        : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
         const int subdivisions = std::max(0, std::min(scene.curve_subdivisions, 4));
-        rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
-        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
-                                   sizeof(float) * 4, control_points_.size());
-        rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data(), 0,
-                                   sizeof(uint32_t), segment_first_.size());
-        rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-        rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
-        rtcCommitGeometry(g);
-        im.curve_geom = rtcAttachGeometry(im.scene, g);
-        rtcReleaseGeometry(g);
+        auto curve_geometry = [&](size_t first, size_t count) {
+            RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
+                                                            : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
+            rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
+                                       sizeof(float) * 4, control_points_.size());
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data() + first, 0,
+                                       sizeof(uint32_t), count);
+            rtcSetGeometryUserData(g, segment_curve_.data() + first);
+            rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+            rtcCommitGeometry(g);
+            return g;
+        };
+        for (size_t space = 0; space < n_spaces; ++space) {
+            const size_t first = space_first_segment[space], count = space_first_segment[space + 1] - first;
+            if (count == 0) continue;
+            RTCGeometry g = curve_geometry(first, count);
+            if (space == 0) {
+                im.curve_geom = rtcAttachGeometry(im.scene, g);
+                rtcReleaseGeometry(g);
+                continue;
+            }
+            RTCScene object_scene = rtcNewScene(im.device);
+            rtcSetSceneFlags(object_scene, RTCSceneFlags(RTC_SCENE_FLAG_COMPACT | RTC_SCENE_FLAG_ROBUST));
+            rtcSetSceneBuildQuality(object_scene, RTC_BUILD_QUALITY_MEDIUM);
+            rtcAttachGeometry(object_scene, g);
+            rtcReleaseGeometry(g);
+            rtcCommitScene(object_scene);
+            im.object_scenes.push_back(object_scene);
+            RTCGeometry inst = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_INSTANCE);
+            rtcSetGeometryInstancedScene(inst, object_scene);
+            const auto& m = cd.object_transforms[space - 1];
+            float xfm[12];
+            for (int i = 0; i < 12; ++i) xfm[i] = float(m[size_t(i)]);
+            rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, xfm);
+            rtcCommitGeometry(inst);
+            im.instance_first_segment.emplace_back(rtcAttachGeometry(im.scene, inst), uint32_t(first));
+            rtcReleaseGeometry(inst);
+        }
         has_curves_ = true;
     }
 
@@ -185,12 +235,14 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     rtcCommitScene(im.scene);
     check_device(im.device, "scene build");
     im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) + normals_.capacity() * sizeof(normals_[0]) +
-                   segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t);
+                   segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
+                   curve_object_.capacity() * sizeof(int32_t);
 }
 
 Geometry::~Geometry() {
     if (impl_) {
         if (impl_->scene) rtcReleaseScene(impl_->scene);
+        for (RTCScene object_scene : impl_->object_scenes) rtcReleaseScene(object_scene);
         if (impl_->device) rtcReleaseDevice(impl_->device);
     }
 }
@@ -205,7 +257,6 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     QueryContext ctx;
     rtcInitIntersectContext(&ctx.rtc);
     ctx.skip = skip;
-    ctx.segment_curve = segment_curve_.data();
     RTCRayHit rh;
     setup_ray(ray, rh.ray);
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -216,7 +267,14 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     hit.u = rh.hit.u;
     hit.v = rh.hit.v;
     hit.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
-    if (rh.hit.geomID == impl_->curve_geom) {
+    if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {  // a curve in its object's space
+        uint32_t first = 0;
+        for (const auto& [geom, first_segment] : impl_->instance_first_segment)
+            if (geom == rh.hit.instID[0]) first = first_segment;
+        hit.kind = PrimKind::Curve;
+        hit.segment = int(first + rh.hit.primID);
+        hit.prim = segment_curve_[size_t(hit.segment)];
+    } else if (rh.hit.geomID == impl_->curve_geom) {
         hit.kind = PrimKind::Curve;
         hit.segment = int(rh.hit.primID);
         hit.prim = segment_curve_[rh.hit.primID];
@@ -232,11 +290,49 @@ bool Geometry::occluded(const Ray& ray, SkipPrim skip) const {
     QueryContext ctx;
     rtcInitIntersectContext(&ctx.rtc);
     ctx.skip = skip;
-    ctx.segment_curve = segment_curve_.data();
     RTCRay r;
     setup_ray(ray, r);
     rtcOccluded1(impl_->scene, &ctx.rtc, &r);
     return r.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+}
+
+ObjectSpace::ObjectSpace(const std::array<double, 12>& world_from_object) : to_world(world_from_object) {
+    const auto& m = world_from_object;
+    // Inverse of the 3 x 3 part by cofactors, then the translation.
+    const double c00 = m[5] * m[10] - m[6] * m[9], c01 = m[6] * m[8] - m[4] * m[10], c02 = m[4] * m[9] - m[5] * m[8];
+    const double det = m[0] * c00 + m[1] * c01 + m[2] * c02;
+    const double inv[9] = {c00 / det,
+                           (m[2] * m[9] - m[1] * m[10]) / det,
+                           (m[1] * m[6] - m[2] * m[5]) / det,
+                           c01 / det,
+                           (m[0] * m[10] - m[2] * m[8]) / det,
+                           (m[2] * m[4] - m[0] * m[6]) / det,
+                           c02 / det,
+                           (m[1] * m[8] - m[0] * m[9]) / det,
+                           (m[0] * m[5] - m[1] * m[4]) / det};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) to_object[size_t(4 * r + c)] = inv[3 * r + c];
+        to_object[size_t(4 * r + 3)] = -(inv[3 * r] * m[3] + inv[3 * r + 1] * m[7] + inv[3 * r + 2] * m[11]);
+    }
+}
+
+namespace {
+Vec3 linear(const std::array<double, 12>& m, Vec3 v) {
+    return {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
+            m[8] * v.x + m[9] * v.y + m[10] * v.z};
+}
+}  // namespace
+
+Vec3 ObjectSpace::point_to_object(Vec3 p) const {
+    return linear(to_object, p) + Vec3{to_object[3], to_object[7], to_object[11]};
+}
+Vec3 ObjectSpace::point_to_world(Vec3 p) const { return linear(to_world, p) + Vec3{to_world[3], to_world[7], to_world[11]}; }
+Vec3 ObjectSpace::direction_to_object(Vec3 d) const { return linear(to_object, d); }
+Vec3 ObjectSpace::direction_to_world(Vec3 d) const { return linear(to_world, d); }
+Vec3 ObjectSpace::normal_to_world(Vec3 n) const {
+    const auto& m = to_object;  // the inverse's transpose
+    return {m[0] * n.x + m[4] * n.y + m[8] * n.z, m[1] * n.x + m[5] * n.y + m[9] * n.z,
+            m[2] * n.x + m[6] * n.y + m[10] * n.z};
 }
 
 CurvePoint catmull_rom(const std::array<float, 4>* cp, double u) {

@@ -1,6 +1,7 @@
 // The path tracer; see render/integrator.h for the Cycles behaviour it follows.
 #include "hairbsdf/render/integrator.h"
 
+#include <algorithm>
 #include <cfloat>
 #include <limits>
 
@@ -48,8 +49,17 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         sp.self = {PrimKind::Curve, curve};
         sp.p = ray.org + hit.t * ray.dir;
         const CurvePoint cp = s.geometry.curve_point(hit.segment, hit.u);
+        // A curve in its object's space (Cycles' untransformed curves): the frame is built there
+        // from the ray taken into that space, then the normal goes back by the inverse transpose
+        // and the tangent as a direction (geom/curve_intersect.h's curve_shader_setup).
+        const ObjectSpace* space = s.geometry.curve_object_space(curve);
+        const Vec3 p_local = space ? space->point_to_object(sp.p) : sp.p;
+        const Vec3 wo_local = space ? -1.0 * normalize(space->direction_to_object(ray.dir)) : sp.g.wo;
+        auto normal_to_world = [&](Vec3 n) { return space ? normalize(space->normal_to_world(n)) : n; };
         Vec3 x = normalize(cp.dp);
-        if (!(dot(x, x) > 0)) x = normalize(cross(sp.g.wo, std::fabs(sp.g.wo.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        if (!(dot(x, x) > 0)) x = normalize(cross(wo_local, std::fabs(wo_local.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        const Vec3 x_local = x;
+        if (space) x = normalize(space->direction_to_world(x));
         sp.g.tangent = x;
         sp.g.curve_normal = s.geometry.curve_normal(hit.segment, hit.u);
         // Huang's pixel coverage for camera rays: half the ray footprint at the hit over the
@@ -57,12 +67,15 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         const double r_lin = s.geometry.curve_radius_linear(hit.segment, hit.u);
         const double footprint = ray.dP + hit.t * ray.dD;
         if (footprint > 0 && r_lin > 0) sp.g.pixel_coverage = 0.5 * footprint / r_lin;
-        Vec3 y = cross(x, sp.g.wo);
-        const double ly = length(y);
-        y = ly > 1e-12 ? (1.0 / ly) * y : normalize(cross(x, std::fabs(x.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        auto bitangent = [](Vec3 t, Vec3 w) {  // normalize(cross(t, w)), or any normal of t
+            const Vec3 b = cross(t, w);
+            const double lb = length(b);
+            return lb > 1e-12 ? (1.0 / lb) * b : normalize(cross(t, std::fabs(t.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+        };
+        const Vec3 y = bitangent(x, sp.g.wo);
         if (s.geometry.curve_shape() == CurveShape::Thick) {
-            const Vec3 d = sp.p - cp.p;
-            const Vec3 n = dot(d, d) > 0 ? normalize(d) : sp.g.wo;
+            const Vec3 d = p_local - cp.p;
+            const Vec3 n = dot(d, d) > 0 ? normal_to_world(normalize(d)) : sp.g.wo;
             sp.g.n = n;
             sp.g.ng = n;
             sp.g.h = -dot(n, y);  // = dot(cross(N, X), Z) of Cycles' frame
@@ -78,7 +91,9 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         } else {
             const double sine = clamp(hit.v, -1.0, 1.0);
             sp.g.h = -sine;
-            sp.g.n = normalize(sine * y - cos_from_sin(sine) * normalize(cross(x, y)));
+            const Vec3 y_local = space ? bitangent(x_local, wo_local) : y;
+            sp.g.n = normal_to_world(
+                normalize(sine * y_local - cos_from_sin(sine) * normalize(cross(x_local, y_local))));
             sp.g.ng = sp.g.wo;
         }
     } else {
@@ -124,11 +139,13 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
 const float* run_material_program(const PreparedScene& s, const Hit& hit, const SurfacePoint& sp,
                                   const ShadingProgram& program, PathScratch& scratch) {
     const CurveData& cd = s.desc.curves;
+    const MeshData& md = s.desc.meshes;
+    const size_t attribute_count = std::max(cd.attributes.size(), md.attributes.size());
     ShadingHitContext ctx;
-    if (scratch.attributes.size() < 4 * cd.attributes.size()) scratch.attributes.resize(4 * cd.attributes.size());
+    if (scratch.attributes.size() < 4 * attribute_count) scratch.attributes.resize(4 * attribute_count);
     std::fill(scratch.attributes.begin(), scratch.attributes.end(), 0.0f);
     ctx.attributes = scratch.attributes.data();
-    ctx.attribute_count = int(cd.attributes.size());
+    ctx.attribute_count = int(attribute_count);
     ctx.images = s.images.data();
     ctx.image_count = int(s.images.size());
     if (hit.kind == PrimKind::Curve) {
@@ -146,6 +163,15 @@ const float* run_material_program(const PreparedScene& s, const Hit& hit, const 
                 scratch.attributes[4 * i + size_t(c)] =
                     attr.point_domain ? along(attr.rgba[k0][size_t(c)], attr.rgba[k0 + 1][size_t(c)])
                                       : attr.rgba[size_t(curve)][size_t(c)];
+        }
+    } else if (hit.kind == PrimKind::Triangle) {
+        // Corner attributes (UV maps) at the hit: barycentric weights of corners 0, 1, 2 as in
+        // surface_point's position.
+        const float w[3] = {float(1.0 - hit.u - hit.v), float(hit.u), float(hit.v)};
+        for (size_t i = 0; i < md.attributes.size(); ++i) {
+            const auto& row = md.attributes[i].corners[size_t(hit.prim)];
+            for (size_t c = 0; c < 4; ++c)
+                scratch.attributes[4 * i + c] = w[0] * row[c] + w[1] * row[4 + c] + w[2] * row[8 + c];
         }
     }
     if (scratch.registers.size() < size_t(program.register_count)) scratch.registers.resize(size_t(program.register_count));

@@ -66,7 +66,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
     // Shading programs: an invalid one (or a link outside its registers) is dropped, so the
     // inputs keep their constant values.
-    const int attribute_count = int(s.curves.attributes.size());
+    const int attribute_count = int(std::max(s.curves.attributes.size(), s.meshes.attributes.size()));
     // Images: a bad size empties the image (it reads 0); NaN/Inf texels read 0.
     size_t bad_image_values = 0;
     for (ImageDesc& im : s.images) {
@@ -109,7 +109,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     const size_t n_curves = cd.curve_count();
     if (n_curves > 0) {
         size_t dropped_nonfinite = 0, dropped_short = 0, dropped_length = 0, dropped_radius = 0, fixed_radius = 0,
-               bad_material = 0, bad_random = 0;
+               bad_material = 0, bad_random = 0, dropped_transform = 0;
         // Compacted in place (kept curves move towards the front; write <= read), so that
         // 1M strands never hold a second copy of their keys.
         size_t kept_points = 0, kept_curves = 0;
@@ -124,6 +124,20 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (!cd.intercept.empty() && cd.intercept.size() != cd.points.size()) {
             cd.intercept.clear();
             warnings.push_back("curves: point_intercept ignored (expected one per point)");
+        }
+        if (!cd.object.empty() && cd.object.size() != n_curves) {
+            cd.object.clear();
+            cd.object_transforms.clear();
+            warnings.push_back("curves: curve_object ignored (expected one per curve); all curves read as world space");
+        }
+        std::vector<char> usable_transform(cd.object_transforms.size());
+        for (size_t k = 0; k < cd.object_transforms.size(); ++k) {
+            const auto& m = cd.object_transforms[k];
+            bool finite = true;
+            for (double x : m) finite = finite && std::isfinite(x);
+            const double det = m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) +
+                               m[2] * (m[4] * m[9] - m[5] * m[8]);
+            usable_transform[k] = finite && std::isfinite(det) && det != 0.0;
         }
         if (!cd.length.empty() && cd.length.size() != n_curves) {
             cd.length.clear();
@@ -148,6 +162,12 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             if (e - b < 2) {
                 ++dropped_short;
+                continue;
+            }
+            const int32_t object = cd.object.empty() ? -1 : cd.object[c];
+            if (object < -1 || (object >= 0 && (size_t(object) >= usable_transform.size() ||
+                                                 !usable_transform[size_t(object)]))) {
+                ++dropped_transform;
                 continue;
             }
             bool finite = true;
@@ -209,6 +229,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             cd.material[kept_curves] = mat;
             if (!cd.length.empty()) cd.length[kept_curves] = cd.length[c];
+            if (!cd.object.empty()) cd.object[kept_curves] = object;
             for (auto& attr : cd.attributes)
                 if (!attr.point_domain) attr.rgba[kept_curves] = attr.rgba[c];
             cd.offsets[kept_curves + 1] = int32_t(kept_points);
@@ -218,6 +239,9 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (dropped_nonfinite) warnings.push_back("curves: dropped " + plural(dropped_nonfinite, "curve") + " with NaN/Inf coordinates");
         if (dropped_short) warnings.push_back("curves: dropped " + plural(dropped_short, "curve") + " with fewer than 2 points");
         if (dropped_length) warnings.push_back("curves: dropped " + plural(dropped_length, "zero-length curve"));
+        if (dropped_transform)
+            warnings.push_back("curves: dropped " + plural(dropped_transform, "curve") +
+                               " whose curve_object names no transform, or a singular or non-finite one");
         if (dropped_radius) warnings.push_back("curves: dropped " + plural(dropped_radius, "curve") + " with zero radius");
         if (fixed_radius) warnings.push_back("curves: " + plural(fixed_radius, "negative or NaN radius") + " set to 0");
         if (bad_random) warnings.push_back("curves: " + plural(bad_random, "NaN curve_random value") + " set to 0");
@@ -229,6 +253,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         cd.material.resize(kept_curves);
         if (!cd.intercept.empty()) cd.intercept.resize(kept_points);
         if (!cd.length.empty()) cd.length.resize(kept_curves);
+        if (!cd.object.empty()) cd.object.resize(kept_curves);
         for (auto& attr : cd.attributes) attr.rgba.resize(attr.point_domain ? kept_points : kept_curves);
         if (kept_curves == 0) cd = CurveData{};
     } else {
@@ -241,6 +266,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         size_t dropped = 0, bad_material = 0;
         MeshData out;
         out.vertices = md.vertices;
+        std::vector<size_t> kept;
         for (size_t t = 0; t < md.triangles.size(); ++t) {
             const auto& tri = md.triangles[t];
             bool ok = true;
@@ -268,6 +294,19 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             out.material.push_back(mat);
             if (t < md.normals.size()) out.normals.push_back(md.normals[t]);
+            kept.push_back(t);
+        }
+        for (auto& attr : md.attributes) {  // the kept triangles' rows; a wrong length reads 0
+            MeshData::CornerAttribute a{attr.name, {}};
+            const bool sized = attr.corners.size() == md.triangles.size();
+            if (!sized) warnings.push_back("meshes: attribute '" + attr.name + "' has the wrong length; read as 0");
+            for (size_t t : kept) {
+                std::array<float, 12> row{};
+                if (sized)
+                    for (size_t k = 0; k < 12; ++k) row[k] = std::isfinite(attr.corners[t][k]) ? attr.corners[t][k] : 0.0f;
+                a.corners.push_back(row);
+            }
+            out.attributes.push_back(std::move(a));
         }
         if (out.normals.size() != out.triangles.size()) out.normals.clear();  // all or none
         if (dropped) warnings.push_back("meshes: dropped " + plural(dropped, "triangle") + " with bad indices, NaN/Inf vertices or no area");

@@ -83,6 +83,50 @@ def radius_scale(matrix: np.ndarray) -> float:
     return abs(det) ** (1.0 / 3.0)
 
 
+def curves_object_space(matrix: np.ndarray):
+    """None when Cycles applies `matrix` to an object's curves (a uniform scale with rotation
+    and translation, by its transform_uniform_scale test: the squared lengths of the 3 x 3
+    part's rows and columns agree within 1e-6, in float32); otherwise the matrix's top 3 rows
+    flattened (12 float64), and the curves stay in object space (docs/cycles.md §3.1)."""
+    m = np.asarray(matrix, dtype=np.float64)
+    m3 = m[:3, :3].astype(np.float32)
+    rows = [m3[i, 0] * m3[i, 0] + m3[i, 1] * m3[i, 1] + m3[i, 2] * m3[i, 2] for i in range(3)]
+    cols = [m3[0, j] * m3[0, j] + m3[1, j] * m3[1, j] + m3[2, j] * m3[2, j] for j in range(3)]
+    if all(abs(float(rows[0] - v)) < 1e-6 for v in rows[1:] + cols):
+        return None
+    return np.ascontiguousarray(m[:3, :4].reshape(12))
+
+
+def _euler_xyz(rx, ry, rz):
+    """Blender's XYZ Euler rotation matrix (X applied first)."""
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return z @ y @ x
+
+
+def mapping_matrix(vector_type, location, rotation, scale):
+    """3 x 4 matrix M with lookup = M (direction, 1) for a Mapping node (Blender's formulas)."""
+    r = _euler_xyz(*rotation)
+    s = np.asarray(scale, dtype=np.float64)
+    t = np.asarray(location, dtype=np.float64)
+    m = np.zeros((3, 4))
+    if vector_type == "POINT":
+        m[:, :3], m[:, 3] = r * s[None, :], t
+    elif vector_type == "VECTOR":
+        m[:, :3] = r * s[None, :]
+    elif vector_type == "NORMAL":  # the lookup normalises: the final normalize does not matter
+        with np.errstate(divide="ignore"):
+            m[:, :3] = r * np.where(s != 0, 1.0 / s, 0.0)[None, :]
+    else:  # TEXTURE: the inverse transform
+        with np.errstate(divide="ignore"):
+            inv_s = np.where(s != 0, 1.0 / s, 0.0)
+        m[:, :3] = inv_s[:, None] * r.T
+        m[:, 3] = -(m[:, :3] @ t)
+    return m
+
+
 def find_socket(sockets, name: str):
     """Socket by identifier, then by name, without `sockets[name]` (in 4.5 that raises
     KeyError for sockets hidden by the node's current mode)."""

@@ -28,8 +28,7 @@ import bpy
 
 from . import passes
 from .export_scene import ExportError, engine_settings, export_scene, save_scene
-
-ENGINE_ID = "HAIRBSDF"
+from .ui import ENGINE_ID
 # Material / world / light previews (Properties editor thumbnails): samples per pixel.
 PREVIEW_SAMPLES = 32
 LAST_RENDER: dict = {}

@@ -2,8 +2,9 @@
 particle hair (ParticleSystem.co_hair per key, everything else vectorised), both with
 Cycles' semantics (docs/cycles.md §3.1):
 
-* keys are transformed to world space by the instance matrix; radii are scaled by
-  |det M|^(1/3) (Hair::apply_transform);
+* keys are transformed to world space by the instance matrix and radii scaled by
+  |det M|^(1/3) (Hair::apply_transform) when the matrix is a uniform scale; otherwise Cycles
+  keeps the curves in object space and intersects them there, and so do we (`curve_object`);
 * Curves: point-domain `radius` or 0.005 when absent; every curve uses the object's first
   material slot (Cycles ignores the curve-domain `material_index`, checked with Cycles
   3.4.1 and 4.5.15);
@@ -21,7 +22,7 @@ import time
 
 import numpy as np
 
-from ._common import radius_scale, transform_points
+from ._common import curves_object_space, radius_scale, transform_points
 from .shading_network import UV_ATTRIBUTE
 
 DEFAULT_CURVES_RADIUS = 0.005
@@ -39,6 +40,7 @@ class HairBuffer:
         self.normals: list = []                 # (P_i, 3) float32 world curve normals, or None
         self.intercept: list = []               # (P_i,) float32 Hair Info > Intercept, or None
         self.attributes: list = []              # {name: (domain, (P_i, 4) float32 RGBA per point)}
+        self.object_space: list = []            # 12 float64 (world from object) when kept there, or None
         self._random_cache = np.zeros(0, np.float32)
 
     def curve_random(self, n: int) -> np.ndarray:
@@ -50,9 +52,11 @@ class HairBuffer:
                 dtype=np.float32)
         return self._random_cache[:n]
 
-    def add(self, points, counts, random, material, length, normals=None, intercept=None, attributes=None):
+    def add(self, points, counts, random, material, length, normals=None, intercept=None, attributes=None,
+            object_space=None):
         if counts.size == 0:
             return
+        self.object_space.append(object_space)
         self.normals.append(normals)
         self.intercept.append(intercept)
         self.attributes.append(attributes or {})
@@ -85,6 +89,12 @@ class HairBuffer:
                      for i, c in zip(self.intercept, self.counts)]).astype(np.float32)
             if attribute_names:
                 extra["attributes"] = [self._attribute(name, counts) for name in attribute_names]
+            if any(m is not None for m in self.object_space):
+                index = [-1 if m is None else k for k, m in enumerate(self.object_space)]
+                extra["curve_object"] = np.repeat(np.array(index, np.int32), [c.size for c in self.counts])
+                extra["object_transforms"] = np.array([m if m is not None else np.eye(3, 4).reshape(12)
+                                                       for m in self.object_space], np.float64)
+            self.object_space = []
             self.intercept, self.attributes = [], []
             return {**extra, "points": pts, "curve_offsets": offsets,
                     "curve_random": np.concatenate(self.random).astype(np.float32),
@@ -350,10 +360,14 @@ def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cac
     pos, rad, counts, length = cache.get(data)
     _material_index_warning(obj, data, report)
     n = counts.size
-    world = transform_points(matrix, pos)
+    object_space = curves_object_space(matrix)
     pts4 = np.empty((pos.shape[0], 4), np.float32)
-    pts4[:, :3] = world
-    pts4[:, 3] = rad * np.float32(radius_scale(matrix))
+    if object_space is None:
+        pts4[:, :3] = transform_points(matrix, pos)
+        pts4[:, 3] = rad * np.float32(radius_scale(matrix))
+    else:
+        pts4[:, :3] = pos
+        pts4[:, 3] = rad
     random = buffer.curve_random(n).copy()
     mat = np.full(n, materials.slot_indices(obj)[0], np.int32)
     normals = None
@@ -388,7 +402,7 @@ def export_curves_object(obj, matrix, buffer: HairBuffer, materials, report, cac
     intercept = extras.pop("intercept", None)
     buffer.add(pts4, counts, random, mat, length, normals,
                intercept=None if intercept is None else intercept[:, 0].copy(),
-               attributes={name: (domains[name], a) for name, a in extras.items()})
+               attributes={name: (domains[name], a) for name, a in extras.items()}, object_space=object_space)
     report.add_count("curves_objects", 1)
     report.timings["curves"] = report.timings.get("curves", 0.0) + time.perf_counter() - t0
     return int(counts.size)
@@ -543,8 +557,10 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
     counts = np.concatenate(all_counts)
     lengths = np.concatenate(all_len)
     mat = np.concatenate(all_mat)
-    pts4[:, :3] = transform_points(matrix, pts4[:, :3])
-    pts4[:, 3] *= np.float32(radius_scale(matrix))
+    object_space = curves_object_space(matrix)
+    if object_space is None:
+        pts4[:, :3] = transform_points(matrix, pts4[:, :3])
+        pts4[:, 3] *= np.float32(radius_scale(matrix))
     random = buffer.curve_random(counts.size).copy()  # index over all systems of the object
     needs_intercept = any(materials.needs[int(m)][0] for m in np.unique(mat))
     columns = []  # per-key extras ride along as columns, so that clean_strands filters them with the keys
@@ -562,7 +578,7 @@ def export_particle_hair(obj, matrix, buffer: HairBuffer, materials, report, ren
     pts4 = np.ascontiguousarray(pts4[:, :4])
     intercept = extras.pop("intercept", None)
     buffer.add(pts4, counts, random, mat, lengths, intercept=None if intercept is None else intercept[:, 0].copy(),
-               attributes={name: ("CURVE", a) for name, a in extras.items()})
+               attributes={name: ("CURVE", a) for name, a in extras.items()}, object_space=object_space)
     report.timings["particle_hair"] = report.timings.get("particle_hair", 0.0) + time.perf_counter() - t0
     return int(counts.size)
 
@@ -580,6 +596,13 @@ def camera_inside_hair(curves: dict, cam_pos: np.ndarray) -> int:
     if pts.shape[0] < 2:
         return 0
     offsets = curves["curve_offsets"]
+    if "curve_object" in curves:  # curves kept in object space: this check works in the world
+        key_object = np.repeat(curves["curve_object"], np.diff(offsets))
+        pts = pts.copy()
+        for k, m in enumerate(curves["object_transforms"].reshape(-1, 3, 4)):
+            sel = key_object == k
+            pts[sel, :3] = pts[sel, :3] @ m[:, :3].T.astype(np.float32) + m[:, 3].astype(np.float32)
+            pts[sel, 3] *= np.float32(abs(np.linalg.det(m[:, :3])) ** (1.0 / 3.0))
     c = np.asarray(cam_pos, np.float32)
     rmax = float(pts[:, 3].max())
     # per column: an axis-0 reduction of the strided (P, 3) view is ~6x slower

@@ -19,6 +19,8 @@ Principled Hair closures replaced by `hair_model` closures of the same weights.
 
 from __future__ import annotations
 
+import os
+
 from ._common import REC709_Y, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork
 
@@ -177,7 +179,6 @@ class MaterialTranslator:
         program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
         if program is not None:
             out["program"] = program
-        from .model_override import override_closures  # bpy: imported only in Blender
         out["closures"] = override_closures(material, out["closures"], self.warn)
         return out
 
@@ -327,3 +328,40 @@ class MaterialTable:
         if not slots:
             slots = [None]
         return [self.index(m) for m in slots]
+
+
+# ---------------------------------------------------------------------------- the model override step
+# A material's hair model override (its `hairbsdf` settings, model_override.py) replaces its
+# Principled Hair closures by a hair_model closure: the last step of translating it.
+
+
+def override_closures(material, closures: list, warn) -> list:
+    """`closures` (the material's exported closures) with each principled_hair closure
+    replaced by the override's hair_model closure of the same weight."""
+    s = getattr(material, "hairbsdf", None) if material is not None else None
+    if s is None or s.override == "NONE":
+        return closures
+    hair = [c for c in closures if c.get("type") == "principled_hair"]
+    if not hair:
+        warn(f"hair model override '{s.override}' set, but the material has no Principled Hair closure")
+        return closures
+    model = {"type": "hair_model", "model": s.override, "params": override_params(s)}
+    if s.override == "plugin":
+        path = override_plugin_path(s)
+        if not path:
+            warn("hair model override 'plugin' has no plugin path; the Principled Hair closures are rendered")
+            return closures
+        model["path"] = path
+    return [dict(model, weight=tuple(c["weight"])) if c.get("type") == "principled_hair" else c for c in closures]
+
+
+def override_params(settings) -> dict:
+    """The parameters as the `hair_model` closure's `params` (optional ones only when used)."""
+    return {p.name: p.current() for p in settings.params if not p.optional or p.use}
+
+
+def override_plugin_path(settings) -> str:
+    import bpy  # the settings are Blender data: only called inside Blender
+
+    path = settings.plugin_path
+    return os.path.abspath(bpy.path.abspath(path)) if path else ""

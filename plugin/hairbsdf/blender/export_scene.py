@@ -213,7 +213,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         "curve_shape": shape,
         "curve_subdivisions": subdiv,
         "curve_backface_culling": cull_curves,
-        "meshes": meshes.finish(),
+        "meshes": meshes.finish(materials.attributes.names),
         "materials": materials.materials,
         "camera": camera,
         "lights": lights,

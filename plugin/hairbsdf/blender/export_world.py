@@ -7,39 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import find_socket, rgb
+from ._common import find_socket, mapping_matrix, rgb
 from .export_materials import MaterialTranslator
 from .images import read_image_linear
-
-
-def _euler_xyz(rx, ry, rz):
-    """Blender's XYZ Euler rotation matrix (X applied first)."""
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return z @ y @ x
-
-
-def mapping_matrix(vector_type, location, rotation, scale):
-    """3 x 4 matrix M with lookup = M (direction, 1) for a Mapping node (Blender's formulas)."""
-    r = _euler_xyz(*rotation)
-    s = np.asarray(scale, dtype=np.float64)
-    t = np.asarray(location, dtype=np.float64)
-    m = np.zeros((3, 4))
-    if vector_type == "POINT":
-        m[:, :3], m[:, 3] = r * s[None, :], t
-    elif vector_type == "VECTOR":
-        m[:, :3] = r * s[None, :]
-    elif vector_type == "NORMAL":  # the lookup normalises: the final normalize does not matter
-        with np.errstate(divide="ignore"):
-            m[:, :3] = r * np.where(s != 0, 1.0 / s, 0.0)[None, :]
-    else:  # TEXTURE: the inverse transform
-        with np.errstate(divide="ignore"):
-            inv_s = np.where(s != 0, 1.0 / s, 0.0)
-        m[:, :3] = inv_s[:, None] * r.T
-        m[:, 3] = -(m[:, :3] @ t)
-    return m
 
 
 def export_world(scene, report) -> dict:

@@ -7,7 +7,7 @@ rendered with a zoo model or a BSDF plugin, its parameters edited in the Materia
 `material.hairbsdf` holds the choice, the plugin path and one item per parameter, filled from
 the model's schema (hairbsdf.model_schema: the zoo's defaults from the C++ model factory, or
 the plugin's own schema). The exporter (export_materials.py) replaces each Principled Hair
-closure of an overridden material with a `hair_model` closure of the same weight
+closure of an overridden material with a `hair_model` closure of the same weight (its last step, override_closures)
 (docs/scene_desc.md); other closures stay. Ranges are checked when the renderer builds the
 model; the panel marks values out of range.
 
@@ -24,7 +24,10 @@ import struct
 
 import bpy
 
-ENGINE_ID = "HAIRBSDF"
+from ._common import ExportReport
+from .export_materials import MaterialTranslator, override_params, override_plugin_path
+from .ui import ENGINE_ID
+
 # Enum identifiers are the model names of hairbsdf.model_schema ("NONE": no override).
 OVERRIDES = (
     ("NONE", "None", "Render the material's own closures"),
@@ -133,16 +136,11 @@ class HairbsdfMaterialSettings(bpy.types.PropertyGroup):
     schema_error: bpy.props.StringProperty()  # why the schema could not be read (a plugin that does not load)
 
 
-def plugin_abspath(settings) -> str:
-    path = settings.plugin_path
-    return os.path.abspath(bpy.path.abspath(path)) if path else ""
-
-
 def fill_params(settings, keep=True) -> None:
     """One item per schema parameter with its default; with `keep`, items of the same name and
     kind keep their values (switching between builds of one plugin)."""
     model = settings.override
-    path = plugin_abspath(settings) if model == "plugin" else ""
+    path = override_plugin_path(settings) if model == "plugin" else ""
     old = {p.name: (p.kind, p.current(), p.use) for p in settings.params} if keep else {}
     settings.params.clear()
     settings.schema_error = ""
@@ -173,11 +171,6 @@ def fill_params(settings, keep=True) -> None:
             item.use = old[item.name][2]
 
 
-def params_dict(settings) -> dict:
-    """The parameters as the `hair_model` closure's `params` (optional ones only when used)."""
-    return {p.name: p.current() for p in settings.params if not p.optional or p.use}
-
-
 def set_override(material, model: str, path: str | None = None, params: dict | None = None) -> dict:
     """Sets the override of `material` (model "NONE" removes it) and the given parameter
     values by name. Returns the parameters the exporter will write. ValueError for an
@@ -200,29 +193,7 @@ def set_override(material, model: str, path: str | None = None, params: dict | N
             raise ValueError(f"material '{material.name}': model {model!r} has no parameter {name!r}; "
                              f"allowed: {', '.join(by_name)}")
         by_name[name].assign(value)
-    return params_dict(s)
-
-
-# ---------------------------------------------------------------------------- export
-
-def override_closures(material, closures: list, warn) -> list:
-    """`closures` (the material's exported closures) with each principled_hair closure
-    replaced by the override's hair_model closure of the same weight."""
-    s = getattr(material, "hairbsdf", None) if material is not None else None
-    if s is None or s.override == "NONE":
-        return closures
-    hair = [c for c in closures if c.get("type") == "principled_hair"]
-    if not hair:
-        warn(f"hair model override '{s.override}' set, but the material has no Principled Hair closure")
-        return closures
-    model = {"type": "hair_model", "model": s.override, "params": params_dict(s)}
-    if s.override == "plugin":
-        path = plugin_abspath(s)
-        if not path:
-            warn("hair model override 'plugin' has no plugin path; the Principled Hair closures are rendered")
-            return closures
-        model["path"] = path
-    return [dict(model, weight=tuple(c["weight"])) if c.get("type") == "principled_hair" else c for c in closures]
+    return override_params(s)
 
 
 # ---------------------------------------------------------------------------- harness
@@ -244,9 +215,6 @@ def principled_inputs(material):
     """The first Principled Hair closure's inputs as the exporter reads them (the keys of
     docs/scene_desc.md's principled_hair `inputs`, colours as tuples, `random` None when the
     per-strand Hair Info > Random is used) plus `model` and `parametrization`; None without one."""
-    from ._common import ExportReport
-    from .export_materials import MaterialTranslator
-
     for c in MaterialTranslator(ExportReport()).translate(material)["closures"]:
         if c.get("type") == "principled_hair":
             return dict(c["inputs"], model=c["model"], parametrization=c["parametrization"])

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import REC709_Y, rgb
+from ._common import REC709_Y, mapping_matrix, rgb
 
 # Opcodes and enum values of shading_vm.h (ShadingOp, MathType, MapRangeType, MixBlend).
 OP_MATH, OP_MAP_RANGE, OP_CLAMP, OP_COLOR_RAMP, OP_MIX_COLOR, OP_MIX_FLOAT, OP_MIX_VECTOR = 1, 2, 3, 4, 5, 6, 7
@@ -472,7 +472,6 @@ def _mapping(net, node, out, depth):
         if net.link_source(sock) is not None:
             return _UNSUPPORTED
         values[name] = tuple(float(v) for v in sock.default_value)
-    from .export_world import mapping_matrix  # noqa: PLC0415 - export_world imports this module's users
     m = mapping_matrix(node.vector_type, values["Location"], values["Rotation"], values["Scale"])
     vec = _in(net, node, "Vector", "vector", depth)
     parts = []

@@ -16,6 +16,7 @@ Writes meta_out / info_out (JSON) last, so its presence means the job finished. 
 bpy and the standard library: Blender 3.4's Python has no access to the venv.
 """
 
+import hashlib
 import json
 import os
 import sys
@@ -177,6 +178,8 @@ def do_render(job):
     meta = dict(ok=False, engine=job["engine"], accuracy=job.get("accuracy", "CYCLES"), seed=job["seed"],
                 versions=_versions(), job=dict((k, v) for k, v in job.items() if k != "sites"))
     try:
+        with open(job["blend"], "rb") as f:  # which geometry this render saw (the harness checks one per case)
+            meta["blend_sha256"] = hashlib.sha256(f.read()).hexdigest()[:16]
         bpy.ops.wm.open_mainfile(filepath=job["blend"], load_ui=False)
         scene = bpy.context.scene
         lib = _scene_lib(job.get("scenes_dir"))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import dataclasses
 import fcntl
+import functools
 import hashlib
 import json
 import os
@@ -119,6 +120,17 @@ def file_hash(path):
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=256)
+def _file_hash_of_version(path, mtime_ns, size):
+    return file_hash(path)
+
+
+def blend_content_hash(path):
+    """file_hash, computed once per version of the file."""
+    st = os.stat(path)
+    return _file_hash_of_version(os.path.abspath(path), st.st_mtime_ns, st.st_size)
 
 
 def safe(s):
@@ -462,8 +474,10 @@ class Runner:
                         os.remove(p)
             return res
 
-    def render_one(self, case, blend, blend_key, engine, accuracy, seed, case_dir):
-        """One render.  Cycles renders are cached; others go into the case's renders/ folder."""
+    def render_one(self, case, blend, engine, accuracy, seed, case_dir):
+        """One render.  Cycles renders are cached by the .blend's bytes, not by the recipe that built
+        it: Blender distributes particle hair anew on every build, so a rebuilt scene may have other
+        strands (docs/compare.md, "One geometry per case").  Others go into the case's renders/ folder."""
         cycles = engine == "CYCLES" and accuracy == "CYCLES" and self.o.engine != "CYCLES_SELF"
         spp = case.spp
         res = list(case.res) if case.res else None
@@ -472,8 +486,9 @@ class Runner:
         if cycles:
             d = self.o.cache / "cycles"
             d.mkdir(parents=True, exist_ok=True)
-            key = _sha(blend_key, "CYCLES", bseed, spp, res, osl, case.target.label, JOB_SCRIPT.read_bytes(),
-                       hairbsdf_version(), json.dumps(case.overrides, sort_keys=True) if case.overrides else "")
+            key = _sha(blend_content_hash(blend), "CYCLES", bseed, spp, res, osl, case.target.label,
+                       JOB_SCRIPT.read_bytes(), hairbsdf_version(),
+                       json.dumps(case.overrides, sort_keys=True) if case.overrides else "")
             base = d / ("%s-s%d-%s" % (safe(case.id.split("@")[0]), seed, key))
         else:
             rd = case_dir / "renders"
@@ -574,12 +589,11 @@ class Runner:
     def _submit_renders(self, pool, c, b):
         case_dir = self.o.out / "cases" / c.dirname
         case_dir.mkdir(parents=True, exist_ok=True)
-        bkey = self.blend_key(c)
         ours_engine = "CYCLES" if self.o.engine in ("CYCLES", "CYCLES_SELF") else self.o.engine
 
         def task(engine, accuracy, seed, label):
             def fn():
-                r = self.render_one(c, b["blend"], bkey, engine, accuracy, seed, case_dir)
+                r = self.render_one(c, b["blend"], engine, accuracy, seed, case_dir)
                 self.progress.step("%s %s seed %d%s" % (c.id, label, seed, " (cached)" if r.get("cached") else ""),
                                    r.get("ok", False))
                 return r
@@ -636,7 +650,7 @@ class Runner:
                     accuracy=r.get("accuracy"), seed=r.get("seed"), status=r.get("status"), ok=bool(r.get("ok")),
                     cached=bool(r.get("cached")), seconds=r.get("render_seconds"), wall=r.get("wall_seconds"),
                     exr=r.get("exr"), log=r.get("log"), error=r.get("error"), log_tail=r.get("log_tail", ""),
-                    hairbsdf_file=r.get("hairbsdf_file"),
+                    hairbsdf_file=r.get("hairbsdf_file"), blend_sha256=r.get("blend_sha256"),
                     engine_warnings=((r.get("engine_report") or {}).get("warnings") or []))
 
     def _judge(self, c, b, renders):
@@ -677,6 +691,10 @@ class Runner:
             res.update(status=st, reason="%s render %s: %s" % (self._ours_label(), bad_o[0].get("status"),
                                                                bad_o[0].get("error")),
                        log_tail=bad_o[0].get("log_tail", ""))
+        elif len({r.get("blend_sha256") for r in renders["cycles"] + renders["ours"] + renders["exact"]
+                  if r.get("ok")}) > 1:
+            res.update(status="ERROR", reason="the renders opened different .blend files, so they may show different "
+                       "strands (Blender distributes particle hair anew on every build); run again with --refresh")
         else:
             try:
                 cyc = np.stack([metrics.load_image(r["exr"]) for r in renders["cycles"]])

@@ -47,6 +47,18 @@ struct Hit {
     explicit operator bool() const { return kind != PrimKind::None; }
 };
 
+// An object's space for curves kept there (CurveData::object): world-from-object and its
+// inverse, row-major 3 x 4.
+struct ObjectSpace {
+    std::array<double, 12> to_world{}, to_object{};
+    explicit ObjectSpace(const std::array<double, 12>& world_from_object);
+    Vec3 point_to_object(Vec3 p) const;
+    Vec3 point_to_world(Vec3 p) const;
+    Vec3 direction_to_object(Vec3 d) const;
+    Vec3 direction_to_world(Vec3 d) const;
+    Vec3 normal_to_world(Vec3 n) const;  // by the inverse transpose, not normalised
+};
+
 // A point on a curve's centre line: position, radius and their derivatives in u.
 struct CurvePoint {
     Vec3 p, dp;
@@ -78,7 +90,14 @@ public:
     int segment_key(int segment) const {
         return int(segment_first_[size_t(segment)]) - 2 * segment_curve_[size_t(segment)];
     }
+    // In the curve's own space: world space, or its object's space when curve_object_space
+    // is not null.
     CurvePoint curve_point(int segment, double u) const;
+    const ObjectSpace* curve_object_space(int curve) const {
+        return curve_object_.empty() || curve_object_[size_t(curve)] < 0
+                   ? nullptr
+                   : &object_spaces_[size_t(curve_object_[size_t(curve)])];
+    }
     // The key radius interpolated linearly in u (what Cycles' Huang near field uses).
     double curve_radius_linear(int segment, double u) const;
     // The curve normal interpolated linearly in u; zero when the scene has no normals.
@@ -98,6 +117,8 @@ private:
     std::vector<uint32_t> segment_first_;               // Embree's index buffer: first control point
     std::vector<int32_t> segment_curve_;                // curve of each segment
     std::vector<std::array<float, 3>> normals_;         // per control point, when the scene has normals
+    std::vector<int32_t> curve_object_;                 // per curve (CurveData::object), or empty
+    std::vector<ObjectSpace> object_spaces_;
 };
 
 // Uniform Catmull-Rom through four control points (position and radius in xyz/w).

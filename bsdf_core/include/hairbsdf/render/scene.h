@@ -37,6 +37,13 @@ struct CurveData {
         std::vector<std::array<float, 4>> rgba;  // float attributes as (f, f, f, 1)
     };
     std::vector<Attribute> attributes;
+    // Optional: curves kept in their object's space. Cycles applies an object's transform to its
+    // curves only when it is a uniform scale (with rotation and translation); other curves are
+    // intersected in object space with the ray taken there, so a non-uniform scale or a shear
+    // makes their cross-sections elliptical in the world. object[c] indexes object_transforms
+    // (-1: points are world space); each transform is world-from-object, row-major 3 x 4.
+    std::vector<int32_t> object;  // C entries, or empty: every curve in world space
+    std::vector<std::array<double, 12>> object_transforms;
     size_t curve_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
 };
 
@@ -47,6 +54,15 @@ struct MeshData {
     // Optional corner normals per triangle (x, y, z of corners 0, 1, 2): Cycles' smooth shading
     // normal N is their barycentric interpolation. Empty: N = the face normal.
     std::vector<std::array<float, 9>> normals;
+    // Optional, for shading programs: the attributes they read on meshes (UV maps), RGBA at each
+    // triangle corner (corners 0, 1, 2), interpolated over the triangle as Cycles interpolates
+    // corner attributes. Entry i is the programs' attribute i: the same names, in the same
+    // order, as CurveData::attributes.
+    struct CornerAttribute {
+        std::string name;
+        std::vector<std::array<float, 12>> corners;  // one row per triangle
+    };
+    std::vector<CornerAttribute> attributes;
 };
 
 // One entry of a material's flat weighted closure sum.
