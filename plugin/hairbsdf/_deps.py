@@ -9,6 +9,7 @@ EXTRAS = {
     "compare": (("OpenImageIO", "OpenImageIO"), ("scipy", "scipy"), ("flip_evaluator", "flip-evaluator"),
                 ("matplotlib", "matplotlib>=3.10")),
     "tools": (("scipy", "scipy"), ("matplotlib", "matplotlib")),
+    "dask": (("dask", "dask>=2026.8"), ("distributed", "distributed>=2026.8")),
 }
 
 

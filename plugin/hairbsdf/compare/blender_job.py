@@ -10,7 +10,8 @@ job.json:
   action "render": open a .blend, set seed / samples / size / engine, render one linear EXR
                    {blend, engine: CYCLES|HAIRBSDF, accuracy: CYCLES|EXACT, seed, spp, res,
                     threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites,
-                    hair_model: null or {model, path, mapping, label} (--model, HAIRBSDF only)}
+                    hair_model: null or {model, path, mapping, label} (--model, HAIRBSDF only),
+                    overrides: [{key, material, node, input, value} | {key, setting, value}] (--sweep)}
 Writes meta_out / info_out (JSON) last, so its presence means the job finished.  Uses only
 bpy and the standard library: Blender 3.4's Python has no access to the venv.
 """
@@ -126,6 +127,39 @@ def apply_hair_model(spec):
     return model_override.override_materials(bpy.data.materials, spec["model"], spec.get("path"), mapping)
 
 
+def apply_overrides(scene, overrides):
+    """--sweep (sweep.py): sets a node input on the named material ("*": every material that has
+    the node; the node by name, label or type) or a render setting (a dotted path from the scene,
+    e.g. cycles.samples). Raises ValueError naming the sweep key when something is not there."""
+    for o in overrides or []:
+        if "setting" in o:
+            obj, parts = scene, o["setting"].split(".")
+            for part in parts[:-1]:
+                obj = getattr(obj, part, None)
+            if obj is None or not hasattr(obj, parts[-1]):
+                raise ValueError("%s: the scene has no setting %s" % (o["key"], o["setting"]))
+            setattr(obj, parts[-1], type(getattr(obj, parts[-1]))(o["value"]))
+            continue
+        mats = [m for m in bpy.data.materials if m.node_tree and (o["material"] in ("*", m.name))]
+        hits = 0
+        for m in mats:
+            for n in m.node_tree.nodes:
+                if o["node"] not in (n.name, n.label, n.bl_idname, getattr(n, "type", None)):
+                    continue
+                sock = next((i for i in n.inputs if i.name == o["input"]), None)  # hidden ones too
+                if sock is None:
+                    raise ValueError("%s: node %s of material %s has no input %r (inputs: %s)" % (
+                        o["key"], n.name, m.name, o["input"], ", ".join(i.name for i in n.inputs)))
+                v = o["value"]
+                sock.default_value = v if not hasattr(sock.default_value, "__len__") else [v] * len(
+                    sock.default_value) if not isinstance(v, list) else v
+                hits += 1
+        if not hits:
+            raise ValueError("%s: no node %r in %s (materials: %s)" % (
+                o["key"], o["node"], "any material" if o["material"] == "*" else "material %r" % o["material"],
+                ", ".join(m.name for m in bpy.data.materials)))
+
+
 def _fault_hook(job):
     """Test hook (blender_tests/test_harness_compare.py): HAIRBSDF_COMPARE_FAULT=crash|hang
     makes every render that is not Cycles abort or hang, to check that the harness survives."""
@@ -173,6 +207,7 @@ def do_render(job):
         if job.get("threads"):
             scene.render.threads_mode = "FIXED"
             scene.render.threads = int(job["threads"])
+        apply_overrides(scene, job.get("overrides"))
         ims = scene.render.image_settings
         ims.file_format = "OPEN_EXR"
         ims.color_mode = "RGBA"

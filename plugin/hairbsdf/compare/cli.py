@@ -22,6 +22,11 @@ examples:
   hairbsdf compare --scene swatch --engine CYCLES   null test: Cycles against itself on other seeds
   hairbsdf compare --scene swatch --model epic      our engine renders Epic in place of Principled Hair
   hairbsdf compare --model plugin:build/kk.so:examples/plugins/kajiya_kay/mapping.py    your BSDF plugin
+  hairbsdf compare --sweep examples/sweeps/fiber_gonio_melanin_roughness.toml --ci --no-exact
+                                                    a 24-case parameter sweep (schema: docs/cluster.md)
+  hairbsdf compare --sweep examples/sweeps/fiber_gonio_melanin_roughness.toml --ci --no-exact --scheduler local:2
+                                                    the same on a Dask LocalCluster of 2 worker processes
+  hairbsdf compare --scene all --scheduler tcp://head:8786 --storage /shared/hb    on a Dask cluster
 
 how it judges (details: docs/compare.md):
   noise-free scenes (fiber_gonio): per-pixel relative error, median <= 1e-4 and p99 <= 2e-3
@@ -33,7 +38,9 @@ how it judges (details: docs/compare.md):
   thresholds: hairbsdf/compare/thresholds.toml in the package (may tighten the fixed floors, never loosen them)
 
 exit status: 0 when no case FAILs, CRASHes or has NO OUTPUT / ERROR (PENDING and SKIPPED are fine),
-  1 otherwise, 2 for bad arguments.
+  1 otherwise, 2 for bad arguments (a bad sweep file included), 3 when the Dask cluster cannot be
+  used (no scheduler within --scheduler-timeout, no workers, a worker with another hairbsdf), 130 when
+  interrupted (Ctrl-C).
 """
 
 
@@ -77,6 +84,19 @@ def build_parser(prog="hairbsdf compare"):
                    help="render our side with a zoo model (kajiya_kay, epic, scheuermann, marschner, deon, yan_fur) or a BSDF "
                         "plugin in place of every Principled Hair closure; mapping.py maps the node's inputs to the "
                         "model's parameters (map_inputs), else the model's defaults (docs/compare.md)")
+    p.add_argument("--sweep", metavar="FILE", type=file_arg,
+                   help="a sweep TOML: render one scene over the product of its axes (node inputs, render settings, "
+                        "Blender versions); the report gets sweep.html with the verdicts and a bias heat map "
+                        "(schema: docs/cluster.md)")
+    p.add_argument("--scheduler", metavar="local:N|ADDRESS",
+                   help="run every Blender process as a task on a Dask cluster: local:N starts a LocalCluster of "
+                        "N worker processes, ADDRESS (tcp://host:8786) joins a running scheduler; needs "
+                        "hairbsdf[dask] (docs/cluster.md)")
+    p.add_argument("--storage", metavar="DIR",
+                   help="with --scheduler: a folder the client and every worker see at the same path; files travel "
+                        "through it instead of the scheduler, and the Cycles cache lives in DIR/cache")
+    p.add_argument("--scheduler-timeout", type=count_arg(1), default=30, metavar="S",
+                   help="seconds to wait for the scheduler and for a first worker (default 30; then exit 3)")
     p.add_argument("--engine", default="HAIRBSDF",
                    help="engine under test (default HAIRBSDF; CYCLES renders Cycles on other seeds, a null test of "
                         "the statistics)")
@@ -174,6 +194,32 @@ def run_compare(args, argv_text=""):
     except ThresholdError as exc:
         print("error: %s" % exc, file=sys.stderr)
         return 2
+    sweep = None
+    if args.sweep:
+        from . import sweep as sweep_mod
+        if args.scene:
+            print("error: --sweep names its scene (scene = ... in %s); drop --scene" % args.sweep, file=sys.stderr)
+            return 2
+        try:
+            sweep = sweep_mod.load(args.sweep)
+        except sweep_mod.SweepError as exc:
+            print("error: --sweep %s" % exc, file=sys.stderr)
+            return 2
+        if not args.blender and sweep.blender:
+            args.blender = list(sweep.blender)
+    if args.storage and not args.scheduler:
+        print("error: --storage needs --scheduler (local:N or an address)", file=sys.stderr)
+        return 2
+    if args.scheduler:
+        from .cluster import parse_scheduler
+        try:
+            parse_scheduler(args.scheduler)
+        except ValueError as exc:
+            print("error: %s" % exc, file=sys.stderr)
+            return 2
+        from .._deps import exit_status_for_extra as _extra
+        if _extra("dask", "hairbsdf compare --scheduler"):
+            return 1
     targets = []
     specs = []
     for spec in (args.blender or ["bpy"]):
@@ -186,8 +232,10 @@ def run_compare(args, argv_text=""):
             return 2
     try:
         exact = 0 if (args.no_exact or hair_model) else args.exact_seeds  # accuracy is Chiang's only
-        cases = expand_cases(args.scene or [default_scene], targets, ci=args.ci, spp=args.spp,
-                             res=args.res, seeds=args.seeds, exact_seeds=exact, catalog=catalog)
+        cases = expand_cases([sweep.scene] if sweep else (args.scene or [default_scene]), targets, ci=args.ci,
+                             spp=args.spp, res=args.res, seeds=args.seeds, exact_seeds=exact, catalog=catalog)
+        if sweep:
+            cases = sweep_mod.expand(sweep, cases)
         cases = shard(cases, args.shard)
     except ValueError as exc:
         print("error: %s" % exc, file=sys.stderr)
@@ -198,14 +246,56 @@ def run_compare(args, argv_text=""):
                   file=sys.stderr)
     out = Path(args.out) if args.out else default_out()
     jobs = args.jobs or max(1, min(os.cpu_count() or 1, 8))
-    opts = Options(out=out, cache=Path(args.cache) if args.cache else default_cache_dir(), jobs=jobs,
+    cache = Path(args.cache) if args.cache else default_cache_dir()
+    if args.scheduler:
+        jobs = max(1, min(256, sum(c.seeds * 2 + c.exact_seeds + 1 for c in cases)))  # tasks in flight
+        if args.storage and not args.cache:
+            cache = Path(args.storage) / "cache"  # the shared Cycles cache
+    opts = Options(out=out, cache=cache, jobs=jobs,
                    threads=args.threads, timeout=args.timeout, use_cache=not args.no_cache, refresh=args.refresh,
                    osl=args.cycles_osl, engine=args.engine.upper(), force_parity=args.force_parity, thresholds=thr,
                    flip=not args.no_flip, ci=args.ci, progress=not args.quiet, argv=sys.argv, hair_model=hair_model)
-    runner = Runner(cases, opts)
+    client = cluster = workers = None
+    if args.scheduler:
+        from .cluster import EXIT_CLUSTER, ClusterError, ClusterRunner, connect, retry_policy
+        try:
+            if args.storage:
+                Path(args.storage).mkdir(parents=True, exist_ok=True)
+            client, cluster, desc = connect(args.scheduler, args.scheduler_timeout)
+            kind_n = args.scheduler.partition(":")[2] if args.scheduler.startswith("local:") else None
+            threads = args.threads or (max(1, (os.cpu_count() or 2) // int(kind_n)) if kind_n else 0)
+            runner = ClusterRunner(cases, opts, client, desc, storage=args.storage, threads=threads)
+            workers = runner.check_workers(args.scheduler_timeout)
+        except ClusterError as exc:
+            print("error: --scheduler %s: %s" % (args.scheduler, exc), file=sys.stderr)
+            _close(client, cluster)
+            return EXIT_CLUSTER
+        if not args.quiet:
+            print("hairbsdf compare: %s, %d worker%s; Dask retries a task after a worker dies, %d times at most "
+                  "(distributed.scheduler.allowed-failures)"
+                  % (desc, len(workers), "" if len(workers) == 1 else "s", retry_policy()), file=sys.stderr)
+    else:
+        runner = Runner(cases, opts)
     if not args.quiet:
         print("hairbsdf compare: %d case%s (%s) -> %s" % (len(cases), "" if len(cases) == 1 else "s",
                                                           ", ".join(t.label for t in targets), out), file=sys.stderr)
+    try:
+        return _run_and_report(args, argv_text, runner, out, targets, opts, hair_model, thr, sweep, workers)
+    except KeyboardInterrupt:
+        print("\nhairbsdf compare: interrupted; no report written", file=sys.stderr)
+        return 130
+    finally:
+        _close(client, cluster)
+
+
+def _close(client, cluster):
+    if client is not None or cluster is not None:
+        from .cluster import close
+        close(client, cluster)
+
+
+def _run_and_report(args, argv_text, runner, out, targets, opts, hair_model, thr, sweep, workers):
+    from . import report
 
     def on_case(res, maps):
         res["reproduce"] = reproduce_command(res, args)
@@ -225,6 +315,11 @@ def run_compare(args, argv_text=""):
                shard=args.shard, targets=[t.as_dict() for t in targets], engine=opts.engine,
                hair_model=hair_model,
                thresholds=thr.source, cache=str(opts.cache))
+    if workers is not None:
+        run["cluster"] = runner.run_info(workers)
+    if sweep:
+        from .sweep import sweep_view
+        run["sweep"] = sweep_view(out, results, sweep)
     index = report.write_report(out, results, run)
     summ = report.summarize(results)
     print("\nhairbsdf compare: %s in %.0f s" % (", ".join("%d %s" % (n, s) for s, n in summ["counts"].items()),
@@ -240,7 +335,8 @@ def reproduce_command(res, args):
     follow from the Blender version and the seed count, so the renders repeat)."""
     scene = res.get("file") or (res["scene"] + (":" + res["variant"] if res.get("variant") else ""))
     sz = res.get("sizes") or {}
-    cmd = ["hairbsdf", "compare", "--scene", scene, "--blender", res["blender"].get("spec") or res["blender"]["path"]]
+    cmd = ["hairbsdf", "compare"] + (["--sweep", args.sweep] if args.sweep else ["--scene", scene])
+    cmd += ["--blender", res["blender"].get("spec") or res["blender"]["path"]]
     if args.ci:
         cmd.append("--ci")
     if sz.get("res"):

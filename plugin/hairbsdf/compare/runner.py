@@ -258,6 +258,9 @@ class Case:
     seeds: int
     exact_seeds: int
     skip: str | None = None
+    # --sweep (sweep.py): the point's values by axis name, and what blender_job.py sets for it
+    sweep_point: dict | None = None
+    overrides: list = dataclasses.field(default_factory=list)
 
     @property
     def dirname(self):
@@ -454,7 +457,7 @@ class Runner:
         d = self.o.cache / "blend"
         d.mkdir(parents=True, exist_ok=True)
         key = self.blend_key(case)
-        base = d / ("%s-%s" % (safe(case.id.split("@")[0]), key))
+        base = d / ("%s-%s" % (safe(case.id.split("@")[0].split("[")[0]), key))  # a sweep's points share it
         blend, info = str(base) + ".blend", str(base) + ".json"
         with _Lock(base):
             if self.o.use_cache and not self.o.refresh and os.path.exists(blend) and os.path.exists(info):
@@ -462,7 +465,7 @@ class Runner:
                     return dict(json.load(f), blend=blend, cached=True)
             job = dict(action="build", scenes_dir=str(self.sdir), module=case.meta["module"], cfg=self._cfg(case),
                        blend_out=blend, info_out=info)
-            res = run_job(case.target, job, str(base) + ".job.json", str(base) + ".log", self.o.timeout)
+            res = self._run_job(case.target, job, str(base) + ".job.json", str(base) + ".log")
             res.update(blend=blend, cached=False, log=str(base) + ".log")
             if not res.get("ok"):
                 res["log_tail"] = log_tail(str(base) + ".log")
@@ -483,7 +486,9 @@ class Runner:
         if cycles:
             d = self.o.cache / "cycles"
             d.mkdir(parents=True, exist_ok=True)
-            key = _sha(blend_content_hash(blend), "CYCLES", bseed, spp, res, osl, case.target.label, JOB_SCRIPT.read_bytes())
+            key = _sha(blend_content_hash(blend), "CYCLES", bseed, spp, res, osl, case.target.label,
+                       JOB_SCRIPT.read_bytes(), hairbsdf_version(),
+                       json.dumps(case.overrides, sort_keys=True) if case.overrides else "")
             base = d / ("%s-s%d-%s" % (safe(case.id.split("@")[0]), seed, key))
         else:
             rd = case_dir / "renders"
@@ -494,7 +499,10 @@ class Runner:
         job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=bseed, spp=spp, res=res,
                    threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
                    meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites,
-                   hair_model=None if engine == "CYCLES" else self.o.hair_model)
+                   hair_model=None if engine == "CYCLES" else self.o.hair_model, overrides=case.overrides)
+        if cycles:  # a shared cache entry: render to unique names, rename when complete (atomic)
+            tmp = "%s.tmp-%s" % (base, os.urandom(6).hex())
+            job.update(exr_out=tmp + ".exr", meta_out=tmp + ".json")
         lock = _Lock(base) if cycles else None
         if lock:
             lock.__enter__()
@@ -505,7 +513,9 @@ class Runner:
                 if r.get("ok"):
                     r.update(exr=exr, cached=True, log=str(base) + ".log")
                     return r
-            r = run_job(case.target, job, str(base) + ".job.json", str(base) + ".log", self.o.timeout)
+            r = self._run_job(case.target, job, str(base) + ".job.json", str(base) + ".log")
+            if cycles:
+                _publish(job, exr, meta_path, r)
             r.update(exr=exr, cached=False, log=str(base) + ".log")
             if not r.get("ok"):
                 r["log_tail"] = log_tail(str(base) + ".log")
@@ -515,6 +525,13 @@ class Runner:
         finally:
             if lock:
                 lock.__exit__()
+
+    def _run_job(self, target, job, job_path, log_path):
+        """One Blender process for one job; cluster.ClusterRunner runs it as a Dask task instead."""
+        return run_job(target, job, job_path, log_path, self.o.timeout)
+
+    def _abort(self):
+        """Called when the run stops early (Ctrl-C): cluster.ClusterRunner cancels its tasks."""
 
     # ----------------------------------------------------------------- run
     def run(self, on_case=None):
@@ -549,6 +566,10 @@ class Runner:
                 results[c.id] = res
                 if on_case:
                     on_case(res, maps)
+        except BaseException:  # Ctrl-C: drop the renders not started yet
+            self._abort()
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
         finally:
             pool.shutdown(wait=True)
         out = [results[c.id] for c in self.cases]
@@ -607,7 +628,7 @@ class Runner:
                     sizes=dict(res=list(c.res) if c.res else None, spp=c.spp, seeds=c.seeds,
                                exact_seeds=c.exact_seeds, threads=self.threads),
                     osl=self.o.osl, profile="ci" if self.o.ci else "full", pending=lim.get("pending"),
-                    limits=dict(lim),
+                    limits=dict(lim), sweep_point=c.sweep_point,
                     checks=[], metrics={}, renders=[], status=None, reason="")
 
     def _skipped(self, c):
@@ -702,6 +723,27 @@ class Runner:
             res["pending_status"] = res["status"]
             res["status"] = "PENDING"
         return res, maps
+
+
+def hairbsdf_version():
+    from .._version import __version__
+    return __version__
+
+
+def _publish(job, exr, meta_path, r):
+    """Moves a finished cache entry from its unique temporary names to its key (image first, then
+    the meta JSON whose presence marks the entry complete); a failed one is removed."""
+    tmp_exr, tmp_meta = job["exr_out"], job["meta_out"]
+    if r.get("ok") and os.path.exists(tmp_exr):
+        os.replace(tmp_exr, exr)
+        r["exr_out"] = exr
+        with open(tmp_meta, "w") as f:
+            json.dump(dict(r, exr=exr), f, indent=1, default=str)
+        os.replace(tmp_meta, meta_path)
+        return
+    for p in (tmp_exr, tmp_meta):
+        if os.path.exists(p):
+            os.remove(p)
 
 
 def _jsonable(x):
