@@ -24,8 +24,9 @@ one 3 % off would. The same comparison with accuracy="converged" (HUANG_CHECK_FU
 where Cycles' Simpson rule differs from the converged integral.
 
 CI size: one seed, trt_points 16384 (our default), both sets in 4.5 and the far set in 5.3 (near 256 spp,
-far 4096 spp in huang_cases.py): 268 s of CPU, renders and our eval included, about 2.5 min of wall time on 2 idle
-cores (docs/huang.md section 8 has the measured scales).
+far 4096 spp in huang_cases.py): 268 s of CPU for 4.5's two sets, renders and our eval included, about 2.5 min of
+wall time on 2 idle cores, plus about 40 s for 5.3's far set (docs/huang.md section 8 has the measured scales,
+docs/blender5.md the 5.3 ones).
 
     .venv/bin/python -m pytest blender_tests/test_huang_check.py -s
 Environment: HUANG_CHECK_REFRESH=1 re-renders; HUANG_CHECK_FULL=0 is the CI size (no 'converged'
