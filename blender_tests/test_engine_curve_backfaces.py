@@ -40,14 +40,14 @@ emit({"version": bpy.app.version_string, "seen": out})
 '''
 
 
-def test_rays_from_inside_a_tube_as_cycles(run_blender, blender_kind, renderer_available, capsys):
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, INSIDE).result
+def test_rays_from_inside_a_tube_as_cycles(run_blender, engine_kind, renderer_available, capsys):
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, INSIDE).result
     with capsys.disabled():
         print(f"\n[inside a tube] {r['version']}: " + ", ".join(f"{k}: Cycles {v[0]}, ours {v[1]}"
                                                               for k, v in r["seen"].items()))
     cycles_sees = {v[0] for v in r["seen"].values()}
-    assert cycles_sees == ({"world"} if blender_kind == "blender" else {"wall"}), r["seen"]
+    assert cycles_sees == ({"world"} if engine_kind == "blender" else {"wall"}), r["seen"]
     bad = {k: v for k, v in r["seen"].items() if v[0] != v[1]}
     assert not bad, f"{r['version']}: differs from Cycles: {bad}"
 

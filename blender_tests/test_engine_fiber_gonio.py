@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import hairbsdf
-from blender_env import KINDS, TESTS, need_renderer, record
+from blender_env import ENGINE_KINDS, TESTS, need_renderer, record
 from hairbsdf.blender.export_scene import load_scene
 
 sys.path.insert(0, str(TESTS / "bsdf_check"))
@@ -83,10 +83,10 @@ def _other_tilt(tilt):
     return "3.4" if tilt == "4.2" else "4.2"
 
 
-def test_engine_fiber_gonio_equals_eval(run_blender, blender_kind, renderer_available, capsys):
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, GONIO, args={"bsdf_check": str(TESTS / "bsdf_check"), "step": 2}).result
-    expected_tilt = "4.2" if blender_kind == "bpy" else "3.4"
+def test_engine_fiber_gonio_equals_eval(run_blender, engine_kind, renderer_available, capsys):
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, GONIO, args={"bsdf_check": str(TESTS / "bsdf_check"), "step": 2}).result
+    expected_tilt = "3.4" if engine_kind == "blender" else "4.2"
     assert r["tilt"] == expected_tilt
     assert not r["warnings"], r["warnings"]
     desc, _ = load_scene(r["dump"])
@@ -106,12 +106,12 @@ def test_engine_fiber_gonio_equals_eval(run_blender, blender_kind, renderer_avai
         lines.append(bsdf_compare.format_table(rows, meta, "HAIRBSDF engine vs hairbsdf eval (per pixel)",
                                                expected_tilt).splitlines()[-1].replace("summary:", f"{shape}:"))
         bad = [row["name"] for row in rows if row["median"] > MEDIAN_TOL or row["p99"] > P99_TOL]
-        assert not bad, (f"{KINDS[blender_kind]} {shape}: cases beyond median {MEDIAN_TOL:g} / p99 {P99_TOL:g}:\n"
+        assert not bad, (f"{ENGINE_KINDS[engine_kind]} {shape}: cases beyond median {MEDIAN_TOL:g} / p99 {P99_TOL:g}:\n"
                          + bsdf_compare.format_table(rows, meta, "engine", expected_tilt))
         # The comparison can tell the tilt conventions apart (every case has an offset).
         assert n_wrong_fail >= len(rows) // 2, (shape, n_wrong_fail)
     summary.update(version=r["version"], renders=r["renders"], seconds=r["seconds"], tilt=expected_tilt)
-    record(f"engine_fiber_gonio_{KINDS[blender_kind]}", summary)
+    record(f"engine_fiber_gonio_{ENGINE_KINDS[engine_kind]}", summary)
     with capsys.disabled():
         print(f"\n[engine fibre gonio] {r['version']} (tilt {expected_tilt}), {r['renders']} engine renders in "
               f"{r['seconds']:.1f} s:\n  " + "\n  ".join(lines))

@@ -12,7 +12,7 @@ power / (pi area), and spot cones with the extra cosine and no object scale
 import numpy as np
 import pytest
 
-from blender_env import KINDS, need_renderer, record
+from blender_env import ENGINE_KINDS, need_renderer, record
 
 pytestmark = pytest.mark.blender
 
@@ -60,10 +60,10 @@ emit({"version": bpy.app.version_string, "lights": out})
 '''
 
 
-def test_light_units_match_cycles(run_blender, blender_kind, renderer_available, capsys):
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, LIGHTS, args={"spp": 64}).result
-    record(f"engine_lights_{KINDS[blender_kind]}", r)
+def test_light_units_match_cycles(run_blender, engine_kind, renderer_available, capsys):
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, LIGHTS, args={"spp": 64}).result
+    record(f"engine_lights_{ENGINE_KINDS[engine_kind]}", r)
     lines, bad = [], []
     for name, m in r["lights"].items():
         ratio = m["ours"] / m["cycles"]

@@ -10,7 +10,7 @@ import os
 import numpy as np
 import pytest
 
-from blender_env import KINDS, need_renderer, record
+from blender_env import ENGINE_KINDS, need_renderer, record
 
 pytestmark = pytest.mark.blender
 
@@ -66,7 +66,7 @@ def _read_layers(path):
 def test_passes_reach_the_compositor_and_the_exr(run_blender, blender_kind, renderer_available):
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, PASSES).result
-    record(f"engine_passes_{KINDS[blender_kind]}", {k: v for k, v in r.items() if k != "exr"})
+    record(f"engine_passes_{ENGINE_KINDS[blender_kind]}", {k: v for k, v in r.items() if k != "exr"})
     assert r["status"] == "ok", r
     wanted = ["Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Hair TTs", "Hair TRTs", "Variance", "Depth", "Normal"]
     missing = [w for w in wanted if w not in r["sockets"]]

@@ -68,8 +68,8 @@ emit(res)
 '''
 
 
-def test_register_unregister(run_blender, blender_kind):
-    r = run_blender(blender_kind, REGISTRATION).result
+def test_register_unregister(run_blender, engine_kind):
+    r = run_blender(engine_kind, REGISTRATION).result
     assert "HAIRBSDF" in r["engines"] and r["label"] == "hairbsdf"
     assert (r["preview"], r["postprocess"], r["custom_nodes"]) == (True, True, False)  # previews: test_engine_preview.py
     assert r["engine_set"] == "HAIRBSDF"

@@ -9,7 +9,7 @@ built and staged, failed under CI=true)."""
 import numpy as np
 import pytest
 
-from blender_env import KINDS, need_renderer, record, run_snippet
+from blender_env import ENGINE_KINDS, need_renderer, record, run_snippet
 
 pytestmark = pytest.mark.blender
 
@@ -107,9 +107,9 @@ def _write_fake(tmp_path):
     return {"HAIRBSDF_RENDER_MODULE": "fake_renderer", "PYTHONPATH": str(d), "FAKE_RENDER_DIR": str(tmp_path)}
 
 
-def test_fake_renderer_pixels_errors(run_blender, blender_kind, tmp_path):
+def test_fake_renderer_pixels_errors(run_blender, engine_kind, tmp_path):
     """Rows are flipped for Blender, warnings and errors are reported, nothing escapes."""
-    r = run_blender(blender_kind, FAKE_RENDER, env=_write_fake(tmp_path)).result
+    r = run_blender(engine_kind, FAKE_RENDER, env=_write_fake(tmp_path)).result
     ok = r["ok"]
     assert ok["err"] is None and ok["status"] == "ok"
     h, w = ok["shape"][:2]
@@ -144,20 +144,20 @@ emit({"status": engine.LAST_RENDER.get("status"), "latency": t_end - flag.get("t
 '''
 
 
-def test_cancel_plumbing_fake(run_blender, blender_kind, tmp_path):
+def test_cancel_plumbing_fake(run_blender, engine_kind, tmp_path):
     env = dict(_write_fake(tmp_path), FAKE_RENDER_MODE="slow")
-    r = run_blender(blender_kind, CANCEL, env=env, args={"samples": 4, "after": 0.5}).result
+    r = run_blender(engine_kind, CANCEL, env=env, args={"samples": 4, "after": 0.5}).result
     assert r["status"] == "cancelled"
     assert r["latency"] < 0.2, r
 
 
-def test_cancel_real_renderer(run_blender, blender_kind, renderer_available, capsys):
+def test_cancel_real_renderer(run_blender, engine_kind, renderer_available, capsys):
     """Flip the cancel flag during a long render: the render must stop within 0.2 s."""
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, CANCEL, args={"samples": 100000, "after": 1.0, "w": 160, "h": 120}).result
-    record(f"cancel_latency_{KINDS[blender_kind]}", r)
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, CANCEL, args={"samples": 100000, "after": 1.0, "w": 160, "h": 120}).result
+    record(f"cancel_latency_{ENGINE_KINDS[engine_kind]}", r)
     with capsys.disabled():
-        print(f"\n[cancel] {KINDS[blender_kind]}: stopped {r['latency'] * 1000:.0f} ms after the flag "
+        print(f"\n[cancel] {ENGINE_KINDS[engine_kind]}: stopped {r['latency'] * 1000:.0f} ms after the flag "
               f"(render ran {r['render_seconds']:.2f} s, {r['stats'].get('samples') if r['stats'] else '?'} samples)")
     assert r["status"] == "cancelled", r
     assert r["latency"] < 0.2, r
@@ -248,11 +248,11 @@ emit({"n": int(m.sum()), "cycles": out["CYCLES"][m][:, :3].mean(0), "hairbsdf": 
 '''
 
 
-def test_mean_matches_cycles(run_blender, blender_kind, renderer_available):
+def test_mean_matches_cycles(run_blender, engine_kind, renderer_available):
     """Coarse end-to-end check of the exported semantics (light strengths, hair and diffuse
     materials, world, bounces): the mean colour of the covered pixels is within 5 % of
     Cycles'.  The per-pixel comparison belongs to the comparison harness."""
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, MEAN_VS_CYCLES).result
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, MEAN_VS_CYCLES).result
     assert r["status"] == "ok" and r["n"] > 200
     np.testing.assert_allclose(r["hairbsdf"], r["cycles"], rtol=0.05)

@@ -10,7 +10,7 @@ The texture is a 32 x 16 float EXR with gradients and a checker, written by the 
 import numpy as np
 import pytest
 
-from blender_env import KINDS, need_renderer, record
+from blender_env import ENGINE_KINDS, need_renderer, record
 
 pytestmark = pytest.mark.blender
 
@@ -106,7 +106,7 @@ CASES = ["linear", "closest", "mapping_point", "mapping_texture", "mix"]
 def test_environment_texture_matches_cycles_per_pixel(run_blender, blender_kind, renderer_available):
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, WORLD, args={"cases": CASES}).result
-    record(f"engine_world_texture_{KINDS[blender_kind]}", r)
+    record(f"engine_world_texture_{ENGINE_KINDS[blender_kind]}", r)
     lines, bad = [], []
     for name, m in r["cases"].items():
         lines.append(f"{name:28s} median {m['median']:.1e} p99 {m['p99']:.1e} max {m['max']:.1e} "

@@ -297,5 +297,6 @@ def test_materials_world_lights_camera(run_blender, blender_kind, tmp_path):
     assert it["tilt"] == ("4.2" if v >= (4, 2, 0) else "3.4")
     assert it["light_tree"] is (v >= (4, 0, 0))  # Cycles 4.x: use_light_tree on by default; 3.x has no tree
     assert it["chiang_lcg"] is (v < (3, 6, 0))  # Cycles < 3.6: Chiang's longitudinal numbers from its LCG
+    assert it["huang_glass_albedo_table"] == ("5.x" if v >= (5, 0, 0) else "4.x")  # Cycles 5.x's Huang tables
     assert desc["curve_shape"] == "RIBBONS" and desc["curve_subdivisions"] == 3
     assert "Denoising" in warnings

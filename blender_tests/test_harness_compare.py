@@ -33,11 +33,7 @@ BLENDERS = {"bpy4.5": "bpy", "bpy5.3": "bpy5", "blender3.4": os.environ.get("HAI
 BAD = ("FAIL", "CRASH", "NO OUTPUT", "ERROR")
 # (Blender, scene) pairs where Cycles itself changed between versions in a way the engine does not
 # reproduce yet; each is allowlisted in test_support/allowlist.toml and described in docs/blender5.md.
-VERSION_GAPS = {
-    ("bpy5.3", "fiber_gonio_huang"): "Cycles 5.x changed the Huang closure: its far-field goniometer renders differ "
-    "from 4.5's by up to +3.3 % (z 37) and the CI-size huang_back case fails the Welch test; our engine reproduces "
-    "4.5's Huang, and 5.x's is not reproduced behind the version switch yet (docs/blender5.md)",
-}
+VERSION_GAPS: dict = {}  # none today (5.x's Huang tables are reproduced: docs/blender5.md)
 
 
 

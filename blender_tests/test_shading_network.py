@@ -19,7 +19,7 @@ shading VM, against Blender and Cycles.
 import numpy as np
 import pytest
 
-from blender_env import KINDS, need_renderer, record
+from blender_env import ENGINE_KINDS, need_renderer, record
 
 pytestmark = pytest.mark.blender
 
@@ -429,7 +429,7 @@ emit({"version": bpy.app.version_string, "covered": int(covered.sum()),
 def test_emission_networks_match_cycles_per_pixel(run_blender, blender_kind, renderer_available):
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, EMISSION, args={"w": 240, "h": 200}).result
-    record(f"shading_network_emission_{KINDS[blender_kind]}", r)
+    record(f"shading_network_emission_{ENGINE_KINDS[blender_kind]}", r)
     summary = (f"{r['version']}: {r['covered']} covered pixels, median {r['median']:.1e} p99 {r['p99']:.1e} "
                f"max {r['max']:.1e}, mean Cycles {r['cycles_mean']:.5f} ours {r['ours_mean']:.5f}, "
                f"{r['alpha_mismatch']} coverage mismatches")
@@ -622,7 +622,7 @@ def test_image_texture_emission_matches_cycles_per_pixel(run_blender, blender_ki
     sRGB PNG, and particle hair's emitter UVs (active and named layer), against Cycles."""
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, IMAGE_EMISSION, args={"w": 240, "h": 240}).result
-    record(f"shading_network_image_{KINDS[blender_kind]}", r)
+    record(f"shading_network_image_{ENGINE_KINDS[blender_kind]}", r)
     summary = (f"{r['version']}: {r['covered']} covered pixels, median {r['median']:.1e} p99 {r['p99']:.1e} "
                f"max {r['max']:.1e}, mean Cycles {r['cycles_mean']:.5f} ours {r['ours_mean']:.5f}, "
                f"{r['alpha_mismatch']} coverage mismatches; bands {r['bands']}")
@@ -748,14 +748,14 @@ emit(res)
 '''
 
 
-def test_image_texture_hair_colour_mean_matches_cycles(run_blender, blender_kind, renderer_available):
+def test_image_texture_hair_colour_mean_matches_cycles(run_blender, engine_kind, renderer_available):
     """Principled Hair's Color (and Roughness, through a colour -> float conversion) from an
     Image Texture on the strands' UVs, lit and with bounces: the mean colour of each group of
     strands (each on its own part of the image) is within 5 % of Cycles' (test_mean_matches_cycles'
     limit)."""
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, IMAGE_HAIR, args={"w": 120, "h": 80, "spp": 64}).result
-    record(f"shading_network_image_hair_{KINDS[blender_kind]}", r)
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, IMAGE_HAIR, args={"w": 120, "h": 80, "spp": 64}).result
+    record(f"shading_network_image_hair_{ENGINE_KINDS[engine_kind]}", r)
     summary = f"{r['version']}: " + "; ".join(
         f"group {g}: {x['n']} px, Cycles {np.round(x['cycles'], 4).tolist()} ours {np.round(x['hairbsdf'], 4).tolist()}"
         for g, x in enumerate(r["groups"]))

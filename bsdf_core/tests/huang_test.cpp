@@ -81,7 +81,7 @@ TEST(HuangTables, MatchGenerator) {
         const int inv = int(rng() % 2), k = int(rng() % 16), j = int(rng() % 16), i = 1 + int(rng() % 15);
         const double rough = clamp(i / 15.0, 1e-4, 1.0), mu = clamp(j / 15.0, 1e-4, 1.0), z = clamp(k / 15.0, 1e-4, 0.99);
         const double eta = (1.0 + z * z) / (1.0 - z * z);
-        const double e = ggx::ggx_glass_albedo(rough * rough, mu, inv ? 1.0 / eta : eta, 1e-7);
+        const double e = ggx::ggx_glass_albedo(rough * rough, mu, inv ? 1.0 / eta : eta, false, 1e-7);
         EXPECT_NEAR(huang::kGgxGlassAlbedo[inv][k][j][i], e, 2e-6) << inv << " " << k << " " << j << " " << i;
     }
     for (int inv = 0; inv < 2; ++inv)
@@ -94,9 +94,42 @@ TEST(HuangTables, MatchGenerator) {
                 }
             }
     // Lookup: exact on the grid, trilinear in between, saturated outside.
-    const double e = huang::energy_scale(7.0 / 15.0, 4.0 / 15.0, 1.55);
+    const GlassAlbedoTable c4 = GlassAlbedoTable::Cycles4;
+    const double e = huang::energy_scale(c4, 7.0 / 15.0, 4.0 / 15.0, 1.55);
     EXPECT_GT(e, 1.0);
-    EXPECT_EQ(huang::energy_scale(2.0, 4.0 / 15.0, 1.55), huang::energy_scale(1.0, 4.0 / 15.0, 1.55));
+    EXPECT_EQ(huang::energy_scale(c4, 2.0, 4.0 / 15.0, 1.55), huang::energy_scale(c4, 1.0, 4.0 / 15.0, 1.55));
+}
+
+// Cycles 5.x's tables (32^3, y = sqrt(mu), refractions leaving on the incident side rejected): the
+// committed table is what the generator computes (spot checks), lies in [0, 1], and
+// the lookup reads the sqrt(mu) axis.
+TEST(HuangTables, Cycles5MatchGenerator) {
+    std::mt19937_64 rng(5);
+    for (int n = 0; n < 24; ++n) {
+        const int inv = int(rng() % 2), k = int(rng() % 32), j = int(rng() % 32), i = 1 + int(rng() % 31);
+        const double rough = clamp(i / 31.0, 1e-4, 1.0), mu = clamp((j / 31.0) * (j / 31.0), 1e-4, 1.0);
+        const double z = clamp(k / 31.0, 1e-4, 0.99), eta = (1.0 + z * z) / (1.0 - z * z);
+        const double e = ggx::ggx_glass_albedo(rough * rough, mu, inv ? 1.0 / eta : eta, true, 1e-6);
+        // The table's own tolerance (1e-5 relative) errs by up to ~2e-5 (measured on 40 entries).
+        EXPECT_NEAR(huang::kGgxGlassAlbedo5[inv][k][j][i], e, 5e-5) << inv << " " << k << " " << j << " " << i;
+    }
+    for (int inv = 0; inv < 2; ++inv)
+        for (int k = 0; k < 32; ++k)
+            for (int j = 0; j < 32; ++j) {
+                EXPECT_EQ(huang::kGgxGlassAlbedo5[inv][k][j][0], 1.0);  // alpha = 1e-8: a mirror
+                for (int i = 0; i < 32; ++i) {
+                    EXPECT_GE(huang::kGgxGlassAlbedo5[inv][k][j][i], 0.0);
+                    EXPECT_LE(huang::kGgxGlassAlbedo5[inv][k][j][i], 1.0);
+                }
+            }
+    // On a grid node the lookup returns the node: mu = (20/31)^2 is row 20.
+    const double z = 10.0 / 31.0, eta = (1.0 + z * z) / (1.0 - z * z);
+    EXPECT_NEAR(huang::energy_scale(GlassAlbedoTable::Cycles5, 7.0 / 31.0, (20.0 / 31.0) * (20.0 / 31.0), 1.0 / eta),
+                1.0 / huang::kGgxGlassAlbedo5[1][10][20][7], 1e-12);
+    // The two versions differ most where refractions leave upwards: eta < 1 at grazing incidence.
+    const double grazing4 = huang::energy_scale(GlassAlbedoTable::Cycles4, 0.6, 0.1, 1.0 / 1.55);
+    const double grazing5 = huang::energy_scale(GlassAlbedoTable::Cycles5, 0.6, 0.1, 1.0 / 1.55);
+    EXPECT_GT(grazing5, grazing4 * 1.02);
 }
 
 // The glass albedo against an independent Monte Carlo estimate with Heitz's visible-normal sampler.
@@ -104,12 +137,13 @@ TEST(HuangTables, GlassAlbedoAgainstMonteCarlo) {
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> uni;
     for (const auto& c : {std::array<double, 3>{0.09, 0.5, 1.55}, std::array<double, 3>{0.5, 0.3, 1.0 / 1.55},
+                          std::array<double, 3>{0.5, 0.1, 1.0 / 1.55},
                           std::array<double, 3>{1.0, 0.9, 2.5}}) {
         const double alpha = c[0], mu = c[1], eta = c[2], a2 = alpha * alpha;
         const Vec3 v{std::sqrt(1 - mu * mu), 0, mu};
         const double li = ggx::lambda(a2, mu);
         const long n = test::scaled(2'000'000);
-        double s = 0, s2 = 0;
+        double s = 0, s2 = 0, up = 0, up2 = 0;
         for (long k = 0; k < n; ++k) {
             const double r = std::sqrt(uni(rng)), a = kTwoPi * uni(rng);
             const Vec3 h = ggx::vndf_from_disk(v, alpha, r * std::cos(a), r * std::sin(a));
@@ -118,15 +152,22 @@ TEST(HuangTables, GlassAlbedoAgainstMonteCarlo) {
             double w = 0;
             const Vec3 wr = (2 * dot(h, v)) * h - v;
             if (wr.z > 0) w += f * (1 + li) / (1 + li + ggx::lambda(a2, wr.z));
-            if (f < 1) {  // refractions leaving above are kept, like Cycles' shipped table
+            double w_up = 0;  // refractions leaving above: kept by Cycles 4.x's tables, rejected by 5.x's
+            if (f < 1) {
                 const Vec3 wt = ggx::refract(v, h, ct, 1 / eta);
-                w += (1 - f) * (1 + li) / (1 + li + ggx::lambda(a2, wt.z));
+                const double wt_weight = (1 - f) * (1 + li) / (1 + li + ggx::lambda(a2, wt.z));
+                w += wt_weight;
+                if (!(wt.z < 0)) w_up = wt_weight;
             }
             s += w;
             s2 += w * w;
+            up += w_up;
+            up2 += w_up * w_up;
         }
         const double mean = s / n, sd = std::sqrt((s2 / n - mean * mean) / n);
-        EXPECT_NEAR(ggx::ggx_glass_albedo(alpha, mu, eta), mean, 5 * sd + 1e-7) << alpha << " " << mu << " " << eta;
+        const double upward = up / n, sd_all = sd + std::sqrt((up2 / n - upward * upward) / n);
+        EXPECT_NEAR(ggx::ggx_glass_albedo(alpha, mu, eta, false), mean, 5 * sd + 1e-7) << alpha << " " << mu << " " << eta;
+        EXPECT_NEAR(ggx::ggx_glass_albedo(alpha, mu, eta, true), mean - upward, 5 * sd_all + 1e-7) << alpha << " " << mu << " " << eta;
     }
 }
 

@@ -296,8 +296,9 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
 }
 
 HuangHairParams huang_options(HuangHairParams p, int quadrature, int sampler, double tolerance, long max_evaluations,
-                              long trt_points) {
+                              long trt_points, int glass_albedo_table) {
     p.quadrature = HuangQuadrature(quadrature);
+    p.glass_albedo_table = GlassAlbedoTable(glass_albedo_table);
     p.sampler = HuangSampler(sampler);
     p.tolerance = tolerance;
     p.max_evaluations = max_evaluations;
@@ -310,7 +311,8 @@ ClosureSum principled_huang(int parametrization, std::array<double, 3> color, do
                             double radial_roughness, double ior, double offset, double random_color,
                             double random_roughness, double random, double aspect_ratio, double reflection,
                             double transmission, double secondary_reflection, int quadrature, int sampler,
-                            double tolerance, long max_evaluations, long trt_points, int color_roughness) {
+                            double tolerance, long max_evaluations, long trt_points, int color_roughness,
+                            int glass_albedo_table) {
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
     in.color = rgb_from(color);
@@ -332,12 +334,13 @@ ClosureSum principled_huang(int parametrization, std::array<double, 3> color, do
     HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture,
                                                      HuangColorRoughness(color_roughness));
     return ClosureSum(
-        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points))}});
+        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points,
+                                                        glass_albedo_table))}});
 }
 
 ClosureSum huang_from_params(std::array<double, 3> sigma_a, double roughness, double offset, double eta,
                              double aspect_ratio, std::array<double, 3> factors, int quadrature, int sampler,
-                             double tolerance, long max_evaluations, long trt_points) {
+                             double tolerance, long max_evaluations, long trt_points, int glass_albedo_table) {
     HuangHairParams p;
     p.sigma_a = rgb_from(sigma_a);
     p.roughness = roughness;
@@ -348,7 +351,8 @@ ClosureSum huang_from_params(std::array<double, 3> sigma_a, double roughness, do
     p.tt_factor = factors[1];
     p.trt_factor = factors[2];
     return ClosureSum(
-        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points))}});
+        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points,
+                                                        glass_albedo_table))}});
 }
 
 py::dict huang_params_dict(const HuangHair& m) {
@@ -365,6 +369,7 @@ py::dict huang_params_dict(const HuangHair& m) {
     d["sampler"] = p.sampler == HuangSampler::Mixture ? "mixture" : "cycles";
     d["tolerance"] = p.tolerance;
     d["trt_points"] = p.trt_points;
+    d["glass_albedo_table"] = p.glass_albedo_table == GlassAlbedoTable::Cycles5 ? "5.x" : "4.x";
     return d;
 }
 
@@ -776,16 +781,23 @@ PYBIND11_MODULE(_core, m) {
     m.def("principled_chiang", &principled_chiang);
     m.def("principled_huang", &principled_huang);
     m.def("huang_from_params", &huang_from_params);
-    m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta) {
+    m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta, int glass_albedo_table) {
         auto out = new_array({sqrt_alpha.size()});
         for (py::ssize_t i = 0; i < sqrt_alpha.size(); ++i)
-            out.mutable_data()[i] = huang::energy_scale(sqrt_alpha.data()[i], mu.data()[i], eta);
+            out.mutable_data()[i] = huang::energy_scale(GlassAlbedoTable(glass_albedo_table), sqrt_alpha.data()[i],
+                                                        mu.data()[i], eta);
         return out;
     });
-    m.def("ggx_glass_albedo", [](double alpha, double mu, double eta, double tolerance) {
-        return ggx::ggx_glass_albedo(alpha, mu, eta, tolerance);
+    m.def("ggx_glass_albedo", [](double alpha, double mu, double eta, bool reject_upward_refraction, double tolerance) {
+        return ggx::ggx_glass_albedo(alpha, mu, eta, reject_upward_refraction, tolerance);
     });
-    m.def("huang_table", []() {
+    // The E_glass tables of GlassAlbedoTable `glass_albedo_table`: (2, n, n, n), n = 16 (4.x) or 32 (5.x).
+    m.def("huang_table", [](int glass_albedo_table) {
+        if (GlassAlbedoTable(glass_albedo_table) == GlassAlbedoTable::Cycles5) {
+            auto out = new_array({2, 32, 32, 32});
+            std::memcpy(out.mutable_data(), &huang::kGgxGlassAlbedo5[0][0][0][0], sizeof(huang::kGgxGlassAlbedo5));
+            return out;
+        }
         auto out = new_array({2, 16, 16, 16});
         std::memcpy(out.mutable_data(), &huang::kGgxGlassAlbedo[0][0][0][0], sizeof(huang::kGgxGlassAlbedo));
         return out;

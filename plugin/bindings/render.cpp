@@ -591,6 +591,9 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     if (auto o = get_optional(in, "huang_sampler"))
         s.huang_sampler = as_enum<HuangSampler>(*o, sub(key, "huang_sampler"),
                                                 {{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}});
+    if (auto o = get_optional(in, "huang_glass_albedo_table"))
+        s.huang_glass_albedo_table = as_enum<GlassAlbedoTable>(
+            *o, sub(key, "huang_glass_albedo_table"), {{"4.x", GlassAlbedoTable::Cycles4}, {"5.x", GlassAlbedoTable::Cycles5}});
     if (auto o = get_optional(in, "passes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             fail(sub(key, "passes"), "expected a list of pass names");

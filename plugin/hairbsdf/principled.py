@@ -16,6 +16,8 @@ MODELS = ("chiang", "huang")
 HUANG_ACCURACIES = {"cycles": 0, "converged": 1}
 HUANG_SAMPLERS = {"mixture": 0, "cycles": 1}
 HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
+# Energy-compensation tables of Cycles 4.x or 5.x (GlassAlbedoTable, docs/huang.md §3, docs/blender5.md).
+HUANG_GLASS_ALBEDO_TABLES = {"4.x": 0, "5.x": 1}
 
 # Blender 4.5 node defaults (docs/cycles.md §1). Offset is in radians.
 PRINCIPLED_HAIR_DEFAULTS = {
@@ -62,7 +64,9 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                sampler (its weight, pdf reported as 1: no MIS);
       tolerance=1e-3: relative error target of the adaptive TT integration;
       trt_points=16384: quasi-Monte Carlo points per h node of TRT / TRRT+ (error ~ few %, ~N^-1/2);
-      color_roughness="svm" (default) or "osl": the roughness of the colour conversion.
+      color_roughness="svm" (default) or "osl": the roughness of the colour conversion;
+      glass_albedo_table="4.x" (default) or "5.x": the energy-compensation tables of Cycles 4.x
+               or of Cycles 5.x (docs/blender5.md).
     eval / eval_lobes / pdf / sample take the keyword arrays normal=, pixel_coverage=, near_field=.
     """
     if not isinstance(model, str):
@@ -94,7 +98,8 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
 
 
 def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture", tolerance=1e-3,
-                      max_evaluations=200_000, trt_points=16384, color_roughness="svm", **inputs) -> Closure:
+                      max_evaluations=200_000, trt_points=16384, color_roughness="svm", glass_albedo_table="4.x",
+                      **inputs) -> Closure:
     """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
     if isinstance(parametrization, str):
         parametrization = parametrization.lower()
@@ -104,6 +109,7 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
         raise ValueError("tilt: the Huang model has no tilt convention option (only '4.2')")
     check.choice("sampler", sampler, HUANG_SAMPLERS)
     check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
+    check.choice("glass_albedo_table", glass_albedo_table, HUANG_GLASS_ALBEDO_TABLES)
     tolerance = check.real("tolerance", tolerance)
     if not 0 < tolerance < 1:
         raise ValueError("tolerance: must lie in (0, 1)")
@@ -121,10 +127,11 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
         values["ior"], values["offset"], values["random_color"], values["random_roughness"], values["random"],
         values["aspect_ratio"], values["reflection"], values["transmission"], values["secondary_reflection"],
         HUANG_ACCURACIES[accuracy], HUANG_SAMPLERS[sampler], tolerance, max_evaluations, trt_points,
-        HUANG_COLOR_ROUGHNESS[color_roughness])
+        HUANG_COLOR_ROUGHNESS[color_roughness], HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table])
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, 1e-3),
-               "trt_points": (trt_points, 16384), "color_roughness": (color_roughness, "svm")}
+               "trt_points": (trt_points, 16384), "color_roughness": (color_roughness, "svm"),
+               "glass_albedo_table": (glass_albedo_table, "4.x")}
     extra = "".join(f", {k}={v!r}" for k, (v, d) in options.items() if v != d)
     return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"
                          f"{', ' + shown if shown else ''}{extra})")

@@ -36,6 +36,7 @@ PARAMETRIZATIONS = ("COLOR", "MELANIN", "ABSORPTION")
 TILTS = ("4.2", "3.4")
 ACCURACIES = ("cycles", "exact")
 HUANG_SAMPLERS = ("cycles", "mixture")  # the engine's Huang BSDF sampler (docs/huang.md §10)
+HUANG_GLASS_ALBEDO_TABLES = ("4.x", "5.x")  # Huang energy-compensation tables of Cycles 4.x / 5.x (docs/blender5.md)
 # integrator["passes"] -> result keys: hair_lobes -> hair_r, hair_tt, hair_trt, hair_trrt (H, W, 3);
 # depth -> depth (H, W); normal -> normal (H, W, 3); variance -> variance (H, W, 3) (docs/engine.md)
 PASSES = ("hair_lobes", "depth", "normal", "variance")
@@ -502,6 +503,9 @@ def _check_integrator(scene, out):
         d["accuracy"] = _Checker.choice(f"{key}['accuracy']", s["accuracy"], ACCURACIES)
     if s.get("huang_sampler") is not None:
         d["huang_sampler"] = _Checker.choice(f"{key}['huang_sampler']", s["huang_sampler"], HUANG_SAMPLERS)
+    if s.get("huang_glass_albedo_table") is not None:
+        d["huang_glass_albedo_table"] = _Checker.choice(f"{key}['huang_glass_albedo_table']",
+                                                        s["huang_glass_albedo_table"], HUANG_GLASS_ALBEDO_TABLES)
     if s.get("passes") is not None:
         names = _Checker.list(f"{key}['passes']", s["passes"])
         d["passes"] = [_Checker.choice(f"{key}['passes'][{i}]", n, PASSES) for i, n in enumerate(names)]

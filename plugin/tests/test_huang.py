@@ -28,7 +28,7 @@ def huang(**kw):
 def tables():
     """The C++ E_glass tables (checked against the reference's own quadrature in
     test_tables_match_reference_albedo)."""
-    t = hairbsdf._core.huang_table()
+    t = hairbsdf._core.huang_table(0)
     return t[0], t[1]
 
 
@@ -54,6 +54,11 @@ def test_api_keywords_and_errors():
         huang(tilt="3.4")
     with pytest.raises(ValueError, match="tolerance"):
         huang(tolerance=0.0)
+    assert p["glass_albedo_table"] == "4.x"
+    c5 = huang(glass_albedo_table="5.x")
+    assert c5.model_params[0]["glass_albedo_table"] == "5.x" and "glass_albedo_table='5.x'" in repr(c5)
+    with pytest.raises(ValueError, match=r"glass_albedo_table='5.3' is not allowed; choose one of \['4.x', '5.x'\]"):
+        huang(glass_albedo_table="5.3")
 
 
 def test_extra_arrays_shapes_and_defaults(rng):
@@ -132,6 +137,25 @@ def test_tables_match_reference_albedo(rng, tables):
         e = ref.ggx_glass_albedo(rough * rough, mu, eta, nodes=128)
         assert tables[inv][k, j, i] == pytest.approx(e, abs=5e-5), (inv, k, j, i)
     assert np.all(tables[0][:, :, 0] == 1.0) and np.all(tables[1][:, :, 0] == 1.0)
+
+
+def test_cycles5_tables_match_reference_albedo(rng):
+    """Cycles 5.x's grid (32^3, y = sqrt(mu)) with refractions leaving upwards rejected: 24 random
+    entries against the reference's quadrature, which differs from the 4.x semantics there."""
+    t = hairbsdf._core.huang_table(1)
+    assert t.shape == (2, 32, 32, 32)
+    for _ in range(24):
+        inv, k, j, i = rng.integers(0, 2), rng.integers(0, 32), rng.integers(0, 32), rng.integers(1, 32)
+        z = min(max(k / 31, 1e-4), 0.99)
+        eta = (1 + z * z) / (1 - z * z)
+        mu = max((j / 31) ** 2, 1e-4)
+        e = ref.ggx_glass_albedo((i / 31) ** 2, mu, 1 / eta if inv else eta, nodes=128, reject_upward_refraction=True)
+        assert t[inv][k, j, i] == pytest.approx(e, abs=5e-5), (inv, k, j, i)
+    # Where refractions leave upwards (eta < 1, grazing) the two semantics differ by far more than that.
+    z = 16 / 31
+    eta = (1 + z * z) / (1 - z * z)
+    kept = ref.ggx_glass_albedo((20 / 31) ** 2, (4 / 31) ** 2, 1 / eta, nodes=128)
+    assert t[1][16, 4, 20] < kept - 0.05
 
 
 R_CASES = [  # (roughness, offset, aspect, normal, theta_o, phi_o, theta_i, phi_i, h, near, coverage, accuracy)

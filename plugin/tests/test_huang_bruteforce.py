@@ -41,7 +41,7 @@ def compare(roughness, offset, aspect, theta_o_deg, rays, bins=(12, 24), trt_poi
         return hairbsdf.principled_hair(model="huang", parametrization="absorption", absorption_coefficient=sigma,
                                         roughness=roughness, offset=offset, ior=ior, aspect_ratio=aspect,
                                         accuracy="converged", tolerance=1e-2, trt_points=points)
-    tables = tuple(hairbsdf._core.huang_table())
+    tables = tuple(hairbsdf._core.huang_table(0))
     b = min(aspect, 1.0 / aspect)
     nt, npb = bins
     per_chunk = rays // chunks

@@ -802,3 +802,20 @@ def test_unknown_pass_names_the_key():
     scene, _, _ = _lobe_scene(_unit((0, 0.4, 0.9)), _unit((0.3, -0.6, 0.5)), passes=("hair_lobes", "mist"))
     with pytest.raises(ValueError, match=r"\['passes'\]\[1\].*'mist' is not allowed"):
         render(scene)
+
+
+def test_huang_glass_albedo_table_setting_reaches_the_model():
+    """integrator.huang_glass_albedo_table picks Cycles 4.x's or 5.x's energy-compensation tables
+    (docs/blender5.md): the same render (same samples) with 5.x's is brighter on this back-lit strand,
+    where light leaves the fibre by refraction; an unknown value names the key and the allowed ones."""
+    wo = _unit((0.0, 0.6, 0.8))
+    scene, _, _, _ = _huang_strand_scene(wo, 16, 12, [], (1.0, 1.0, 1.0))
+    scene["integrator"] = _integrator(samples=16, max_bounces=1, glossy_bounces=1, transparent_bounces=4)
+    means = {}
+    for table in ("4.x", "5.x"):
+        scene["integrator"]["huang_glass_albedo_table"] = table
+        means[table] = float(render(scene)["combined"][..., :3].astype(np.float64).mean())
+    assert means["5.x"] > means["4.x"] * 1.0005, means
+    scene["integrator"]["huang_glass_albedo_table"] = "5.3"
+    with pytest.raises(ValueError, match=r"huang_glass_albedo_table.*'5.3' is not allowed.*'4.x', '5.x'"):
+        render(scene)

@@ -11,7 +11,7 @@ constexpr const double* kGl8w = GaussLegendre<8>::w;
 constexpr double kSingularRoughnessSq = 2e-10;  // Cycles' BSDF_ROUGHNESS_SQ_THRESH
 
 // eval / pdf of one sample of Cycles' glass sampler, averaged over its reflect/refract choice.
-double glass_weight(Vec3 v, Vec3 h, double alpha2, double eta) {
+double glass_weight(Vec3 v, Vec3 h, double alpha2, double eta, bool reject_upward_refraction) {
     const double cos_hi = dot(h, v);
     double cos_ho = 0.0;
     const double f = fresnel(cos_hi, eta, &cos_ho);
@@ -20,10 +20,10 @@ double glass_weight(Vec3 v, Vec3 h, double alpha2, double eta) {
     const Vec3 wr = (2.0 * cos_hi) * h - v;
     if (wr.z > 0.0) value += f * (1.0 + li) / (1.0 + li + lambda(alpha2, wr.z));
     if (f < 1.0) {
-        // No check that the refracted ray leaves below the surface: the table Cycles 4.5 ships was
-        // computed that way (it differs from the current sampler only for eta < 1 at grazing
-        // incidence, where refractions can leave above; measured against shader.tables, docs/huang.md §3).
+        // Cycles 4.x's tables did not check the side the refraction leaves on (it matters only for
+        // eta < 1 at grazing incidence; measured against shader.tables, docs/huang.md §3); 5.x's do.
         const Vec3 wt = refract(v, h, cos_ho, 1.0 / eta);
+        if (reject_upward_refraction && !(wt.z < 0.0)) return value;
         // Refraction with an IOR this close to 1 is treated as specular: weight 1.
         const double g = std::fabs(eta - 1.0) < 1e-4 ? 1.0 : (1.0 + li) / (1.0 + li + lambda(alpha2, wt.z));
         value += (1.0 - f) * g;
@@ -40,6 +40,7 @@ namespace {
 struct GlassAlbedo {
     Vec3 v;
     double alpha, alpha2, mu, eta, g1;
+    bool reject_upward_refraction;
     int dim(int) const { return 2; }
     int values(int) const { return 1; }
     double norm(int, const std::array<double, adaptive::kMaxValues>& f) const { return f[0]; }
@@ -53,15 +54,15 @@ struct GlassAlbedo {
         const double vm = dot(v, m);
         if (!(vm > 0.0)) return;
         // Over p in [0, pi] (symmetry), measure du dp / pi.
-        f[0] = g1 * vm / (mu * ct) * glass_weight(v, m, alpha2, eta) / kPi;
+        f[0] = g1 * vm / (mu * ct) * glass_weight(v, m, alpha2, eta, reject_upward_refraction) / kPi;
     }
 };
 }  // namespace
 
-double ggx_glass_albedo(double alpha, double mu, double eta, double tolerance) {
+double ggx_glass_albedo(double alpha, double mu, double eta, bool reject_upward_refraction, double tolerance) {
     const double alpha2 = alpha * alpha;
     if (alpha2 <= kSingularRoughnessSq) return 1.0;  // a mirror / clear interface: eval / pdf = 1
-    GlassAlbedo problem{Vec3{safe_sqrt(1.0 - mu * mu), 0.0, mu}, alpha, alpha2, mu, eta, 0.0};
+    GlassAlbedo problem{Vec3{safe_sqrt(1.0 - mu * mu), 0.0, mu}, alpha, alpha2, mu, eta, 0.0, reject_upward_refraction};
     problem.g1 = 1.0 / (1.0 + lambda(alpha2, mu));
     adaptive::Integrator<GlassAlbedo> integ(problem);
     // Initial boxes: finer towards grazing microfacets (u -> 1).

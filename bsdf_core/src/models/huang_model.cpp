@@ -156,7 +156,7 @@ double HuangHair::r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, dou
     if (!visible(I, O, macro, wh)) return 0.0;
     const double cos_mi = dot(wm, I);
     return ggx::D(alpha2_, dot(wm, wh)) * ggx::G2(alpha2_, cos_mi, dot(wm, O)) * arc_length(gamma) *
-           huang::energy_scale(sqrt_alpha_, cos_mi, eta_);
+           huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi, eta_);
 }
 
 double HuangHair::r_integrand(const ShadingPoint& sp, Vec3 O, Vec3 wh, double h) const {

@@ -27,7 +27,7 @@ bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double r1, dou
     const double f1 = ggx::fresnel(cos_hi1, eta_, &cos_t1);
     if (!(f1 < 1.0)) return false;  // total internal reflection: nothing enters
     e.t1 = 1.0 - f1;
-    e.scale1 = huang::energy_scale(sqrt_alpha_, e.cos_mi1, eta_);
+    e.scale1 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, e.cos_mi1, eta_);
     e.wt = ggx::refract(I, wh1, cos_t1, inv_eta_);
     e.mwt = -1.0 * e.wt;
     const double phi_t = dir_phi(e.wt);
@@ -47,7 +47,7 @@ bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double r1, dou
         path_t = std::sqrt(gx * gx + gz * gz);
     }
     e.a_t = absorption(path_t, cos_theta(e.wt));
-    e.scale2 = huang::energy_scale(sqrt_alpha_, e.cos_mi2, inv_eta_);
+    e.scale2 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, e.cos_mi2, inv_eta_);
     return true;
 }
 
@@ -106,7 +106,7 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     const double cos_hi3 = dot(wh3, wtr);
     const double cos_ho3 = dot(wh3, mO);
     const double cos_mi3 = dot(wmtr, wtr);
-    const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * huang::energy_scale(sqrt_alpha_, cos_mi3, inv_eta_);
+    const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi3, inv_eta_);
     double path_tr;
     if (b_ == 1.0) {
         path_tr = 2.0 * std::fabs(std::cos(phi_tr - e.gmt));

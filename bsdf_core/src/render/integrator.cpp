@@ -14,7 +14,8 @@ constexpr int kMaxLightHits = 8;
 std::vector<MaterialShader> build_materials(const SceneDesc& scene) {
     std::vector<MaterialShader> out;
     out.reserve(scene.materials.size());
-    for (const MaterialDesc& m : scene.materials) out.emplace_back(m, scene.integrator.tilt, scene.integrator.accuracy, scene.integrator.huang_sampler);
+    for (const MaterialDesc& m : scene.materials) out.emplace_back(m, scene.integrator.tilt, scene.integrator.accuracy, scene.integrator.huang_sampler,
+                                                             scene.integrator.huang_glass_albedo_table);
     return out;
 }
 

@@ -9,8 +9,9 @@ namespace {
 
 // Huang in the renderer: Cycles' sampler (Cycles' estimator), or the coarse sampling mixture
 // (exact pdf, fewer components than the API's: noise only).
-HuangHairParams render_huang_params(const PrincipledHairInputs& in, HuangSampler sampler) {
+HuangHairParams render_huang_params(const PrincipledHairInputs& in, HuangSampler sampler, GlassAlbedoTable table) {
     HuangHairParams p = huang_params_from_principled(in);
+    p.glass_albedo_table = table;
     p.sampler = sampler;
     p.mixture_detail = sampler == HuangSampler::Cycles ? HuangHairParams::MixtureDetail::None
                                                        : HuangHairParams::MixtureDetail::Coarse;
@@ -75,8 +76,9 @@ RGB MaterialShader::emission(const float* registers) const {
 }
 
 MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy,
-                               HuangSampler huang_sampler)
-    : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler) {
+                               HuangSampler huang_sampler, GlassAlbedoTable huang_glass_albedo_table)
+    : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler),
+      huang_glass_albedo_table_(huang_glass_albedo_table) {
     const bool with_program = !desc.program.empty();
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
@@ -94,7 +96,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
                     if (h.huang)
-                        h.fixed_huang.emplace(render_huang_params(in, huang_sampler));
+                        h.fixed_huang.emplace(render_huang_params(in, huang_sampler, huang_glass_albedo_table));
                     else
                         h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
                 }
@@ -201,7 +203,8 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
                 if (h.fixed_huang) {
                     params = h.fixed_huang->params();
                 } else {
-                    params = render_huang_params(hit_inputs(h, g), material.huang_sampler());
+                    params = render_huang_params(hit_inputs(h, g), material.huang_sampler(),
+                                                 material.huang_glass_albedo_table());
                 }
                 if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
                 huang_storage_[size_t(slot)].emplace(params);

@@ -33,6 +33,9 @@ SCENE_DESC_VERSION = 1
 # to Embree 4, which reports the inner wall to rays starting inside a tube).
 CURVE_CULLING_BEFORE = (3, 6, 0)
 CHIANG_LCG_BEFORE = (3, 6, 0)  # blender/cycles 598483b43, first released in 3.6
+# Cycles 5.x renders Huang hair with regenerated energy-compensation tables (32^3, sqrt(mu) axis); measured
+# in 5.3 (docs/blender5.md); 5.0 assumed, not checked.
+HUANG_GLASS_TABLES_5_FROM = (5, 0, 0)
 
 
 def _get(obj, name, default):
@@ -104,6 +107,8 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "tilt": tilt,
         "accuracy": settings.get("accuracy", "CYCLES").lower(),
         "huang_sampler": settings.get("huang_sampler", "CYCLES").lower(),
+        # Cycles 5.x regenerated Huang's energy-compensation tables (docs/blender5.md).
+        "huang_glass_albedo_table": "5.x" if blender_version() >= HUANG_GLASS_TABLES_5_FROM else "4.x",
         "passes": passes.requested(view_layer) if render else [],
     }
 

@@ -220,10 +220,11 @@ def sample_vndf(v, m, alpha, u1, u2):
 # E_glass: directional albedo of the GGX glass BSDF (reflection + refraction, single scattering)
 # ---------------------------------------------------------------------------------------------
 
-def ggx_glass_albedo(alpha, mu, eta, nodes=64):
+def ggx_glass_albedo(alpha, mu, eta, nodes=64, reject_upward_refraction=False):
     """Albedo of Cycles' GGX glass BSDF as the generator of Cycles 4.5's tables estimated it: E over
     visible normals of F G2/G1 (reflection above the surface) + (1 - F) G2/G1 (refraction, not
-    rejected when it leaves above the surface). Quadrature over
+    rejected when it leaves above the surface; Cycles 5.x's tables reject it:
+    `reject_upward_refraction=True`). Quadrature over
     the microfacet normal in (u, phi), with tan^2 theta_m = alpha^2 u / (1 - u) so that
     D cos theta_m dw = du dphi / (2 pi). Scalars in, scalar out."""
     alpha2 = alpha * alpha
@@ -264,6 +265,8 @@ def ggx_glass_albedo(alpha, mu, eta, nodes=64):
     # Refractions are not rejected when they leave above the surface: Cycles 4.5's shipped table
     # (its eta < 1 half differs at grazing incidence otherwise; docs/huang.md §3).
     refracted = (1.0 - f) * g_t * (f < 1.0)
+    if reject_upward_refraction:
+        refracted = refracted * (wt_z < 0.0)
     integrand = np.where(ok, cos_vm / (mu * cos_m) * (reflected + refracted), 0.0)
     return float(np.clip(np.sum(integrand * W), 0.0, 1.0))
 

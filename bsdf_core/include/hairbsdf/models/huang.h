@@ -23,16 +23,24 @@
 
 namespace hairbsdf {
 
-namespace huang {
-// E_glass tables [eta >= 1 | eta < 1][z][mu][sqrt(alpha)] (generated, lab/huang_tables.cpp).
-extern const double kGgxGlassAlbedo[2][16][16][16];
+// Which E_glass tables (the energy compensation of each interface, docs/huang.md §3) the model uses:
+// Cycles 4.x's (16^3, mu axis linear, refractions leaving on the incident side counted) or Cycles
+// 5.x's (32^3, sqrt(mu) axis, those refractions rejected). docs/blender5.md.
+enum class GlassAlbedoTable { Cycles4, Cycles5 };
 
-// Cycles' lookup_table_read_3D on one table: coordinates saturated, trilinear.
-inline double lookup_table_3d(const double (&t)[16][16][16], double x, double y, double z) {
+namespace huang {
+// E_glass tables [eta >= 1 | eta < 1][z][y][sqrt(alpha)] (generated, lab/huang_tables.cpp):
+// Cycles 4.x (y = mu) and Cycles 5.x (y = sqrt(mu)).
+extern const double kGgxGlassAlbedo[2][16][16][16];
+extern const double kGgxGlassAlbedo5[2][32][32][32];
+
+// Cycles' lookup_table_read_3D on one n^3 table: coordinates saturated, trilinear.
+template <int n>
+inline double lookup_table_3d(const double (&t)[n][n][n], double x, double y, double z) {
     auto axis = [](double v, int& i0, int& i1, double& f) {
-        v = clamp(v, 0.0, 1.0) * 15.0;
-        i0 = std::min(int(v), 15);
-        i1 = std::min(i0 + 1, 15);
+        v = clamp(v, 0.0, 1.0) * (n - 1);
+        i0 = std::min(int(v), n - 1);
+        i1 = std::min(i0 + 1, n - 1);
         f = v - i0;
     };
     int x0, x1, y0, y1, z0, z1;
@@ -47,10 +55,14 @@ inline double lookup_table_3d(const double (&t)[16][16][16], double x, double y,
     };
     return (1 - fz) * plane(z0) + fz * plane(z1);
 }
-// 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (docs/cycles.md §5.3).
-inline double energy_scale(double sqrt_alpha, double mu, double eta) {
+// 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (docs/cycles.md §5.3),
+// from the tables of the chosen Cycles version.
+inline double energy_scale(GlassAlbedoTable table, double sqrt_alpha, double mu, double eta) {
     const double z = std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0)));
-    const double e = lookup_table_3d(kGgxGlassAlbedo[eta < 1.0 ? 1 : 0], sqrt_alpha, mu, z);
+    const int which = eta < 1.0 ? 1 : 0;
+    const double e = table == GlassAlbedoTable::Cycles5
+                         ? lookup_table_3d(kGgxGlassAlbedo5[which], sqrt_alpha, safe_sqrt(mu), z)
+                         : lookup_table_3d(kGgxGlassAlbedo[which], sqrt_alpha, mu, z);
     return 1.0 / e;
 }
 }  // namespace huang
@@ -73,6 +85,7 @@ struct HuangHairParams {
     long max_evaluations = 200000;  // cap on TT integrand evaluations per eval
     long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
     HuangSampler sampler = HuangSampler::Mixture;
+    GlassAlbedoTable glass_albedo_table = GlassAlbedoTable::Cycles4;  // Cycles 4.x or 5.x energy compensation
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
     // point) or Coarse (up to 12, 16 and 16: the renderer's choice; the pdf stays exact, only
     // the importance sampling is rougher, so renders get noisier but not biased), or None (no

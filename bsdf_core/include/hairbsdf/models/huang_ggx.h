@@ -69,10 +69,12 @@ inline Vec3 vndf_from_disk(Vec3 v, double alpha, double d1, double d2) {
 
 // Directional albedo of Cycles' GGX glass BSDF as its sampler estimates it (its precompute
 // program averages eval / pdf over visible normals): the mean over visible normals of
-// F G2/G1 (reflection, when the reflected ray stays above) + (1 - F) G2/G1 (refraction, on either
-// side: the table Cycles 4.5 ships does not reject refractions leaving above), with Cycles' singular cases (alpha^2 <= 2e-10: mirror; |eta - 1| < 1e-4:
-// refraction treated as specular). Adaptive cubature over the microfacet normal to the relative
-// `tolerance`. Clamped to [0, 1] like the stored table.
-double ggx_glass_albedo(double alpha, double mu, double eta, double tolerance = 1e-8);
+// F G2/G1 (reflection, when the reflected ray stays above) + (1 - F) G2/G1 (refraction), with
+// Cycles' singular cases (alpha^2 <= 2e-10: mirror; |eta - 1| < 1e-4: refraction treated as
+// specular). `reject_upward_refraction`: a refraction that leaves on the incident side counts 0
+// (Cycles 5.x's tables, made with its current sampler) or counts like any other (the tables
+// Cycles 4.x ships). Adaptive cubature over the microfacet normal to the relative `tolerance`.
+// Clamped to [0, 1] like the stored tables.
+double ggx_glass_albedo(double alpha, double mu, double eta, bool reject_upward_refraction, double tolerance = 1e-8);
 
 }  // namespace hairbsdf::ggx

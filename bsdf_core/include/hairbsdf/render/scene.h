@@ -170,6 +170,9 @@ struct IntegratorSettings {
     // Huang's BSDF sampler: Cycles' (its energy-estimate weight, pdf 1: Cycles' estimator, so the
     // image's expected value is Cycles') or the mixture with an exact pdf (docs/huang.md §10).
     HuangSampler huang_sampler = HuangSampler::Cycles;
+    // Huang's energy-compensation tables: Cycles 4.x's or 5.x's (the exporter picks the running
+    // Blender's; docs/blender5.md).
+    GlassAlbedoTable huang_glass_albedo_table = GlassAlbedoTable::Cycles4;
     // Extra passes besides Combined (docs/engine.md, Passes).
     bool pass_hair_lobes = false;  // R, TT, TRT, TRRT+ of the light leaving the first hair hit
     bool pass_depth = false;       // camera-space depth of the first hit

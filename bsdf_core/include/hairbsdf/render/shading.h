@@ -43,7 +43,8 @@ enum ScatterLabel : uint8_t {
 class MaterialShader {
 public:
     MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy = Accuracy::Cycles,
-                   HuangSampler huang_sampler = HuangSampler::Cycles);
+                   HuangSampler huang_sampler = HuangSampler::Cycles,
+                   GlassAlbedoTable huang_glass_albedo_table = GlassAlbedoTable::Cycles4);
     struct HairClosure {
         RGB weight;
         PrincipledHairInputs inputs;
@@ -80,6 +81,7 @@ public:
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
     HuangSampler huang_sampler() const { return huang_sampler_; }
+    GlassAlbedoTable huang_glass_albedo_table() const { return huang_glass_albedo_table_; }
 
 private:
     size_t closure_count() const { return hair_.size() + diffuse_.size() + cycles_hair_.size() + models_.size(); }
@@ -94,6 +96,7 @@ private:
     TiltConvention tilt_;
     Accuracy accuracy_;
     HuangSampler huang_sampler_;
+    GlassAlbedoTable huang_glass_albedo_table_;
 };
 
 // The local geometry a BSDF needs.
