@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "hairbsdf/render/render.h"
+#include "hairbsdf/render/shading.h"
 #include "model_params.h"
 
 namespace py = pybind11;
@@ -785,6 +786,50 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
     return out;
 }
 
+// eval_hit_bsdf(scene, material, wo, wi, h, normal, random, seed, blur) -> (value (N, 3), pdf (N,),
+// lobes (N, 6, 3)): the engine's BSDF at N hits on a fibre along +x (the fibre frame of the Python
+// API), set up and evaluated by the integrator's own code (render::Bsdf). Row i seeds a stochastic
+// eval with lookup3_hash_uint2(i, seed), as Closure.cycles_estimate does; `normal` (N, 3) is the
+// hit's shading normal (diffuse, the legacy Hair BSDF's N test), wo where None.
+py::tuple py_eval_hit_bsdf(const py::dict& scene_dict, int material, py::handle wo_h, py::handle wi_h, py::handle h_h,
+                           py::handle normal_h, double random, uint32_t seed, double blur) {
+    const SceneDesc scene = scene_from_dict(scene_dict);
+    if (material < 0 || size_t(material) >= scene.materials.size()) throw py::value_error("material: no such index");
+    const IntegratorSettings& is = scene.integrator;
+    const MaterialShader shader(scene.materials[size_t(material)], is.tilt, is.accuracy, is.huang_sampler);
+    const auto wo = array_shape<double>(wo_h, "wo", 3), wi = array_shape<double>(wi_h, "wi", 3);
+    const auto h = as_array<double>(h_h, "h");
+    const size_t n = size_t(wo.shape(0));
+    if (size_t(wi.shape(0)) != n || size_t(h.size()) != n) throw py::value_error("wo, wi, h: expected N rows each");
+    py::array_t<double, py::array::c_style | py::array::forcecast> normal;
+    if (!normal_h.is_none()) {
+        normal = array_shape<double>(normal_h, "normal", 3);
+        if (size_t(normal.shape(0)) != n) throw py::value_error("normal: expected N rows");
+    }
+    py::array_t<double> value({py::ssize_t(n), py::ssize_t(3)}), pdf({py::ssize_t(n)});
+    py::array_t<double> lobes({py::ssize_t(n), py::ssize_t(kLobeCount), py::ssize_t(3)});
+    auto row = [](const double* p, size_t i) { return Vec3{p[3 * i], p[3 * i + 1], p[3 * i + 2]}; };
+    double *ov = value.mutable_data(), *op = pdf.mutable_data(), *ol = lobes.mutable_data();
+    Bsdf bsdf;
+    for (size_t i = 0; i < n; ++i) {
+        ShadingGeometry g;
+        g.wo = row(wo.data(), i);
+        g.n = normal.size() ? row(normal.data(), i) : g.wo;
+        g.ng = g.n;
+        g.tangent = Vec3{1, 0, 0};
+        g.h = h.data()[i];
+        g.random = random;
+        bsdf.set(shader, g, blur, lookup3_hash_uint2(uint32_t(i), seed), true);
+        const BsdfValue b = bsdf.empty() ? BsdfValue{} : bsdf.eval(row(wi.data(), i));
+        for (int c = 0; c < 3; ++c) {
+            ov[3 * i + size_t(c)] = b.value[c];
+            for (int k = 0; k < kLobeCount; ++k) ol[(i * kLobeCount + size_t(k)) * 3 + size_t(c)] = b.lobes[size_t(k)][c];
+        }
+        op[i] = b.pdf;
+    }
+    return py::make_tuple(value, pdf, lobes);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_render, m) {
@@ -801,4 +846,9 @@ PYBIND11_MODULE(_render, m) {
           "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
           "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, "
           "(M, program['registers']) float32.");
+    m.def("eval_hit_bsdf", &py_eval_hit_bsdf, py::arg("scene"), py::arg("material"), py::arg("wo"), py::arg("wi"),
+          py::arg("h"), py::arg("normal") = py::none(), py::arg("random") = 0.0, py::arg("seed") = 0u,
+          py::arg("blur") = 0.0,
+          "The engine's BSDF at N hits on a fibre along +x, for tests: scene['materials'][material] set up and "
+          "evaluated by the integrator's code. Returns (value (N, 3), pdf (N,), lobes (N, 6, 3)).");
 }

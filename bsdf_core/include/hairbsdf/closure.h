@@ -45,6 +45,14 @@ inline RGB sum_of_lobes(const std::array<RGB, kLobeCount>& lobes) {
     return sum;
 }
 
+// What a sampled direction is to the renderer (Cycles' LABEL_*): reflection or transmission,
+// and its bounce class, diffuse or glossy (the path's bounce budgets); transparent: straight on.
+enum ScatterLabel : uint8_t {
+    LabelNone = 0, LabelReflect = 1, LabelTransmit = 2, LabelDiffuse = 4, LabelGlossy = 8, LabelTransparent = 16
+};
+// Hair lobes as Cycles labels Principled Hair's: R a glossy reflection, the others glossy transmissions.
+inline uint8_t hair_lobe_label(int lobe) { return uint8_t(LabelGlossy | (lobe == LobeR ? LabelReflect : LabelTransmit)); }
+
 // Value of a closure for one direction pair: per-lobe RGB values including the cosine
 // factor, and the density `sample` reports for this direction.
 struct BsdfEval {

@@ -164,23 +164,6 @@ PrincipledHairInputs hit_inputs(const MaterialShader::HairClosure& h, const Shad
 }
 }  // namespace
 
-HuangHairParams blur_huang(const HuangHairParams& p, double roughness) {
-    HuangHairParams b = p;
-    b.roughness = std::max(roughness, p.roughness);
-    return b;
-}
-
-ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness) {
-    ChiangHairParams b = p;
-    const double v = std::max(roughness, p.v_sample[0]);
-    const double v_r = std::max(roughness, p.v[0]);
-    const double s = std::max(roughness, p.s[0]);
-    b.v = {v_r, 0.25 * v, 4.0 * v, 4.0 * v};
-    b.v_sample = {v, 0.25 * v, 4.0 * v, 4.0 * v};
-    b.s = {s, s, s};
-    return b;
-}
-
 void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, uint32_t seed,
                bool lobes) {
     count_ = 0;
@@ -198,16 +181,16 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
             const HuangHair* model = nullptr;
             if (h.fixed_huang && !(blur_roughness > 0)) {
                 model = &*h.fixed_huang;
+            } else if (h.fixed_huang) {
+                huang_storage_[size_t(slot)].emplace(h.fixed_huang->blurred(blur_roughness));
+                model = &*huang_storage_[size_t(slot)];
             } else {
-                HuangHairParams params;
-                if (h.fixed_huang) {
-                    params = h.fixed_huang->params();
-                } else {
-                    params = render_huang_params(hit_inputs(h, g), material.huang_sampler(),
-                                                 material.huang_glass_albedo_table());
-                }
-                if (blur_roughness > 0) params = blur_huang(params, blur_roughness);
-                huang_storage_[size_t(slot)].emplace(params);
+                const HuangHairParams params = render_huang_params(hit_inputs(h, g), material.huang_sampler(),
+                                                                   material.huang_glass_albedo_table());
+                if (blur_roughness > 0)
+                    huang_storage_[size_t(slot)].emplace(HuangHair(params).blurred(blur_roughness));
+                else
+                    huang_storage_[size_t(slot)].emplace(params);
                 model = &*huang_storage_[size_t(slot)];
             }
             ShadingContext ctx = hair_ctx_;
@@ -225,15 +208,16 @@ void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double 
         const ChiangHair* model = nullptr;
         if (h.fixed && !(blur_roughness > 0)) {
             model = &*h.fixed;
+        } else if (h.fixed) {
+            storage_[size_t(slot)].emplace(h.fixed->blurred(blur_roughness));
+            model = &*storage_[size_t(slot)];
         } else {
-            ChiangHairParams params;
-            if (h.fixed) {
-                params = h.fixed->params();
-            } else {
-                params = chiang_params_from_principled(hit_inputs(h, g), material.accuracy(), material.tilt());
-            }
-            if (blur_roughness > 0) params = blur_chiang(params, blur_roughness);
-            storage_[size_t(slot)].emplace(params);
+            const ChiangHairParams params =
+                chiang_params_from_principled(hit_inputs(h, g), material.accuracy(), material.tilt());
+            if (blur_roughness > 0)
+                storage_[size_t(slot)].emplace(ChiangHair(params).blurred(blur_roughness));
+            else
+                storage_[size_t(slot)].emplace(params);
             model = &*storage_[size_t(slot)];
         }
         points_[size_t(slot)].emplace(model->prepare(hair_ctx_));
@@ -378,9 +362,11 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
     }
     if (e.kind == Entry::Kind::Huang) {
         const HuangHair::ShadingPoint& sp = huang_points_[size_t(picked)];
+        int lobe;
         if (e.huang->params().sampler == HuangSampler::Cycles) {
             // Cycles' estimator: the traced path's energy estimate as the value, pdf 1.
             const BsdfSample s = e.huang->sample(sp, {u0, u1, u2});
+            lobe = s.lobe;
             if (s.lobe < 0) return out;
             out.wi = s.wi;
             own.pdf = 1.0;
@@ -388,14 +374,15 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
             own.lobes[size_t(std::min(s.lobe, kLobeCount - 1))] = own.value;
         } else {
             Vec3 local;
-            if (e.huang->sample_direction(sp, {u0, u1, u2}, local) < 0) return out;
+            lobe = e.huang->sample_direction(sp, {u0, u1, u2}, local);
+            if (lobe < 0) return out;
             out.wi = e.huang->to_world(sp, local);
             own.pdf = e.huang->pdf_local(sp, local);
             if (!(own.pdf > 0)) return out;
             own.lobes = eval_huang(picked, out.wi);
             own.value = sum_of_lobes(own.lobes);
         }
-        out.label = uint8_t(LabelGlossy | LabelReflect);  // Cycles labels every Huang lobe so
+        out.label = HuangHair::scatter_label(lobe);
     } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
         const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2},
                                                                           chiang_longitudinal)
@@ -412,7 +399,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
                 for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
             }
         }
-        out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
+        out.label = e.kind == Entry::Kind::Hair ? ChiangHair::scatter_label(s.lobe) : e.legacy->scatter_label(s.lobe);
     } else if (e.kind == Entry::Kind::Model) {
         const PreparedModelClosure& m = model_points_[size_t(picked)];
         const BsdfSample s = m.sample({u0, u1, u2});
@@ -424,7 +411,7 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
             const BsdfEval r = m.eval(s.wi);
             for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
         }
-        out.label = uint8_t(LabelGlossy | (s.lobe == LobeR ? LabelReflect : LabelTransmit));
+        out.label = m.scatter_label(s.lobe);
     } else {
         out.wi = sample_cos_hemisphere(n_, u0, u1);
         const double c = dot(n_, out.wi);

@@ -145,6 +145,20 @@ public:
 
     const ChiangHairParams& params() const { return params_; }
 
+    // Cycles' Filter Glossy (bsdf_principled_hair_blur): v, s and the R-lobe variance become
+    // max(roughness, value) of the mapped values (docs/cycles.md §6).
+    ChiangHair blurred(double roughness) const {
+        ChiangHairParams b = params_;
+        const double v = std::max(roughness, params_.v_sample[0]);
+        const double v_r = std::max(roughness, params_.v[0]);
+        const double s = std::max(roughness, params_.s[0]);
+        b.v = {v_r, 0.25 * v, 4.0 * v, 4.0 * v};
+        b.v_sample = {v, 0.25 * v, 4.0 * v, 4.0 * v};
+        b.s = {s, s, s};
+        return ChiangHair(b);
+    }
+    static uint8_t scatter_label(int lobe) { return hair_lobe_label(lobe); }
+
     // Narrowest lobe widths in theta and phi (radians), for quadrature resolution.
     std::array<double, 2> angular_scales() const {
         double theta = 1e9, phi = 1e9;

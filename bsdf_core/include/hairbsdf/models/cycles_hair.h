@@ -57,6 +57,8 @@ public:
     }
     const CyclesHairParams& params() const { return params_; }
     bool reflection() const { return params_.component == CyclesHairComponent::Reflection; }
+    CyclesHair blurred(double) const { return *this; }  // Cycles' bsdf_blur skips the legacy Hair BSDF
+    uint8_t scatter_label(int) const { return uint8_t(LabelGlossy | (reflection() ? LabelReflect : LabelTransmit)); }
     double r1() const { return r1_; }
     double r2() const { return r2_; }
 

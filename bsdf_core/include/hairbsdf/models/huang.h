@@ -98,6 +98,14 @@ class HuangHair {
 public:
     explicit HuangHair(const HuangHairParams& params);
     const HuangHairParams& params() const { return params_; }
+    // Cycles' Filter Glossy: alpha <- max(roughness, alpha).
+    HuangHair blurred(double roughness) const {
+        HuangHairParams b = params_;
+        b.roughness = std::max(roughness, params_.roughness);
+        return HuangHair(b);
+    }
+    // Cycles labels every Huang lobe a glossy reflection.
+    static uint8_t scatter_label(int) { return uint8_t(LabelGlossy | LabelReflect); }
     double alpha() const { return alpha_; }
     double aspect_ratio() const { return b_; }
 

@@ -2,8 +2,8 @@
 // material's hair closure, built once per material by the model factory
 // (models/model_factory.h) and prepared once per hit; eval and sample go through the
 // HairModel visitors of closures.h. A non-finite result (e.g. a failed plugin call) is no
-// value and no sample, so it never reaches the image. The renderer labels the lobes as
-// Chiang's: R a glossy reflection, the others glossy transmissions (shading.cpp).
+// value and no sample, so it never reaches the image. The renderer labels the lobes with the
+// model's scatter_label (closures.h; Principled Hair's unless the model has its own).
 #pragma once
 
 #include <array>
@@ -30,6 +30,7 @@ public:
     void prepare(const ModelClosure& closure, const ShadingContext& ctx);
     BsdfEval eval(Vec3 wi) const;                              // zero with pdf 0 where not finite
     BsdfSample sample(const std::array<double, 3>& u) const;  // lobe -1 where not finite
+    uint8_t scatter_label(int lobe) const { return hairbsdf::scatter_label(*model_, lobe); }
 
 private:
     const HairModel* model_ = nullptr;

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "hairbsdf/models/huang.h"
+#include "hairbsdf/closures.h"
 #include "hairbsdf/models/model_params.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "hairbsdf/render/shading_vm.h"

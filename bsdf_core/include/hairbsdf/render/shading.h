@@ -24,9 +24,7 @@
 #include <optional>
 #include <vector>
 
-#include "hairbsdf/models/chiang.h"
-#include "hairbsdf/models/cycles_hair.h"
-#include "hairbsdf/models/huang.h"
+#include "hairbsdf/closures.h"
 #include "hairbsdf/render/model_closure.h"
 #include "hairbsdf/render/scene.h"
 
@@ -34,10 +32,6 @@ namespace hairbsdf::render {
 
 constexpr int kMaxBsdfClosures = 8;
 constexpr double kClosureWeightCutoff = 1e-5;  // Cycles' CLOSURE_WEIGHT_CUTOFF
-
-enum ScatterLabel : uint8_t {
-    LabelNone = 0, LabelReflect = 1, LabelTransmit = 2, LabelDiffuse = 4, LabelGlossy = 8, LabelTransparent = 16
-};
 
 // One material, prepared once per render.
 class MaterialShader {
@@ -176,12 +170,5 @@ RGB register_rgb(const float* registers, int32_t reg);
 // Applies a closure's program-linked inputs to its Principled Hair inputs.
 void apply_links(const std::vector<ClosureDesc::Link>& links, const float* registers, PrincipledHairInputs& in,
                  bool& random_from_curve);
-
-// Huang under Filter Glossy: alpha <- max(roughness, alpha) (Cycles' blur of the closure).
-HuangHairParams blur_huang(const HuangHairParams& p, double roughness);
-
-// Chiang parameters blurred by Filter Glossy: v, s and the R-lobe variance become
-// max(roughness, value) of the already mapped values (docs/cycles.md §6).
-ChiangHairParams blur_chiang(const ChiangHairParams& p, double roughness);
 
 }  // namespace hairbsdf::render
