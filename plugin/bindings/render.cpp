@@ -203,16 +203,14 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
         auto m = array_shape<double>(*t, sub(key, "object_transforms"), 12);
         const size_t n_objects = size_t(m.shape(0));
         for (size_t k = 0; k < n_objects; ++k) {
-            const double* r = m.data() + 12 * k;
+            std::array<double, 12> r;
+            std::copy(m.data() + 12 * k, m.data() + 12 * (k + 1), r.begin());
             bool finite = true;
-            for (int i = 0; i < 12; ++i) finite = finite && std::isfinite(r[i]);
-            const double det = r[0] * (r[5] * r[10] - r[6] * r[9]) - r[1] * (r[4] * r[10] - r[6] * r[8]) +
-                               r[2] * (r[4] * r[9] - r[5] * r[8]);
-            if (!finite || !(std::fabs(det) > 0))
+            for (double x : r) finite = finite && std::isfinite(x);
+            if (!finite || !(std::fabs(linear_determinant(r)) > 0))
                 fail(sub(key, "object_transforms") + "[" + std::to_string(k) + "]",
                      "expected a finite, invertible row-major 3x4 matrix (world from object)");
-            cd.object_transforms.emplace_back();
-            std::copy(r, r + 12, cd.object_transforms.back().begin());
+            cd.object_transforms.push_back(r);
         }
         for (size_t i = 0; i < n_curves; ++i)
             if (a.data()[i] < -1 || a.data()[i] >= int32_t(n_objects))

@@ -8,7 +8,6 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
-#include <utility>
 
 namespace hairbsdf::render {
 
@@ -86,9 +85,10 @@ struct Geometry::Impl {
     RTCScene scene = nullptr;
     unsigned curve_geom = RTC_INVALID_GEOMETRY_ID;
     unsigned triangle_geom = RTC_INVALID_GEOMETRY_ID;
-    // Curves in object space: one instanced scene per object; instance geomID -> first segment.
+    // Curves in object space: one instanced scene per object; the first segment of each, by the
+    // instance's geomID.
     std::vector<RTCScene> object_scenes;
-    std::vector<std::pair<unsigned, uint32_t>> instance_first_segment;
+    std::vector<uint32_t> first_segment_by_geom;
     MemoryCounter memory;
     size_t own_bytes = 0;
 };
@@ -204,7 +204,9 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             for (int i = 0; i < 12; ++i) xfm[i] = float(m[size_t(i)]);
             rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, xfm);
             rtcCommitGeometry(inst);
-            im.instance_first_segment.emplace_back(rtcAttachGeometry(im.scene, inst), uint32_t(first));
+            const unsigned geom = rtcAttachGeometry(im.scene, inst);
+            if (im.first_segment_by_geom.size() <= geom) im.first_segment_by_geom.resize(geom + 1, 0);
+            im.first_segment_by_geom[geom] = uint32_t(first);
             rtcReleaseGeometry(inst);
         }
         has_curves_ = true;
@@ -268,11 +270,8 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     hit.v = rh.hit.v;
     hit.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
     if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {  // a curve in its object's space
-        uint32_t first = 0;
-        for (const auto& [geom, first_segment] : impl_->instance_first_segment)
-            if (geom == rh.hit.instID[0]) first = first_segment;
         hit.kind = PrimKind::Curve;
-        hit.segment = int(first + rh.hit.primID);
+        hit.segment = int(impl_->first_segment_by_geom[rh.hit.instID[0]] + rh.hit.primID);
         hit.prim = segment_curve_[size_t(hit.segment)];
     } else if (rh.hit.geomID == impl_->curve_geom) {
         hit.kind = PrimKind::Curve;
@@ -300,7 +299,7 @@ ObjectSpace::ObjectSpace(const std::array<double, 12>& world_from_object) : to_w
     const auto& m = world_from_object;
     // Inverse of the 3 x 3 part by cofactors, then the translation.
     const double c00 = m[5] * m[10] - m[6] * m[9], c01 = m[6] * m[8] - m[4] * m[10], c02 = m[4] * m[9] - m[5] * m[8];
-    const double det = m[0] * c00 + m[1] * c01 + m[2] * c02;
+    const double det = linear_determinant(m);
     const double inv[9] = {c00 / det,
                            (m[2] * m[9] - m[1] * m[10]) / det,
                            (m[1] * m[6] - m[2] * m[5]) / det,

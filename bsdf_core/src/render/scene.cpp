@@ -135,8 +135,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             const auto& m = cd.object_transforms[k];
             bool finite = true;
             for (double x : m) finite = finite && std::isfinite(x);
-            const double det = m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) +
-                               m[2] * (m[4] * m[9] - m[5] * m[8]);
+            const double det = linear_determinant(m);
             usable_transform[k] = finite && std::isfinite(det) && det != 0.0;
         }
         if (!cd.length.empty() && cd.length.size() != n_curves) {

@@ -47,6 +47,13 @@ struct CurveData {
     size_t curve_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
 };
 
+// The determinant of the 3 x 3 part of a row-major 3 x 4 affine matrix (CurveData's
+// object_transforms): zero or non-finite for a transform that cannot be inverted.
+inline double linear_determinant(const std::array<double, 12>& m) {
+    return m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) +
+           m[2] * (m[4] * m[9] - m[5] * m[8]);
+}
+
 struct MeshData {
     std::vector<std::array<float, 3>> vertices;
     std::vector<std::array<int32_t, 3>> triangles;
