@@ -601,8 +601,8 @@ def camera_inside_hair(curves: dict, cam_pos: np.ndarray) -> int:
         pts = pts.copy()
         for k, m in enumerate(curves["object_transforms"].reshape(-1, 3, 4)):
             sel = key_object == k
-            pts[sel, :3] = pts[sel, :3] @ m[:, :3].T.astype(np.float32) + m[:, 3].astype(np.float32)
-            pts[sel, 3] *= np.float32(abs(np.linalg.det(m[:, :3])) ** (1.0 / 3.0))
+            pts[sel, :3] = transform_points(m, pts[sel, :3])
+            pts[sel, 3] *= np.float32(radius_scale(m))
     c = np.asarray(cam_pos, np.float32)
     rmax = float(pts[:, 3].max())
     # per column: an axis-0 reduction of the strided (P, 3) view is ~6x slower

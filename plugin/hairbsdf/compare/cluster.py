@@ -26,6 +26,7 @@ import time
 import uuid
 from pathlib import Path
 
+from .. import _version
 from . import runner as R
 
 GUARD = Path(__file__).resolve().parent / "guard.py"
@@ -77,7 +78,7 @@ def worker_info():
 
 
 def _check_version(client_version):
-    v = R.hairbsdf_version()
+    v = _version.__version__
     if v != client_version:
         info = worker_info()
         raise VersionMismatch("worker %s on %s has hairbsdf %s (%s), the client %s: install the same wheel on both"
@@ -207,7 +208,7 @@ class ClusterRunner(R.Runner):
         self.description = description
         if threads is not None:
             self.threads = threads
-        self.version = R.hairbsdf_version()
+        self.version = _version.__version__
         self.futures = []  # in flight
         self.aborted = False
         self.done = self.losses = self.submitted = 0

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _version
 from . import judge, metrics
 from .progress import Progress
 from .thresholds import Thresholds
@@ -487,7 +488,7 @@ class Runner:
             d = self.o.cache / "cycles"
             d.mkdir(parents=True, exist_ok=True)
             key = _sha(blend_content_hash(blend), "CYCLES", bseed, spp, res, osl, case.target.label,
-                       JOB_SCRIPT.read_bytes(), hairbsdf_version(),
+                       JOB_SCRIPT.read_bytes(), _version.__version__,
                        json.dumps(case.overrides, sort_keys=True) if case.overrides else "")
             base = d / ("%s-s%d-%s" % (safe(case.id.split("@")[0]), seed, key))
         else:
@@ -723,11 +724,6 @@ class Runner:
             res["pending_status"] = res["status"]
             res["status"] = "PENDING"
         return res, maps
-
-
-def hairbsdf_version():
-    from .._version import __version__
-    return __version__
 
 
 def _publish(job, exr, meta_path, r):
