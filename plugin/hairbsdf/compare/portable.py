@@ -224,9 +224,13 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
     """Exports library scenes (names: scene, scene:variant or 'all') into out. Returns a list of
     {case, ok, path, error}."""
     from .. import _version
-    from .runner import Options, Runner, TargetError, blender_seed, default_cache_dir, expand_cases, \
+    from .runner import Options, Runner, Target, TargetError, blender_seed, default_cache_dir, expand_cases, \
         resolve_target, safe
     say = _progress(progress)
+    try:  # the names first: a typo should not wait for Blender
+        expand_cases(names, [Target("check", "bpy", "", "check", (99, 0, 0))], ci=True)
+    except ValueError as exc:
+        raise UsageError("NAME: %s" % exc)
     try:
         target = resolve_target(blender)
     except TargetError as exc:
