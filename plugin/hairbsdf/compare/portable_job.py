@@ -151,7 +151,7 @@ USD_LIGHT_INTENSITY = {  # UsdLux intensity per unit of Blender energy, normaliz
 }
 
 
-def fix_lights(usda_path, desc_lights, scene):
+def fix_lights(usda_path, scene):
     """Blender 4.5's USD writer turns every light's colour temperature on (6500 K, which tints Blender's
     own re-import by up to 4 %) and writes a sun's strength / 4. Rewrites intensity, colour and
     enableColorTemperature of each light prim from the Blender light. Returns what it changed."""
@@ -242,7 +242,7 @@ def main():
                               convert_world_material=True, export_custom_properties=False)
         result["usd"] = os.path.basename(usd)
         result["usd_fixes"] = dict(orthographic_cameras=add_orthographic_cameras(usd, orthographic_camera_prims(scene)),
-                                   lights=fix_lights(usd, desc["lights"], scene))
+                                   lights=fix_lights(usd, scene))
         result["ok"] = all(check.values())
         if not result["ok"]:
             result["error"] = "replacing the hair by Curves objects changed the scene: %s" % check
