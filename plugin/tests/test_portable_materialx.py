@@ -26,6 +26,7 @@ def hair(name="hair", model="CHIANG", **inputs):
     (hair(offset=0.035), "the tilt convention"),
     (hair(model="HUANG"), "the Huang model"),
     (hair(random_roughness=0.2), "per-strand Random"),
+    (hair(coat={"register": 3}), "Coat"),
     (dict(name="legacy", closures=[dict(type="cycles_hair", weight=(1.0, 1.0, 1.0), component="REFLECTION")]),
      "the legacy Hair BSDF"),
     (dict(hair(), program=dict(code=np.zeros(1, np.int32), constants=np.zeros(1, np.float32), registers=1)),

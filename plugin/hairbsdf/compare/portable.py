@@ -71,7 +71,8 @@ def materialx_limits(desc) -> dict:
             elif t == "hair_model":
                 limits.append("a zoo model or plugin (%s)" % c.get("model"))
             elif t == "principled_hair":
-                inp = c.get("inputs", {})
+                # an input driven by a node network ({"register": k}) counts as possibly non-zero
+                inp = {k: (1.0 if isinstance(v, dict) else v) for k, v in c.get("inputs", {}).items()}
                 if c.get("model", "CHIANG") == "HUANG":
                     limits.append("the Huang model")
                     continue
@@ -255,8 +256,11 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
             if case.skip:
                 results.append(dict(case=name, ok=False, error="skipped: " + case.skip))
                 continue
-            results.append(_export_case(runner, case, name, out, work, tar, say, _version.__version__,
-                                        blender_seed, safe))
+            try:
+                results.append(_export_case(runner, case, name, out, work, tar, say, _version.__version__,
+                                            blender_seed, safe))
+            except Exception as exc:  # one scene's fault must not stop the others
+                results.append(dict(case=name, ok=False, error="%s: %s" % (type(exc).__name__, exc)))
             r = results[-1]
             say("%d/%d %s: %s" % (k + 1, len(cases), name, ("wrote " + r["path"]) if r["ok"] else "FAILED: " + r["error"]))
     finally:
