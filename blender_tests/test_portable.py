@@ -66,7 +66,8 @@ def test_swatch_tarball_judged_without_bpy(tmp_path):
     with tarfile.open(tarball) as t:
         names = set(t.getnames())
         t.extractall(tmp_path / "unpacked", filter="data")
-    for f in ("README.md", "portable.json", "render_settings.json", "hairbsdf_scene.npz", "scene.usda"):
+    for f in ("README.md", "portable.json", "render_settings.json", "hairbsdf_scene.npz", "scene.usda",
+              "materials.json"):
         assert "swatch/" + f in names, sorted(names)
     folder = tmp_path / "unpacked" / "swatch"
     manifest = json.loads((folder / "portable.json").read_text())

@@ -30,6 +30,7 @@ USD_FILE = "scene.usda"
 MATERIALX_FILE = "materials.mtlx"
 SETTINGS_FILE = "render_settings.json"
 MANIFEST_FILE = "portable.json"
+MATERIALS_JSON = "materials.json"
 REFERENCE_DIR = "references/cycles"
 MIN_JUDGE_SEEDS = 2  # hairbsdf judge needs a spread: noise-free scenes get two (identical) Cycles seeds
 JOB_SCRIPT = Path(__file__).resolve().parent / "portable_job.py"
@@ -140,6 +141,17 @@ def write_materialx(desc, path):
 
 # --------------------------------------------------------------------------- settings, README
 
+def _plain(x):
+    """JSON-able copy: arrays and tuples as lists, NumPy scalars as numbers."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if hasattr(x, "tolist"):
+        return x.tolist()
+    return x
+
+
 def render_settings(desc, blender_settings, seeds, blender_seeds, blender_version):
     integ, cam = desc["integrator"], desc["camera"]
     return {
@@ -158,8 +170,9 @@ def render_settings(desc, blender_settings, seeds, blender_seeds, blender_versio
                              view_transform=blender_settings.get("view_settings.view_transform")),
         "light_sampling": dict(light_tree=bool(integ.get("light_tree", False)),
                                light_threshold=float(integ.get("light_sampling_threshold", 0.0)),
-                               multiple_importance_sampling={lt.get("type", "?") + "_%d" % i: bool(lt.get("use_mis", True))
-                                                             for i, lt in enumerate(desc.get("lights", []))},
+                               multiple_importance_sampling={
+                                   "%s_%d" % (lt.get("type", "?"), i): bool(lt.get("use_mis", True))
+                                   for i, lt in enumerate(desc.get("lights", []))},
                                world_mis=bool(desc.get("world", {}).get("mis", True))),
         "filter_glossy": float(integ.get("filter_glossy", 0.0)),
         "clamp": dict(direct=float(integ.get("clamp_direct", 0.0)), indirect=float(integ.get("clamp_indirect", 0.0))),
@@ -187,6 +200,7 @@ Cycles in Blender {blender} at the harness's CI size: {res[0]} x {res[1]} pixels
 |---|---|
 | `{usd}` | geometry, camera and lights (Blender's USD exporter; hair as BasisCurves: Catmull-Rom, pinned, widths = 2 x radius, primvar `hairbsdf_random` = Hair Info > Random); metres, Z up |
 | `{mtlx}` | {mtlx_what} |
+| `{materials}` | every material as our description has it: the closures with their Principled Hair inputs (angles in radians; `random` null = Hair Info > Random, the primvar), weights, node-network programs; the hair prim `hair_NAME` uses material NAME |
 | `{settings}` | resolution, spp, seeds, bounces, pixel filter, exposure, colour space, light sampling; `blender` holds Blender's own property values |
 | `{scene}` | our scene description, exactly what the hairbsdf engine renders (`hairbsdf.scene_file.load_scene`, no Blender needed) |
 | `{refs}/seed_NN.exr` | Cycles' references: one linear float32 RGBA EXR per seed |
@@ -262,7 +276,8 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
             except Exception as exc:  # one scene's fault must not stop the others
                 results.append(dict(case=name, ok=False, error="%s: %s" % (type(exc).__name__, exc)))
             r = results[-1]
-            say("%d/%d %s: %s" % (k + 1, len(cases), name, ("wrote " + r["path"]) if r["ok"] else "FAILED: " + r["error"]))
+            say("%d/%d %s: %s" % (k + 1, len(cases), name,
+                                  ("wrote " + r["path"]) if r["ok"] else "FAILED: " + r["error"]))
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return results
@@ -310,6 +325,7 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
     settings = render_settings(desc, res["blender_settings"], list(range(n)), blender_seeds, res["blender"])
     (folder / SETTINGS_FILE).write_text(json.dumps(settings, indent=1, default=str) + "\n")
 
+    (folder / MATERIALS_JSON).write_text(json.dumps(_plain(desc["materials"]), indent=1) + "\n")
     limits = materialx_limits(desc)
     scene_limits = sorted({l for v in limits.values() for l in v})
     if not scene_limits:
@@ -322,16 +338,16 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
         mtlx_what = "not written: this scene is exported with our own description only (below)"
         mtlx_text = ("**Our description only.** MaterialX cannot express exactly:\n\n" + "\n".join(
             "* `%s`: %s" % (m, "; ".join(v)) for m, v in limits.items() if v) +
-            "\n\nThe materials are in `%s` (`materials`, docs/scene_desc.md of the hairbsdf repository); the USD "
-            "carries only preview surfaces." % SCENE_FILE)
+            "\n\nThe materials are in `%s` (and `%s`; docs/scene_desc.md of the hairbsdf repository explains each "
+            "input); the USD carries only preview surfaces." % (MATERIALS_JSON, SCENE_FILE))
     manifest = dict(
         format=FORMAT, format_version=FORMAT_VERSION, case=name, scene=case.scene, variant=case.variant,
         kind=case.kind, title=case.meta.get("title"), description=case.meta.get("description"),
         hairbsdf_version=version, blender=res["blender"], blender_label=case.target.label,
         materialx=dict(file=MATERIALX_FILE if not scene_limits else None,
                        status="exact" if not scene_limits else "our description only", limits=limits),
-        files=dict(usd=USD_FILE, scene_description=SCENE_FILE, render_settings=SETTINGS_FILE,
-                   references=REFERENCE_DIR, readme="README.md"),
+        files=dict(usd=USD_FILE, scene_description=SCENE_FILE, materials=MATERIALS_JSON,
+                   render_settings=SETTINGS_FILE, references=REFERENCE_DIR, readme="README.md"),
         references=dict(renderer="Cycles", blender=res["blender"], seeds=n, files=sorted(
             p.name for p in refdir.iterdir()), spp=case.spp, resolution=list(case.res)),
         hair=dict(objects=res["hair_objects"], replaced=res["replaced"], substitution_check=res["substitution_check"]),
@@ -342,7 +358,7 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
         title=case.meta.get("title", name), case=name, description=case.meta.get("description", ""),
         version=version, blender=res["blender"], res=list(case.res), spp=case.spp, seeds=n, kind=case.kind,
         usd=USD_FILE, mtlx=MATERIALX_FILE, mtlx_what=mtlx_what, mtlx_text=mtlx_text, settings=SETTINGS_FILE,
-        scene=SCENE_FILE, refs=REFERENCE_DIR, manifest=MANIFEST_FILE))
+        scene=SCENE_FILE, refs=REFERENCE_DIR, manifest=MANIFEST_FILE, materials=MATERIALS_JSON))
     path = folder
     if tar:
         path = out / (safe(name) + ".tar.gz")
