@@ -4,7 +4,8 @@
   judged against the exported Cycles references, all in processes where `import bpy` fails; a copy whose
   lights are 3 % brighter must fail the same judge (the round trip can fail);
 * the USD reads back with pxr (usd-core): hair as Catmull-Rom BasisCurves with widths = 2 x radius, every
-  strand of the description, Hair Info > Random as a primvar; lights in units that equal Cycles';
+  strand of the description (fur_ball: particle hair with its children), Hair Info > Random as a primvar;
+  area, sun and point lights in units that equal Cycles';
 * swatch, fiber_gonio and melanin_sweep: the USD re-imported into bpy 4.5, materials re-bound from our
   description, rendered with Cycles on other seeds, pass `hairbsdf judge` against the references;
   fiber_gonio, noise-free, also compare's per-pixel floors (median relative error <= 1e-4, p99 <= 2e-3).
@@ -56,7 +57,7 @@ def judge(ref, test, out):
 def exported(tmp_path_factory):
     """{case: folder} for the scenes the round trips use (one export call)."""
     out = tmp_path_factory.mktemp("portable")
-    export("swatch,fiber_gonio,melanin_sweep", out)
+    export("swatch,fiber_gonio,melanin_sweep,fur_ball", out)
     return {p.name: p for p in out.iterdir() if p.is_dir()}
 
 
@@ -131,7 +132,7 @@ def test_usd_reads_back_with_pxr(exported):
     if subprocess.run([PY, "-c", "import pxr.Usd"], capture_output=True).returncode:
         pytest.fail("usd-core (pxr) is not installed in .venv (scripts/requirements.txt; run scripts/setup)")
     from hairbsdf.scene_file import load_scene
-    for name in ("swatch", "fiber_gonio-front"):
+    for name in ("swatch", "fiber_gonio-front", "fur_ball"):  # fur_ball: particle hair with children
         folder = exported[name]
         r = subprocess.run([PY, "-c", PXR_CHECK, str(folder)], capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr
@@ -159,6 +160,12 @@ def test_usd_reads_back_with_pxr(exported):
             elif lt["type"] == "SUN":  # irradiance W/m^2 in both
                 assert ul["type"] == "DistantLight"
                 assert ul["intensity"] == pytest.approx(power, rel=1e-6), (lt, ul)
+            elif lt["type"] == "POINT":  # Cycles 4.x radiance P / (4 pi^2 r^2); UsdLux: intensity / (4 pi r^2)
+                assert ul["type"] == "SphereLight" and ul["normalize"] and ul["radius"] == pytest.approx(lt["radius"])
+                assert ul["intensity"] == pytest.approx(power / np.pi, rel=1e-6), (lt, ul)
+            else:
+                pytest.fail("no check for %s lights" % lt["type"])
+        assert len(usd["lights"]) == len(desc["lights"])
 
 
 @pytest.mark.parametrize("name", ["swatch", "melanin_sweep", "fiber_gonio-front", "fiber_gonio-back",
