@@ -306,6 +306,9 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
         return dict(case=name, ok=False, error="a Cycles render failed: %s" % bad[0].get("error"))
     folder = out / safe(name)
     if folder.exists():
+        if not (folder / MANIFEST_FILE).is_file():  # never delete what an earlier export did not write
+            return dict(case=name, ok=False, error="%s exists and is not an exported scene (no %s); remove it or "
+                        "choose another --out" % (folder, MANIFEST_FILE))
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
     say("%s: writing USD and our description (bpy %s)" % (name, ".".join(map(str, case.target.version[:2]))))
