@@ -292,6 +292,10 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
 
 def _export_case(runner, case, name, out, work, tar, say, version, blender_seed, safe):
     from ..scene_file import load_scene
+    final = out / safe(name)
+    if not tar and final.exists() and not (final / MANIFEST_FILE).is_file():  # never delete what we did not write
+        return dict(case=name, ok=False, error="%s exists and is not an exported scene (no %s); remove it or "
+                    "choose another --out" % (final, MANIFEST_FILE))
     b = runner.build(case)
     if not b.get("ok"):
         return dict(case=name, ok=False, error="building the scene failed: %s" % b.get("error"))
@@ -304,12 +308,7 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
     bad = [r for r in refs if not r.get("ok")]
     if bad:
         return dict(case=name, ok=False, error="a Cycles render failed: %s" % bad[0].get("error"))
-    folder = out / safe(name)
-    if folder.exists():
-        if not (folder / MANIFEST_FILE).is_file():  # never delete what an earlier export did not write
-            return dict(case=name, ok=False, error="%s exists and is not an exported scene (no %s); remove it or "
-                        "choose another --out" % (folder, MANIFEST_FILE))
-        shutil.rmtree(folder)
+    folder = work / "staging" / safe(name)  # moved to out only when complete: a failure leaves nothing there
     folder.mkdir(parents=True)
     say("%s: writing USD and our description (bpy %s)" % (name, ".".join(map(str, case.target.version[:2]))))
     job = dict(blend=b["blend"], res=list(case.res), spp=case.spp, out_dir=str(folder),
@@ -370,12 +369,15 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
         usd=USD_FILE, mtlx=MATERIALX_FILE, mtlx_what=mtlx_what, mtlx_text=mtlx_text, settings=SETTINGS_FILE,
         scene=SCENE_FILE, refs=REFERENCE_DIR, manifest=MANIFEST_FILE, materials=MATERIALS_JSON,
         deterministic=DETERMINISTIC_NOTE if case.kind == "deterministic" else ""))
-    path = folder
     if tar:
         path = out / (safe(name) + ".tar.gz")
         with tarfile.open(path, "w:gz") as t:
             t.add(folder, arcname=safe(name))
-        shutil.rmtree(folder)
+    else:
+        path = final
+        if final.exists():
+            shutil.rmtree(final)
+        shutil.move(str(folder), str(final))
     return dict(case=name, ok=True, path=str(path), materialx=manifest["materialx"]["status"])
 
 

@@ -181,7 +181,8 @@ def fix_lights(usda_path, scene):
         new = ["            color3f inputs:color = (%r, %r, %r)" % tuple(colour),
                "            bool inputs:enableColorTemperature = 0",
                "            float inputs:intensity = %r" % (scale * USD_LIGHT_INTENSITY.get(light.type, 1.0))]
-        keep[prim + 2:prim + 2] = new  # after the prim's "def ..." and "{" lines
+        body = next(i for i in range(prim + 1, len(keep)) if keep[i].strip() == "{")  # after any (metadata)
+        keep[body + 1:body + 1] = new
         text = text[:start] + "\n".join(keep) + text[end:]
         changed.append(dict(light=obj.name, type=light.type, blender_wrote=old, written=[l.strip() for l in new]))
     with open(usda_path, "w") as f:
@@ -235,11 +236,14 @@ def main():
         result["substitution_check"] = check
 
         usd = os.path.join(out, "scene.usda")
-        bpy.ops.wm.usd_export(filepath=usd, selected_objects_only=False, visible_objects_only=True,
-                              export_animation=False, export_hair=False, export_curves=True, export_meshes=True,
-                              export_lights=True, export_cameras=True, export_materials=True,
-                              generate_preview_surface=True, export_textures=False, evaluation_mode="RENDER",
-                              convert_world_material=True, export_custom_properties=False)
+        options = dict(filepath=usd, selected_objects_only=False, visible_objects_only=True,
+                       export_animation=False, export_hair=False, export_curves=True, export_meshes=True,
+                       export_lights=True, export_cameras=True, export_materials=True,
+                       generate_preview_surface=True, export_textures=False, evaluation_mode="RENDER",
+                       convert_world_material=True, export_custom_properties=False)
+        known = {p.identifier for p in bpy.ops.wm.usd_export.get_rna_type().properties}
+        result["usd_options_unknown"] = sorted(set(options) - known)  # e.g. visible_objects_only in 5.x
+        bpy.ops.wm.usd_export(**{k: v for k, v in options.items() if k in known})
         result["usd"] = os.path.basename(usd)
         result["usd_fixes"] = dict(orthographic_cameras=add_orthographic_cameras(usd, orthographic_camera_prims(scene)),
                                    lights=fix_lights(usd, scene))
