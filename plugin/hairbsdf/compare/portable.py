@@ -360,7 +360,7 @@ def _export_case(runner, case, name, out, work, tar, say, version, blender_seed,
         references=dict(renderer="Cycles", blender=res["blender"], seeds=n, files=sorted(
             p.name for p in refdir.iterdir()), spp=case.spp, resolution=list(case.res)),
         hair=dict(objects=res["hair_objects"], replaced=res["replaced"], substitution_check=res["substitution_check"]),
-        usd_fixes=res.get("usd_fixes", {}),
+        usd_fixes=dict(res.get("usd_fixes", {}), usd_options_left_out=res.get("usd_options_unknown", [])),
         export_warnings=res.get("export_warnings", []), parity_warnings=res.get("parity_warnings", []))
     (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=1, default=str) + "\n")
     (folder / "README.md").write_text(README.format(
