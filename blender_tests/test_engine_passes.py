@@ -34,6 +34,9 @@ layer.hairbsdf.pass_variance = True
 # The compositor's Render Layers node
 scene.use_nodes = True
 tree = scene.node_tree if hasattr(scene, "node_tree") and scene.node_tree is not None else None
+if tree is None and hasattr(scene, "compositing_node_group"):  # Blender 5.x: a node group
+    tree = scene.compositing_node_group or bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
+    scene.compositing_node_group = tree
 sockets = []
 if tree is not None:
     node = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"), None)
@@ -43,6 +46,8 @@ if tree is not None:
     node.layer = layer.name
     sockets = [s.name for s in node.outputs if s.enabled]
 ims = scene.render.image_settings
+if hasattr(ims, "media_type"):  # Blender 5.x: multilayer EXR is a media type of its own
+    ims.media_type = "MULTI_LAYER_IMAGE"
 ims.file_format = "OPEN_EXR_MULTILAYER"
 ims.color_depth = "32"
 scene.render.filepath = os.path.join(TMP, "passes.exr")
@@ -56,17 +61,20 @@ emit({"version": bpy.app.version_string, "sockets": sockets, "exr": scene.render
 def _read_layers(path):
     import OpenImageIO as oiio
 
-    buf = oiio.ImageBuf(path)
-    assert not buf.has_error, buf.geterror()
-    names = list(buf.spec().channelnames)
-    pixels = np.asarray(buf.get_pixels(oiio.FLOAT))
-    return {n: pixels[..., i] for i, n in enumerate(names)}
+    # one part with every channel (Blender 3.4, 4.5), or one part per pass (Blender 5.x)
+    channels = {}
+    for part in range(oiio.ImageBuf(path).nsubimages):
+        buf = oiio.ImageBuf(path, part, 0)
+        assert not buf.has_error, buf.geterror()
+        pixels = np.asarray(buf.get_pixels(oiio.FLOAT))
+        channels.update({n: pixels[..., i] for i, n in enumerate(buf.spec().channelnames)})
+    return channels
 
 
-def test_passes_reach_the_compositor_and_the_exr(run_blender, blender_kind, renderer_available):
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, PASSES).result
-    record(f"engine_passes_{ENGINE_KINDS[blender_kind]}", {k: v for k, v in r.items() if k != "exr"})
+def test_passes_reach_the_compositor_and_the_exr(run_blender, engine_kind, renderer_available):
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, PASSES).result
+    record(f"engine_passes_{ENGINE_KINDS[engine_kind]}", {k: v for k, v in r.items() if k != "exr"})
     assert r["status"] == "ok", r
     wanted = ["Hair R", "Hair TT", "Hair TRT", "Hair TRRT", "Hair TTs", "Hair TRTs", "Variance", "Depth", "Normal"]
     missing = [w for w in wanted if w not in r["sockets"]]

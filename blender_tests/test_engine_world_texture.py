@@ -103,10 +103,10 @@ emit({"version": bpy.app.version_string, "cases": out})
 CASES = ["linear", "closest", "mapping_point", "mapping_texture", "mix"]
 
 
-def test_environment_texture_matches_cycles_per_pixel(run_blender, blender_kind, renderer_available):
-    need_renderer(blender_kind, renderer_available)
-    r = run_blender(blender_kind, WORLD, args={"cases": CASES}).result
-    record(f"engine_world_texture_{ENGINE_KINDS[blender_kind]}", r)
+def test_environment_texture_matches_cycles_per_pixel(run_blender, engine_kind, renderer_available):
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, WORLD, args={"cases": CASES}).result
+    record(f"engine_world_texture_{ENGINE_KINDS[engine_kind]}", r)
     lines, bad = [], []
     for name, m in r["cases"].items():
         lines.append(f"{name:28s} median {m['median']:.1e} p99 {m['p99']:.1e} max {m['max']:.1e} "

@@ -142,6 +142,7 @@ void read_environment(py::handle h, EnvironmentDesc& env) {
     env.weight = as_rgb(get(t, key, "weight"), sub(key, "weight"));
     if (auto o = get_optional(t, "interpolation"))
         env.closest = as_enum<bool>(*o, sub(key, "interpolation"), {{"LINEAR", false}, {"CLOSEST", true}});
+    if (auto o = get_optional(t, "srgb_encoded")) env.srgb_encoded = as_bool(*o, sub(key, "srgb_encoded"));
     if (auto o = get_optional(t, "matrix")) {
         auto m = as_array<double>(*o, sub(key, "matrix"));
         if (!m || m.ndim() != 2 || (m.shape(0) != 3 && m.shape(0) != 4) || m.shape(1) != 4)

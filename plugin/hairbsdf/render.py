@@ -445,6 +445,8 @@ def _check_world(scene, out):
                "weight": _Checker.vector(f"{key}['weight']", _Checker.required(key, t, "weight"), 3),
                "interpolation": _Checker.choice(f"{key}['interpolation']", t.get("interpolation", "LINEAR"),
                                                 ("LINEAR", "CLOSEST"))}
+        if t.get("srgb_encoded") is not None:
+            tex["srgb_encoded"] = _Checker.boolean(f"{key}['srgb_encoded']", t["srgb_encoded"])
         if t.get("matrix") is not None:
             try:
                 m = np.asarray(t["matrix"], dtype=np.float64)

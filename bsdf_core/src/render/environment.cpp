@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include "hairbsdf/render/shading_vm.h"
+
 namespace hairbsdf::render {
 
 namespace {
@@ -32,7 +34,7 @@ size_t find_interval(const double* cdf, size_t count, double u) {
 
 EnvironmentMap::EnvironmentMap(const EnvironmentDesc& d)
     : width_(d.width), height_(d.height), pixels_(d.pixels), weight_(d.weight), closest_(d.closest),
-      matrix_(d.matrix) {
+      srgb_encoded_(d.srgb_encoded), matrix_(d.matrix) {
     if (!d.has_texture()) {
         width_ = height_ = 0;
         return;
@@ -52,9 +54,9 @@ EnvironmentMap::EnvironmentMap(const EnvironmentDesc& d)
     std::vector<double> brightness(size_t(w) * h);
     for (int r = 0; r < h; ++r)
         for (int c = 0; c < w; ++c) {
-            const float* p = &pixels_[(size_t(r) * w + c) * 3];
+            const RGB p = decoded(texel(c, h - 1 - r));
             brightness[size_t(r) * w + c] =
-                (std::fabs(weight_.r * p[0]) + std::fabs(weight_.g * p[1]) + std::fabs(weight_.b * p[2])) / 3.0;
+                (std::fabs(weight_.r * p.r) + std::fabs(weight_.g * p.g) + std::fabs(weight_.b * p.b)) / 3.0;
         }
     texel_prob_.assign(size_t(w) * h, 0.0);
     double total = 0;
@@ -108,7 +110,16 @@ RGB EnvironmentMap::texel(int column, int row_from_bottom) const {
     return {p[0], p[1], p[2]};
 }
 
+RGB EnvironmentMap::decoded(RGB c) const {
+    if (!srgb_encoded_) return c;
+    return {srgb_to_linear(float(c.r)), srgb_to_linear(float(c.g)), srgb_to_linear(float(c.b))};
+}
+
 RGB EnvironmentMap::lookup(double u, double v) const {
+    return decoded(interpolated(u, v));
+}
+
+RGB EnvironmentMap::interpolated(double u, double v) const {
     const int w = width_, h = height_;
     if (closest_) return texel(wrap(int(u * w), w), wrap(int(v * h), h));
     const double x = u * w - 0.5, y = v * h - 0.5;  // texel centres at integer + 0.5

@@ -122,12 +122,6 @@ void add_texel(const ShadingImage& im, ImageExtension extension, int ix, int iy,
     for (int c = 0; c < 4; ++c) acc[c] += weight * t[c];
 }
 
-// The sRGB transfer function, decoding (0 below 0).
-float srgb_to_linear(float c) {
-    if (c < 0.04045f) return c < 0.0f ? 0.0f : c * (1.0f / 12.92f);
-    return std::pow((c + 0.055f) * (1.0f / 1.055f), 2.4f);
-}
-
 // Uniform cubic B-spline weights of the 4 texels around a sample at fraction t.
 void bspline_weights(float t, float* w) {
     const float t2 = t * t, t3 = t2 * t;
@@ -369,6 +363,11 @@ void shading_mix(MixBlend blend, float t, const float* a, const float* b, float*
     out[0] = r[0];
     out[1] = r[1];
     out[2] = r[2];
+}
+
+float srgb_to_linear(float c) {
+    if (c < 0.04045f) return c < 0.0f ? 0.0f : c * (1.0f / 12.92f);
+    return std::pow((c + 0.055f) * (1.0f / 1.055f), 2.4f);
 }
 
 const ShadingInstructionSet& shading_instruction_set() {

@@ -9,7 +9,7 @@ import numpy as np
 
 from ._common import find_socket, mapping_matrix, rgb
 from .export_materials import MaterialTranslator
-from .images import read_image_linear
+from .images import read_image_rgb
 
 
 def export_world(scene, report) -> dict:
@@ -104,11 +104,11 @@ def _environment_texture(tr, node, output, weight) -> dict:
         tr.warn(f"'{node.name}': interpolation {node.interpolation} is not supported; using Linear")
         interpolation = "LINEAR"
     matrix = _lookup_matrix(tr, node)
-    pixels = read_image_linear(node.image, tr.warn)
+    pixels, srgb_encoded = read_image_rgb(node.image, tr.warn)
     if pixels is None or matrix is None:
         return {}
     return {"pixels": pixels, "weight": tuple(float(w) for w in weight), "interpolation": interpolation,
-            "matrix": matrix}
+            "srgb_encoded": srgb_encoded, "matrix": matrix}
 
 
 def _lookup_matrix(tr, node):

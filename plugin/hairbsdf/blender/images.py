@@ -7,9 +7,9 @@ Blender 3.4), as Cycles reads them; packed, generated or missing files fall back
 pixel buffer. Colour spaces: Linear / Linear Rec.709 / Non-Color / Raw pass through, sRGB is
 decoded with the sRGB transfer function; any other space is read as linear with a warning.
 Alpha: files are read with their alpha as stored (straight stays straight, as Cycles configures
-OpenImageIO) and associated here as Cycles' loader does (read_image_rgba). 8-bit sRGB images: the
-Image Texture path keeps the encoded values and the VM decodes after interpolating, as Cycles;
-the world's path (read_image_linear) decodes each texel first (the two agree at texel centres).
+OpenImageIO) and associated here as Cycles' loader does (read_image_rgba). sRGB files and 8-bit
+sRGB buffers: the Image Texture path keeps the encoded values and the VM decodes after
+interpolating, as Cycles; so does the world's path (read_image_rgb).
 """
 
 from __future__ import annotations
@@ -80,8 +80,8 @@ def _read_blender_buffer(image):
 
 def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     """(RGBA (H, W, 4) or None, alpha associated, sRGB-encoded, 8 bits per channel):
-    scene-linear, except that with `keep_srgb_bytes` an 8-bit sRGB image keeps its encoded
-    values (then sRGB-encoded is True)."""
+    scene-linear, except that with `keep_srgb_bytes` an sRGB file or 8-bit buffer keeps its
+    encoded values (then sRGB-encoded is True)."""
     import bpy
 
     pixels = None
@@ -108,7 +108,9 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     encoded = False
     if space in SRGB_SPACES:
         # Files and Blender's byte buffers hold encoded values; its float buffers are linear.
-        if keep_srgb_bytes and is_byte:
+        # Cycles keeps every sRGB file encoded, float ones too (Blender 5.x reads the float EXRs
+        # it writes as sRGB), and decodes after interpolating.
+        if keep_srgb_bytes and (is_byte or from_file):
             encoded = True
         elif from_file or is_byte:
             pixels[:, :, :3] = srgb_to_linear(pixels[:, :, :3])
@@ -120,15 +122,16 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     return pixels, associated, encoded, is_byte
 
 
-def read_image_linear(image, warn):
-    """Scene-linear RGB of a bpy Image (alpha associated as read_image_rgba does, 8-bit sRGB
-    decoded per texel), or None (after a warning naming the image) when it has no pixels.
-    `warn(message)` reports problems."""
+def read_image_rgb(image, warn):
+    """(RGB (H, W, 3) float32 or None, sRGB-encoded) of a bpy Image for the world's Environment
+    Texture: as read_image_rgba loads it (alpha associated; sRGB files and 8-bit sRGB buffers
+    keep their encoded values, which the renderer decodes after interpolating, as Cycles), or
+    None (after a warning naming the image) when it has no pixels. `warn(message)` reports
+    problems."""
     pixels, _, encoded = read_image_rgba(image, warn, fallback="black")
     if pixels is None:
-        return None
-    rgb = pixels[:, :, :3]
-    return np.ascontiguousarray(srgb_to_linear(rgb) if encoded else rgb)
+        return None, False
+    return np.ascontiguousarray(pixels[:, :, :3]), encoded
 
 
 def is_data_space(image) -> bool:
@@ -137,9 +140,9 @@ def is_data_space(image) -> bool:
 
 def read_image_rgba(image, warn, fallback="magenta (Cycles' missing-texture colour)"):
     """(RGBA (H, W, 4) float32 or None, alpha associated, sRGB-encoded) of a bpy Image for the
-    Image Texture node, as Cycles' image manager loads it: 8-bit sRGB images keep their encoded
-    values (the VM interpolates them and decodes afterwards, as Cycles does), every other image
-    is scene-linear; alpha mode None reads alpha 1; Channel Packed and Non-Color images keep
+    Image Texture node, as Cycles' image manager loads it: sRGB files (8-bit or float) and 8-bit
+    sRGB buffers keep their encoded values (the VM interpolates them and decodes afterwards, as
+    Cycles does), every other image is scene-linear; alpha mode None reads alpha 1; Channel Packed and Non-Color images keep
     their channels as they are; otherwise straight alpha is associated (RGB x A) at load, so
     that the node's Color output is associated and is divided by the interpolated alpha only
     when its Alpha output is used. 8-bit images are associated in 8 bits, truncating, as

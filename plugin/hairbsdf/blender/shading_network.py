@@ -505,7 +505,7 @@ def _image_texture(net, node, out, depth):
         # Cycles divides by alpha only when the Alpha output is used and alpha was associated.
         alpha_used = any(o.identifier == "Alpha" and o.is_linked for o in node.outputs)
         flags = _vm("image_flags")["UNASSOCIATE_ALPHA"] if alpha_used and net.attributes.images.associated[index] else 0
-        if net.attributes.images.srgb_encoded[index]:  # 8-bit sRGB: decoded after the lookup, as Cycles
+        if net.attributes.images.srgb_encoded[index]:  # sRGB: decoded after the lookup, as Cycles
             flags |= _vm("image_flags")["SRGB_DECODE"]
         block = Value(net._temp(4), 4)
         net._emit("IMAGE_TEXTURE", [index, _vm("image_interpolations")[node.interpolation],

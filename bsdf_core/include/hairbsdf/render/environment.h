@@ -28,14 +28,17 @@ public:
     static void equirectangular_uv(Vec3 lookup, double& u, double& v);
 
 private:
-    RGB texel(int column, int row_from_bottom) const;
-    RGB lookup(double u, double v) const;
+    RGB texel(int column, int row_from_bottom) const;  // as stored
+    RGB interpolated(double u, double v) const;         // as stored, Closest or bilinear
+    RGB decoded(RGB stored) const;                      // scene-linear (sRGB decoded when encoded)
+    RGB lookup(double u, double v) const;               // decoded(interpolated(u, v))
     Vec3 lookup_vector(Vec3 dir) const;
 
     int width_, height_;
     std::vector<float> pixels_;
     RGB weight_;
     bool closest_;
+    bool srgb_encoded_;
     std::array<double, 12> matrix_;
     bool rotation_only_ = false;  // matrix = [R | 0] with R orthonormal: the map can be sampled
     std::vector<double> row_cdf_;      // (height + 1), marginal over rows (top row first)

@@ -196,6 +196,7 @@ struct EnvironmentDesc {
     std::vector<float> pixels;  // (height, width, 3) scene-linear RGB; row 0 = the image's top row
     RGB weight{0.0};            // Background strength x Mix / Add weights
     bool closest = false;       // interpolation Closest (else Linear)
+    bool srgb_encoded = false;  // pixels hold sRGB-encoded values, decoded after the lookup (Cycles)
     std::array<double, 12> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // row-major 3 x 4
     bool has_texture() const { return width > 0 && height > 0 && pixels.size() == size_t(width) * height * 3; }
 };

@@ -117,6 +117,11 @@ void validate_program(const ShadingProgram& program, int attribute_count, int im
 // Evaluates a validated program; `registers` has program.register_count slots.
 void run_program(const ShadingProgram& program, const ShadingHitContext& context, float* registers);
 
+// The sRGB transfer function, decoding (0 below 0), in float as Cycles' color_srgb_to_linear:
+// images Cycles keeps sRGB-encoded are decoded after the lookup (ImageTexture flag 2, the
+// world's Environment Texture).
+float srgb_to_linear(float c);
+
 // The single ops, exposed for tests and for the exporter's constant folding checks.
 float shading_math(MathType type, float a, float b, float c);
 float shading_map_range(MapRangeType type, float value, float from_min, float from_max, float to_min, float to_max,
