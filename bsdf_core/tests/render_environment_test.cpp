@@ -6,6 +6,7 @@
 
 #include "hairbsdf/render/environment.h"
 #include "hairbsdf/render/lights.h"
+#include "hairbsdf/render/shading_vm.h"
 
 using namespace hairbsdf;
 using namespace hairbsdf::render;
@@ -184,4 +185,21 @@ TEST(RenderEnvironment, OnlyATexturedWorldIsSampledAsALight) {
 
     const LightSet dark{SceneDesc{}};
     EXPECT_EQ(dark.world(), nullptr);
+}
+
+TEST(RenderEnvironment, SrgbEncodedTexelsAreDecodedAfterInterpolating) {
+    // Two columns, encoded 0.2 and 0.8: halfway between their centres Cycles reads
+    // decode(0.5), not the mean of decode(0.2) and decode(0.8).
+    EnvironmentDesc d;
+    d.width = 2;
+    d.height = 1;
+    d.weight = RGB(1.0);
+    d.pixels = {0.2f, 0.2f, 0.2f, 0.8f, 0.8f, 0.8f};
+    d.srgb_encoded = true;
+    const EnvironmentMap map(d);
+    const Vec3 between = {-1, 0, 0};  // u = 0, the seam: halfway between column 1 and column 0 (wrapped)
+    EXPECT_NEAR(map.eval(between).r, srgb_to_linear(0.5f), 1e-6);
+    EXPECT_NEAR(map.eval(texel_centre(1, 0, 2, 1)).g, srgb_to_linear(0.8f), 1e-6);
+    d.srgb_encoded = false;
+    EXPECT_NEAR(EnvironmentMap(d).eval(between).r, 0.5, 1e-6);
 }
