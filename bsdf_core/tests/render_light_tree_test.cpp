@@ -339,3 +339,72 @@ TEST(RenderLightTree, SpotConeAndBlend) {
     EXPECT_GT(blend, 0.0);
     EXPECT_LT(blend, 1.0);  // the test point sits in the blend zone
 }
+
+// Emissive meshes as Cycles 4.5 puts them in the tree: one "mesh" emitter per object in the
+// top level, each with a subtree of its triangles. The pdf over lamps and triangles sums to 1
+// (transmission: nothing culled) and sample() draws each triangle with its pdf.
+TEST(RenderLightTree, EmissiveMeshSubtrees) {
+    SceneDesc s;
+    s.integrator.light_tree = true;
+    MaterialDesc m;
+    ClosureDesc e;
+    e.type = ClosureDesc::Type::Emission;
+    e.strength = 8.0;
+    m.closures.push_back(e);
+    s.materials.push_back(m);
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    for (int obj = 0; obj < 2; ++obj) {
+        for (int k = 0; k < 11; ++k) {  // 11 triangles: more than a leaf holds
+            const int base = int(s.meshes.vertices.size());
+            const double cx = 3.0 * obj + 0.4 * k, cy = U(rng), cz = 2.0 + U(rng);
+            s.meshes.vertices.push_back({float(cx), float(cy), float(cz)});
+            s.meshes.vertices.push_back({float(cx + 0.3), float(cy + 0.1 * U(rng)), float(cz + 0.1 * U(rng))});
+            s.meshes.vertices.push_back({float(cx + 0.1), float(cy + 0.3), float(cz + 0.1 * U(rng))});
+            s.meshes.triangles.push_back({base, base + 1, base + 2});
+            s.meshes.material.push_back(0);
+            s.meshes.object.push_back(7 + obj);
+        }
+    }
+    for (int i = 0; i < 5; ++i) s.lights.push_back(point_light(U(rng) * 3, U(rng) * 3, U(rng) * 3, 20 + i));
+    s.lights.push_back(sun_light(normalize(Vec3{0.3, 0.2, 1}), 3.0));
+    const LightSet set(s);
+    ASSERT_EQ(set.size(), 6u + 22u);
+    const LightTree& t = *set.tree();
+    // Two mesh emitters after the lights, each with an inner subtree over its 11 triangles.
+    int meshes = 0;
+    for (size_t i = set.size(); i < set.size() + 2; ++i) {
+        const LightTreeEmitter& me = t.emitter(int(i));
+        ASSERT_EQ(me.kind, LightTreeEmitter::Kind::Mesh);
+        EXPECT_FALSE(t.nodes()[size_t(me.subtree)].leaf());
+        EXPECT_EQ(t.nodes()[size_t(me.subtree)].bit_trail, 0u);
+        ++meshes;
+    }
+    EXPECT_EQ(meshes, 2);
+    std::uniform_real_distribution<double> V(0.0, 1.0);
+    for (int trial = 0; trial < 4; ++trial) {
+        const Vec3 P{U(rng), U(rng), U(rng)}, N = random_unit(rng);
+        const bool trans = trial % 2 == 0;
+        std::vector<double> pdf(set.size());
+        double sum = 0;
+        for (size_t i = 0; i < set.size(); ++i) sum += pdf[i] = t.pdf(P, N, trans, int(i));
+        if (trans) {
+            EXPECT_NEAR(sum, 1.0, 1e-9) << trial;
+        }
+        EXPECT_LE(sum, 1.0 + 1e-9);
+        const int n = 200000;
+        std::vector<int> count(set.size(), 0);
+        for (int k = 0; k < n; ++k) {
+            double p = 0;
+            const int i = t.sample(P, N, trans, V(rng), p);
+            if (i < 0) continue;
+            ASSERT_LT(size_t(i), set.size());
+            ++count[size_t(i)];
+            EXPECT_NEAR(p, pdf[size_t(i)], 1e-12 * std::max(1.0, p));
+        }
+        for (size_t i = 0; i < set.size(); ++i) {
+            const double sigma = std::sqrt(n * pdf[i] * (1 - pdf[i])) + 1;
+            EXPECT_NEAR(count[i], n * pdf[i], 5 * sigma) << "trial " << trial << " light " << i;
+        }
+    }
+}

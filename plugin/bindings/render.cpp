@@ -303,6 +303,11 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
         md.normals.resize(size_t(n.shape(0)));
         std::memcpy(md.normals.data(), n.data(), md.normals.size() * sizeof(float) * 9);
     }
+    if (m.contains("triangle_object") && !m["triangle_object"].is_none()) {
+        auto to = array_shape<int32_t>(m["triangle_object"], sub(key, "triangle_object"), 0);
+        if (to.shape(0) != t.shape(0)) fail(sub(key, "triangle_object"), "expected one object id per triangle");
+        md.object.assign(to.data(), to.data() + to.shape(0));
+    }
     if (auto o = get_optional(m, "attributes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
@@ -384,6 +389,12 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
         MaterialDesc md;
         if (m.contains("name") && !m["name"].is_none()) md.name = as_str(m["name"], sub(key, "name"));
         if (auto prog = get_optional(m, "program")) md.program = read_program(*prog, sub(key, "program"));
+        if (m.contains("emission_sampling") && !m["emission_sampling"].is_none()) {
+            md.emission_sampling = as_enum<EmissionSampling>(
+                m["emission_sampling"], sub(key, "emission_sampling"),
+                {{"AUTO", EmissionSampling::Auto}, {"NONE", EmissionSampling::None}, {"FRONT", EmissionSampling::Front},
+                 {"BACK", EmissionSampling::Back}, {"FRONT_BACK", EmissionSampling::FrontBack}});
+        }
         py::object closures = get(m, key, "closures");
         if (!py::isinstance<py::list>(closures) && !py::isinstance<py::tuple>(closures))
             throw py::type_error("scene" + sub(key, "closures") + ": expected a list");
