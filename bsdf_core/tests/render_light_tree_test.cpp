@@ -164,7 +164,16 @@ TEST(RenderLightTree, WorldEnergyCountsTheStrengthTwice) {
     const Light world(RGB(0.0), tex, true);
     const LightTreeEmitter& e = world.tree_emitter();
     EXPECT_EQ(e.kind, LightTreeEmitter::Kind::World);
-    EXPECT_NEAR(e.energy(), kPi * 0.4 * 2.0, 1e-6);
+    // Cycles' importance map at the texture's 8 x 4 texel centres: a constant 0.4 averages to
+    // 0.4 x (sum of the rows' sin(theta)) / 4 x pi / 2 (1.026 x 0.4 on 4 rows), times the strength.
+    const double rows = (std::sin(kPi / 8) + std::sin(3 * kPi / 8) + std::sin(5 * kPi / 8) + std::sin(7 * kPi / 8)) / 4;
+    EXPECT_NEAR(e.energy(), kPi * 0.4 * rows * (kPi / 2) * 2.0, 1e-6);  // texels are float
+    // World > Settings > Map Resolution 64: a 64 x 32 map, whose row sum is closer to 2 / pi.
+    double rows64 = 0;
+    for (int i = 0; i < 32; ++i) rows64 += std::sin(kPi * (i + 0.5) / 32) / 32;
+    const Light manual(RGB(0.0), tex, true, 64);
+    EXPECT_NEAR(manual.tree_emitter().energy(), kPi * 0.4 * rows64 * (kPi / 2) * 2.0, 1e-6);
+    EXPECT_GT(std::fabs(manual.tree_emitter().energy() - e.energy()), 0.02 * e.energy());
     EXPECT_EQ(e.measure.cone.theta_o, kPi);
     // Importance: E whatever the normal, I_min = 0.
     const LightTree t({e});

@@ -640,6 +640,11 @@ SceneDesc scene_from_dict(const py::dict& scene) {
         if (auto c = get_optional(wd, "color")) out.world = as_rgb(*c, "['world']['color']");
         if (auto t = get_optional(wd, "texture")) read_environment(*t, out.world_texture);
         if (auto m = get_optional(wd, "mis")) out.world_mis = as_bool(*m, "['world']['mis']");
+        if (auto r = get_optional(wd, "map_resolution")) {
+            const long res = as_int(*r, "['world']['map_resolution']");
+            if (res < 0 || res > 65536) fail("['world']['map_resolution']", "expected 0 (automatic) to 65536");
+            out.world_map_resolution = int(res);
+        }
     }
     read_integrator(scene, out);
     return out;

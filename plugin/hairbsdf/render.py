@@ -440,6 +440,10 @@ def _check_world(scene, out):
         return
     w = _Checker.dict("scene['world']", scene["world"])
     out["world"] = {"color": _Checker.vector("scene['world']['color']", w.get("color", (0.0, 0.0, 0.0)), 3)}
+    if w.get("mis") is not None:
+        out["world"]["mis"] = _Checker.boolean("scene['world']['mis']", w["mis"])
+    if w.get("map_resolution") is not None:
+        out["world"]["map_resolution"] = _Checker.integer("scene['world']['map_resolution']", w["map_resolution"], 0)
     if w.get("texture") is not None:
         key = "scene['world']['texture']"
         t = _Checker.dict(key, w["texture"])

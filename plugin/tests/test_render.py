@@ -428,6 +428,8 @@ def test_lights_visible_to_camera_only_when_set(visible):
      r"scene\['materials'\]\[0\]\['emission_sampling'\]: 'BOTH' is not allowed; use one of \['AUTO'"),
     (lambda s: s.update(meshes=dict(_one_triangle(), triangle_object=np.zeros(2, np.int32))), ValueError,
      r"\['meshes'\]\['triangle_object'\]: expected one object id per triangle"),
+    (lambda s: s["world"].update(map_resolution=-1), ValueError, r"scene\['world'\]\['map_resolution'\]: must be >= 0"),
+    (lambda s: s["world"].update(mis="yes"), TypeError, r"scene\['world'\]\['mis'\]: expected a bool"),
 ])
 def test_structural_errors_name_the_key(mutate, error, match):
     scene = _small_scene()

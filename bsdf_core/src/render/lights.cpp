@@ -176,7 +176,7 @@ static Vec3 sample_uniform_sphere(double u0, double u1) {
     return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
+Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis, int map_resolution, bool tree_energy)
     : world_(true), radiance_(world_radiance) {
     contributes_ = !is_zero(world_radiance) && isfinite(world_radiance);
     if (texture.has_texture() && !is_zero(texture.weight)) {
@@ -185,7 +185,7 @@ Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
     }
     // Cycles enables the background light only for a spatially varying world shader.
     use_mis_ = world_mis && environment_ != nullptr;
-    make_tree_emitter(nullptr);
+    make_tree_emitter(nullptr, map_resolution, tree_energy);
 }
 
 Light::Light(const LightDesc& d) : type_(d.type) {
@@ -274,31 +274,43 @@ Light::Light(const LightDesc& d) : type_(d.type) {
     make_tree_emitter(&d);
 }
 
-void Light::make_tree_emitter(const LightDesc* desc) {
+void Light::make_tree_emitter(const LightDesc* desc, int map_resolution, bool tree_energy) {
     LightTreeEmitter& e = tree_;
     auto avg_abs = [](RGB c) { return (std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b)) / 3.0; };
     if (world_) {
-        // Cycles: E = pi x average radiance of the importance map x the shader's emission
-        // estimate (the Background strength, counted twice as Cycles does). The average is
-        // taken here over a 256 x 128 latitude-longitude grid weighted by solid angle; with a
-        // texture the estimate is taken as avg(weight) (exact for one Background node).
-        // TODO: Cycles' map resolution and its Nishita sun blend are not reproduced.
+        // Cycles (scene/light.cpp, device_update_background; light_tree.cpp): E = pi x the
+        // importance map's average radiance x the shader's emission estimate (the Background
+        // strength, counted twice as Cycles does; avg(weight), exact for one Background node).
+        // The map: the world at the pixel centres of a res_x x res_y latitude-longitude grid (row i
+        // at polar angle pi (i + 0.5) / res_y from the zenith, column j at azimuth
+        // pi - 2 pi (j + 0.5) / res_x, so an unmapped texture is read at its texel centres), its
+        // average |radiance| weighted by sin(theta) over res_x res_y, times pi / 2. Resolution:
+        // World > Settings > Map Resolution (res x res / 2) when set, else the texture's size
+        // (Cycles' automatic choice), else 1024 x 512.
         e.kind = LightTreeEmitter::Kind::World;
-        double sum = 0, wsum = 0;
-        const int nt = 128, np = 256;
-        for (int i = 0; i < nt; ++i) {
-            const double theta = kPi * (i + 0.5) / nt, st = std::sin(theta);
-            for (int j = 0; j < np; ++j) {
-                const double phi = kTwoPi * (j + 0.5) / np;
-                LightHit h;
-                eval_direction({st * std::cos(phi), st * std::sin(phi), std::cos(theta)}, h);
-                sum += st * avg_abs(h.radiance);
-                wsum += st;
-            }
-        }
-        const double estimate = environment_ ? avg_abs(environment_->weight()) : 1.0;
-        e.measure.energy = kPi * (wsum > 0 ? sum / wsum : 0.0) * estimate;
         e.measure.cone = {{0, 0, 1}, kPi, 0.0};
+        if (!tree_energy) return;
+        int nx = map_resolution > 0 ? map_resolution : (environment_ ? environment_->width() : 0);
+        int ny = map_resolution > 0 ? map_resolution / 2 : (environment_ ? environment_->height() : 0);
+        if (nx <= 0 || ny <= 0) {
+            nx = 1024;
+            ny = 512;
+        }
+        double sum = 0;
+        for (int i = 0; i < ny; ++i) {
+            const double theta = kPi * (i + 0.5) / ny, st = std::sin(theta), ct = std::cos(theta);
+            double row = 0;
+            for (int j = 0; j < nx; ++j) {
+                const double phi = kPi - kTwoPi * (j + 0.5) / nx;
+                LightHit h;
+                eval_direction({st * std::cos(phi), st * std::sin(phi), ct}, h);
+                row += avg_abs(h.radiance);
+            }
+            sum += st * row;
+        }
+        const double average_radiance = sum / (double(nx) * double(ny)) * (kPi / 2);
+        const double estimate = environment_ ? avg_abs(environment_->weight()) : 1.0;
+        e.measure.energy = kPi * average_radiance * estimate;
         return;
     }
     const LightDesc& d = *desc;
@@ -733,7 +745,7 @@ LightSet::LightSet(const SceneDesc& scene) {
         }
         lights_.push_back(l);
     }
-    Light world(scene.world, scene.world_texture, scene.world_mis);
+    Light world(scene.world, scene.world_texture, scene.world_mis, scene.world_map_resolution, scene.integrator.light_tree);
     if (world.has_contribution()) {
         if (world.use_mis()) {
             world_ = int(lights_.size());

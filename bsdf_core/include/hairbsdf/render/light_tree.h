@@ -35,8 +35,9 @@
 // * The centroid box and bucket indices are computed in float as in Cycles (evenly spaced
 //   lights sit on bucket boundaries); measures and SAOH costs are double, so a near-tie of
 //   costs could still give another topology than Cycles' float costs.
-// * World energy: average radiance from a 256 x 128 solid-angle grid, not Cycles' importance
-//   map (its resolution, and the 0.8 / 0.2 blend with a Nishita sun); the emission estimate is
+// * World energy: Cycles' importance-map average (the world at the texel centres of the
+//   texture's size, or World > Map Resolution; render/lights.cpp), in double where Cycles sums
+//   in float; no Nishita sky, so no 0.8 / 0.2 sun blend. The emission estimate is
 //   avg(EnvironmentDesc::weight), which is Cycles' rule for one Background node but not for
 //   every Mix / Add network.
 // * Emitter order: the scene's light order (the exporter's depsgraph order, which Cycles'

@@ -80,8 +80,10 @@ struct RectangleView;       // lights.cpp: an optional SphericalRectangle and `u
 class Light {
 public:
     Light(const LightDesc& desc);       // scene light
-    // The world: uniform radiance plus the environment texture, if any.
-    Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis = true);
+    // The world: uniform radiance plus the environment texture, if any. `map_resolution`: the light
+    // tree's importance map (SceneDesc::world_map_resolution); `tree_energy` false skips that map.
+    Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis = true, int map_resolution = 0,
+          bool tree_energy = true);
     explicit Light(const TriangleLightDesc& triangle);  // an emissive triangle
     bool is_world() const { return world_; }
     int triangle() const { return triangle_; }  // the mesh triangle, or -1
@@ -114,7 +116,7 @@ private:
     // uniformly over their area; `unreachable` when no part of a narrowed spread reaches p.
     RectangleView solid_angle_rectangle(Vec3 p) const;
 
-    void make_tree_emitter(const LightDesc* desc);
+    void make_tree_emitter(const LightDesc* desc, int map_resolution = 0, bool tree_energy = true);
     bool sample_triangle(Vec3 p, double u0, double u1, LightSample& out) const;
     // Cycles' choice between solid-angle and area sampling of a triangle seen from p.
     bool triangle_uses_solid_angle(Vec3 p) const;

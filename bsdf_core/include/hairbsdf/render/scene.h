@@ -235,6 +235,9 @@ struct SceneDesc {
     // World > Settings > Sampling (4.x Method != None, 3.x Multiple Importance). Even on, a
     // world without a texture is not sampled as a light (render/lights.h).
     bool world_mis = true;
+    // World > Settings > Map Resolution for the light tree's importance map (res x res / 2); 0:
+    // Cycles' automatic choice (the environment texture's size). render/lights.cpp.
+    int world_map_resolution = 0;
     IntegratorSettings integrator;
 };
 
