@@ -20,10 +20,13 @@
 //   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
-// Next-event estimation picks one light uniformly, or (integrator `light_tree`, Cycles 4.x's
-// default) with Cycles' light tree (render/light_tree.h). The two picks have the same
-// expectation only where the closures' reported pdfs are their sampling densities, which the
-// hair closures' are not: hence the tree. A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
+// Next-event estimation picks a light with Cycles' light distribution (Cycles 3.x, and 4.x with
+// the tree off: lamps equally likely, emissive triangles by area, half each when both exist) or
+// (integrator `light_tree`, Cycles 4.x's default) with Cycles' light tree (render/light_tree.h).
+// Picks with other pdfs would have the same expectation only where the closures' reported pdfs
+// are their sampling densities, which the hair closures' are not: hence Cycles' own picks.
+// Emissive mesh triangles (Cycles' mesh lights) follow the lamps in the light list; the
+// integrator evaluates their material's emission at the sampled point. A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
 // hit by BSDF rays: POINT / SPOT with r > 0, SUN with angle > 0, AREA with spread > 0, the
 // world; and use_mis is set. Lights are not in the BVH: rays pass through them (Cycles
 // counts each as a transparent bounce) and they cast no shadows.
