@@ -5,6 +5,8 @@ nothing of the checkout on sys.path:
     every engine render imported hairbsdf from that venv;
   - `hairbsdf judge` on two folders of those per-seed EXRs (Cycles and the engine) writes a PASS
     report from that venv with `import bpy` blocked (a user with only hairbsdf[compare]);
+  - an exported portable scene (`hairbsdf scenes export swatch --tar`) unpacked there, rendered
+    from its scene description and judged against its Cycles references, `import bpy` blocked;
   - the example plugin builds against get_cmake_dir() / get_include() and passes test_plugin.
 One test, in steps, so that the venv is built once; each step's time is printed."""
 
@@ -132,6 +134,21 @@ def test_wheel_outside_the_checkout(tmp_path):
     (jcase,) = json.loads((tmp / "judge" / "report.json").read_text())["cases"]
     assert jcase["status"] == "PASS" and (tmp / "judge" / "index.html").is_file(), jcase.get("reason")
     assert {c["name"] for c in jcase["checks"] if c["gate"]} >= {"welch", "mean_bias_sigma", "nonfinite"}
+
+    # 3c. An exported portable scene (issue 23), as a renderer engineer gets it: swatch's tarball from the
+    #     checkout, unpacked here, rendered by the wheel's renderer from the exported description and judged
+    #     against the exported Cycles references, with `import bpy` blocked.
+    t0 = time.monotonic()
+    run([sys.executable, "-m", "hairbsdf.cli", "scenes", "export", "swatch", "--tar", "--out", tmp / "export", "-q"],
+        cwd=ROOT, timeout=900)
+    shutil.unpack_archive(tmp / "export" / "swatch.tar.gz", tmp / "portable")
+    scene = tmp / "portable" / "swatch"
+    run([py, "-I", "-c", no_bpy, "scenes", "render", scene, "--out", tmp / "portable_ours", "-q"], cwd=tmp, env=uenv)
+    j = subprocess.run([py, "-I", "-c", no_bpy, "judge", scene / "references" / "cycles", tmp / "portable_ours",
+                        "--out", tmp / "portable_judge"], cwd=tmp, env=uenv, capture_output=True, text=True,
+                       timeout=300)
+    times["portable scene: export, render, judge"] = time.monotonic() - t0
+    assert j.returncode == 0 and inside(j.stdout.splitlines()[0], venv), j.stdout[-4000:] + j.stderr[-4000:]
 
     # 4. Two TBBs in one process (docs/packaging.md): bpy keeps its own libtbb.so.12, the engine
     #    uses the wheel's renamed copy, whichever loads first; the engine's pixels equal those of

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "hairbsdf/closures.h"
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/principled_hair.h"
 
 using namespace hairbsdf;

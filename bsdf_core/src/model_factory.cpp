@@ -1,6 +1,6 @@
-// The zoo's parameter tables and the builder of models by name; see models/model_factory.h.
+// The zoo's parameter tables and the builder of models by name; see model_factory.h.
 // Defaults, ranges and their sources: docs/models.md (one section per model).
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 
 #include <cmath>
 #include <sstream>

@@ -1,10 +1,10 @@
-// The model factory (models/model_factory.h): schemas, defaults equal to the model headers'
+// The model factory (model_factory.h): schemas, defaults equal to the model headers'
 // own defaults, named values reaching the models, and errors that name the parameter.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/principled_hair.h"
 
 using namespace hairbsdf;

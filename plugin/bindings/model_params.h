@@ -1,4 +1,4 @@
-// Python values -> named model parameters (hairbsdf/models/model_params.h), shared by the
+// Python values -> named model parameters (hairbsdf/model_params.h), shared by the
 // _core and _render modules: a number (bool: 0 / 1), an RGB triple (any 3-sequence) or a
 // string (a choice). Errors name the parameter, prefixed with `where`.
 #pragma once
@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "hairbsdf/models/model_params.h"
+#include "hairbsdf/model_params.h"
 
 namespace hairbsdf::bindings {
 

@@ -13,7 +13,7 @@
 
 #include "hairbsdf/albedo.h"
 #include "hairbsdf/closures.h"
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "model_params.h"
@@ -504,7 +504,7 @@ py::dict model_dict(const YanFurHair& m) {
 }
 py::dict model_dict(const PluginHair& m) { return plugin_params_dict(m); }
 
-// A model's schema (models/model_factory.h) as dicts: name, type ("float", "rgb", "choice",
+// A model's schema (model_factory.h) as dicts: name, type ("float", "rgb", "choice",
 // "bool"), default (a number, an (r, g, b) tuple, a choice's name or a bool), min, max,
 // choices, optional, description.
 py::list schema_list(const std::vector<ModelParamSpec>& schema) {
@@ -768,7 +768,7 @@ PYBIND11_MODULE(_core, m) {
         return std::const_pointer_cast<PluginLibrary>(load_plugin(path));
     });
 
-    // The model factory (models/model_factory.h): the zoo's constructors and hair_model closures.
+    // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
     m.def("model_schema", [](const std::string& model, const std::string& path) { return schema_list(model_schema(model, path)); },
           py::arg("model"), py::arg("path") = "");

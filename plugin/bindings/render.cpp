@@ -426,7 +426,7 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
                 cd.hair = read_hair_inputs(inputs, sub(ck, "inputs"), cd.random_from_curve, cd.links);
                 cd.hair.parametrization = param;
-            } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by models/model_factory.h
+            } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by model_factory.h
                 cd.model_name = as_str(get(c, ck, "model"), sub(ck, "model"));
                 if (c.contains("path") && !c["path"].is_none()) cd.model_path = as_str(c["path"], sub(ck, "path"));
                 if (c.contains("params")) {
@@ -844,6 +844,24 @@ py::tuple py_eval_hit_bsdf(const py::dict& scene_dict, int material, py::handle 
     return py::make_tuple(value, pdf, lobes);
 }
 
+// shading_vm_instruction_set() -> {"ops": {name: opcode}, "argument_counts": {name: n}, enum name: {name: value}}
+py::dict py_shading_vm_instruction_set() {
+    const ShadingInstructionSet& set = shading_instruction_set();
+    py::dict ops, counts, out;
+    for (const ShadingOpInfo& op : set.ops) {
+        ops[op.name] = int32_t(op.op);
+        counts[op.name] = op.argument_count;
+    }
+    out["ops"] = ops;
+    out["argument_counts"] = counts;
+    for (const auto& [table, entries] : set.enums) {
+        py::dict d;
+        for (const ShadingNamedValue& e : entries) d[e.name] = e.value;
+        out[table.c_str()] = d;
+    }
+    return out;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_render, m) {
@@ -860,6 +878,9 @@ PYBIND11_MODULE(_render, m) {
           "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
           "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, "
           "(M, program['registers']) float32.");
+    m.def("shading_vm_instruction_set", &py_shading_vm_instruction_set,
+          "The shading VM's opcodes, their argument counts and its enums under Blender's identifiers "
+          "(render/shading_vm.h); the exporter's compiler derives its numbers from this.");
     m.def("eval_hit_bsdf", &py_eval_hit_bsdf, py::arg("scene"), py::arg("material"), py::arg("wo"), py::arg("wi"),
           py::arg("h"), py::arg("normal") = py::none(), py::arg("random") = 0.0, py::arg("seed") = 0u,
           py::arg("blur") = 0.0,

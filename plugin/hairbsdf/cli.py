@@ -4,6 +4,8 @@
     hairbsdf judge REF TEST [--out DIR]        judge any renderer's EXRs against reference EXRs
                                                (no Blender; docs/compare.md)
     hairbsdf report merge DIR... [--out DIR]   join shard reports
+    hairbsdf scenes list|export|render         the scene library for any renderer: USD, MaterialX,
+                                               settings, Cycles references (docs/portable_scenes.md)
     hairbsdf fit --target SPEC --model NAME [options]
                                        fit a model's parameters to a target BSDF (docs/fit.md)
     hairbsdf plot SPEC [--out DIR]     per-lobe polar plots, heat maps and albedo as PNGs
@@ -15,11 +17,12 @@ SPEC is one constructor call with literal keywords, e.g. "principled_hair(melani
 import argparse
 import sys
 
-USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, judge, fit, plot) for the options.\n"
+USAGE = __doc__.strip() + "\n\nRun `hairbsdf COMMAND --help` (compare, judge, scenes, fit, plot) for the options.\n"
 COMMANDS = {
     "compare": "render with Cycles and hairbsdf, compare, write a report",
     "judge": "judge any renderer's EXRs against reference EXRs (no Blender)",
     "report": "report merge DIR... [--out DIR]: join shard reports",
+    "scenes": "list, export (USD, MaterialX, Cycles references) or render the scene library",
     "fit": "fit a model's parameters to a target BSDF",
     "plot": "per-lobe polar plots, heat maps and albedo as PNGs",
 }
@@ -67,6 +70,9 @@ def _dispatch(argv):
     if args.command == "judge":
         from .compare.judge_cli import main as judge_main
         return judge_main(rest, prog="hairbsdf judge")
+    if args.command == "scenes":
+        from .compare.portable import main as scenes_main
+        return scenes_main(rest, prog="hairbsdf scenes")
     if args.command == "fit":
         from .fit import main as fit_main
         return fit_main(rest, prog="hairbsdf fit")

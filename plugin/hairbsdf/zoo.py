@@ -3,7 +3,7 @@ interface. Formulas, defaults and their sources: docs/models.md. Every construct
 arguments; out-of-range parameters raise ValueError naming the parameter and the allowed range.
 
 The parameter names, defaults and ranges live in one table, the C++ model factory
-(bsdf_core/include/hairbsdf/models/model_factory.h); `model_schema(name)` returns it and
+(bsdf_core/include/hairbsdf/model_factory.h); `model_schema(name)` returns it and
 `make_model(name, params)` builds a model from named values, as the renderer's `hair_model`
 closure and the Blender engine's material override do."""
 

@@ -47,6 +47,29 @@ def test_compare_usage_errors_exit_2(args, message):
     assert message in err, err
 
 
+@pytest.mark.parametrize("args, message", [
+    ([], "usage: hairbsdf scenes"),
+    (["export"], "the following arguments are required: NAME|all, --out"),
+    (["export", "no_such_scene", "--out", "x"], "NAME: unknown scene 'no_such_scene'"),
+    (["export", "fiber_gonio:top", "--out", "x"], "NAME: scene fiber_gonio has no variant 'top'"),
+    (["export", "swatch", "--out", "x", "--jobs", "0"], "--jobs must be an integer >= 1, not 0"),
+    (["export", "swatch", "--out", "x", "--blender", "no_such_blender"], "--blender no_such_blender:"),
+    (["render", "no_such_folder", "--out", "x"], "FOLDER: no_such_folder has no portable.json"),
+    (["frobnicate"], "argument ACTION: invalid choice: 'frobnicate'"),
+])
+def test_scenes_usage_errors_exit_2(args, message):
+    rc, out, err = cli("scenes", *args)
+    assert rc == 2, (out, err)
+    assert message in err, err
+
+
+def test_scenes_list_names_every_library_scene():
+    from hairbsdf.compare.runner import load_catalog
+    rc, out, err = cli("scenes", "list")
+    assert rc == 0, err
+    assert [line.split()[0] for line in out.splitlines()] == list(load_catalog()[0])
+
+
 def test_judge_missing_thresholds_exits_2(tmp_path):
     rc, out, err = cli("judge", tmp_path, tmp_path, "--thresholds", tmp_path / "no.toml")
     assert rc == 2 and "argument --thresholds: file %s does not exist" % (tmp_path / "no.toml") in err, err
@@ -55,7 +78,7 @@ def test_judge_missing_thresholds_exits_2(tmp_path):
 def test_help_names_only_repository_files():
     """--help texts point at files in the repository or package (docs/..., hairbsdf/...)."""
     texts = []
-    for cmd in ([], ["compare"], ["judge"], ["fit"], ["plot"]):
+    for cmd in ([], ["compare"], ["judge"], ["scenes"], ["scenes", "export"], ["fit"], ["plot"]):
         rc, out, err = cli(*cmd, "--help")
         assert rc == 0, (cmd, err)
         texts.append(out)

@@ -8,9 +8,12 @@ import numpy as np
 import pytest
 
 import hairbsdf
+from hairbsdf import _render
 from hairbsdf.render import render
 
-HAIR_INFO, COPY, ATTRIBUTE, MATH = 14, 11, 15, 1  # shading_vm.h opcodes
+_OPS = _render.shading_vm_instruction_set()["ops"]  # declared once, in render/shading_vm.h
+HAIR_INFO, COPY, ATTRIBUTE, MATH, IMAGE_TEXTURE = (_OPS[k] for k in ("HAIR_INFO", "COPY", "ATTRIBUTE", "MATH",
+                                                                     "IMAGE_TEXTURE"))
 N_KEYS = 9  # keys at x = -1, -0.75, ..., 1
 
 
@@ -136,7 +139,6 @@ def test_register_link_errors_name_the_key():
 
 
 def test_eval_program_matches_the_renderer_contract():
-    from hairbsdf import _render
     # registers 0..1 constants (3, 0.5); r2 = intercept; r3 = intercept * 3 clamped
     prog = _program([HAIR_INFO, 1, 2, MATH, 2, 1, 3, 2, 0, 0], constants=(3.0, 0.5), registers=4)
     regs = _render.eval_program(prog, intercept=np.array([0.1, 0.5], np.float32))
@@ -145,9 +147,6 @@ def test_eval_program_matches_the_renderer_contract():
     with pytest.raises(ValueError, match="instruction 0"):
         _render.eval_program(_program([99]))
     assert hairbsdf is not None
-
-
-IMAGE_TEXTURE = 16
 
 
 def test_image_texture_reads_the_scene_images_at_the_attribute_uv():
@@ -169,7 +168,6 @@ def test_image_texture_reads_the_scene_images_at_the_attribute_uv():
     away = np.abs(s - np.round(s)) > 0.02  # away from texel edges
     np.testing.assert_allclose(px[away, 0], texels[0, np.floor(s[away]).astype(int), 0], rtol=1e-6)
     # eval_program takes the same images; a missing image list is a validation error
-    from hairbsdf import _render
     regs = _render.eval_program(_program(code, registers=9), attributes=uv[None, 2:3, :], images=scene["images"])
     assert regs[0, 5] == pytest.approx(texels[0, int(uv[2, 0] * 4), 0])
     with pytest.raises(ValueError, match="image index 0 outside"):
@@ -177,3 +175,30 @@ def test_image_texture_reads_the_scene_images_at_the_attribute_uv():
     scene["images"] = [{"name": "bad", "pixels": texels[..., :3]}]
     with pytest.raises(ValueError, match=r"\['images'\]\[0\]\['pixels'\]: expected shape \(height, width, 4\)"):
         render(scene)
+
+
+def _split_arguments(text):
+    """'type (0 min-max, 1 range), out, value' -> 3 arguments (commas inside parentheses kept)."""
+    parts, depth, current = [], 0, ""
+    for ch in text:
+        depth += (ch == "(") - (ch == ")")
+        if ch == "," and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += ch
+    return [p.strip() for p in parts + [current] if p.strip()]
+
+
+def test_docs_instruction_table_matches_the_declaration():
+    """docs/shading_vm.md's table of instructions (opcode, name, arguments) equals what
+    render/shading_vm.h declares, as the exporter reads it."""
+    import re
+    from pathlib import Path
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "shading_vm.md").read_text()
+    rows = re.findall(r"^\| (\d+) \| (\w+) \| ([^|]+) \|", doc, flags=re.M)
+    documented = {re.sub(r"(?<!^)(?=[A-Z])", "_", name).upper(): (int(op), len(_split_arguments(args)))
+                  for op, name, args in rows}
+    isa = _render.shading_vm_instruction_set()
+    declared = {name: (op, isa["argument_counts"][name]) for name, op in isa["ops"].items()}
+    assert documented == declared

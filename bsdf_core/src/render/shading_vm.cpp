@@ -13,29 +13,6 @@ namespace {
 
 constexpr float kPiF = 3.14159265358979323846f;
 
-// Arguments after the opcode; ColorRamp and MixVector are checked specially (table / fac width).
-int argument_count(ShadingOp op) {
-    switch (op) {
-        case ShadingOp::Math: return 6;
-        case ShadingOp::MapRange: return 9;
-        case ShadingOp::Clamp: return 5;
-        case ShadingOp::ColorRamp: return 6;
-        case ShadingOp::MixColor: return 6;
-        case ShadingOp::MixFloat: return 5;
-        case ShadingOp::MixVector: return 6;
-        case ShadingOp::Invert: return 3;
-        case ShadingOp::Gamma: return 3;
-        case ShadingOp::BrightContrast: return 4;
-        case ShadingOp::Copy: return 2;
-        case ShadingOp::Luminance: return 3;
-        case ShadingOp::Average: return 2;
-        case ShadingOp::HairInfo: return 2;
-        case ShadingOp::Attribute: return 2;
-        case ShadingOp::ImageTexture: return 6;
-    }
-    return -1;
-}
-
 float saturate(float x) { return std::min(std::max(x, 0.0f), 1.0f); }
 float clampf(float x, float lo, float hi) { return std::min(std::max(x, lo), hi); }
 float safe_divide(float a, float b) { return b != 0.0f ? a / b : 0.0f; }
@@ -393,6 +370,80 @@ void shading_mix(MixBlend blend, float t, const float* a, const float* b, float*
     out[1] = r[1];
     out[2] = r[2];
 }
+
+const ShadingInstructionSet& shading_instruction_set() {
+    static const ShadingInstructionSet set = [] {
+        ShadingInstructionSet s;
+        s.ops = {
+            {"MATH", ShadingOp::Math, 6},
+            {"MAP_RANGE", ShadingOp::MapRange, 9},
+            {"CLAMP", ShadingOp::Clamp, 5},
+            {"COLOR_RAMP", ShadingOp::ColorRamp, 6},
+            {"MIX_COLOR", ShadingOp::MixColor, 6},
+            {"MIX_FLOAT", ShadingOp::MixFloat, 5},
+            {"MIX_VECTOR", ShadingOp::MixVector, 6},
+            {"INVERT", ShadingOp::Invert, 3},
+            {"GAMMA", ShadingOp::Gamma, 3},
+            {"BRIGHT_CONTRAST", ShadingOp::BrightContrast, 4},
+            {"COPY", ShadingOp::Copy, 2},
+            {"LUMINANCE", ShadingOp::Luminance, 3},
+            {"AVERAGE", ShadingOp::Average, 2},
+            {"HAIR_INFO", ShadingOp::HairInfo, 2},
+            {"ATTRIBUTE", ShadingOp::Attribute, 2},
+            {"IMAGE_TEXTURE", ShadingOp::ImageTexture, 6},
+        };
+        // Blender's identifiers, in the order of its enums (which Cycles' node types follow).
+        const char* math_names[] = {
+            "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",
+            "ARCTANGENT", "POWER", "LOGARITHM", "MINIMUM", "MAXIMUM", "ROUND", "LESS_THAN", "GREATER_THAN",
+            "MODULO", "ABSOLUTE", "ARCTAN2", "FLOOR", "CEIL", "FRACT", "SQRT", "INVERSE_SQRT", "SIGN", "EXPONENT",
+            "RADIANS", "DEGREES", "SINH", "COSH", "TANH", "TRUNC", "SNAP", "WRAP", "PINGPONG", "MULTIPLY_ADD",
+            "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "FLOORED_MODULO"};
+        static_assert(sizeof(math_names) / sizeof(math_names[0]) == size_t(MathType::Count));
+        const char* blend_names[] = {
+            "MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE", "DARKEN", "LIGHTEN",
+            "OVERLAY", "DODGE", "BURN", "HUE", "SATURATION", "VALUE", "COLOR", "SOFT_LIGHT", "LINEAR_LIGHT",
+            "EXCLUSION"};
+        static_assert(sizeof(blend_names) / sizeof(blend_names[0]) == size_t(MixBlend::Count));
+        auto in_order = [](const char* const* names, size_t n) {
+            std::vector<ShadingNamedValue> v;
+            for (size_t i = 0; i < n; ++i) v.push_back({names[i], int32_t(i)});
+            return v;
+        };
+        s.enums = {
+            {"math_types", in_order(math_names, size_t(MathType::Count))},
+            {"map_range_types",
+             {{"LINEAR", int32_t(MapRangeType::Linear)}, {"STEPPED", int32_t(MapRangeType::Stepped)},
+              {"SMOOTHSTEP", int32_t(MapRangeType::SmoothStep)},
+              {"SMOOTHERSTEP", int32_t(MapRangeType::SmootherStep)}}},
+            {"mix_blends", in_order(blend_names, size_t(MixBlend::Count))},
+            {"hair_info_outputs",  // the Hair Info node's output names
+             {{"Random", int32_t(HairInfoOutput::Random)}, {"Intercept", int32_t(HairInfoOutput::Intercept)},
+              {"Length", int32_t(HairInfoOutput::Length)}, {"Is Strand", int32_t(HairInfoOutput::IsStrand)}}},
+            {"image_interpolations",  // Smart is evaluated as Cubic, as Cycles' CPU kernel does
+             {{"Linear", int32_t(ImageInterpolation::Linear)}, {"Closest", int32_t(ImageInterpolation::Closest)},
+              {"Cubic", int32_t(ImageInterpolation::Cubic)}, {"Smart", int32_t(ImageInterpolation::Cubic)}}},
+            {"image_extensions",
+             {{"REPEAT", int32_t(ImageExtension::Repeat)}, {"EXTEND", int32_t(ImageExtension::Extend)},
+              {"CLIP", int32_t(ImageExtension::Clip)}, {"MIRROR", int32_t(ImageExtension::Mirror)}}},
+            {"image_flags", {{"UNASSOCIATE_ALPHA", kImageUnassociateAlpha}, {"SRGB_DECODE", kImageSrgbDecode}}},
+        };
+        return s;
+    }();
+    return set;
+}
+
+namespace {
+
+// Arguments after the opcode; ColorRamp and MixVector are checked specially (table / fac
+// width). -1 for an unknown opcode.
+int argument_count(ShadingOp op) {
+    const auto& ops = shading_instruction_set().ops;
+    const auto index = size_t(int32_t(op) - 1);
+    return index < ops.size() ? ops[index].argument_count : -1;
+}
+
+}  // namespace
 
 void validate_program(const ShadingProgram& p, int attribute_count, int image_count) {
     const int32_t n_const = int32_t(p.constants.size());

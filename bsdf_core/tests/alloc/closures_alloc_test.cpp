@@ -9,7 +9,7 @@
 #include <new>
 
 #include "hairbsdf/closures.h"
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/principled_hair.h"
 
 namespace {

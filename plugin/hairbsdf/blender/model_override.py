@@ -9,7 +9,7 @@ the model's schema (hairbsdf.model_schema: the zoo's defaults from the C++ model
 the plugin's own schema). The exporter (export_materials.py) replaces each Principled Hair
 closure of an overridden material with a `hair_model` closure of the same weight (its last step, override_closures)
 (docs/scene_desc.md); other closures stay. Ranges are checked when the renderer builds the
-model; the panel marks values out of range.
+model; the panel (ui.py) marks values out of range.
 
 For the harness (hairbsdf compare --model): `override_materials` sets the override on every
 material with a Principled Hair node, the parameters from a user mapping of the node's inputs
@@ -26,7 +26,6 @@ import bpy
 
 from ._common import ExportReport
 from .export_materials import MaterialTranslator, override_params, override_plugin_path
-from .ui import ENGINE_ID
 
 # Enum identifiers are the model names of hairbsdf.model_schema ("NONE": no override).
 OVERRIDES = (
@@ -243,71 +242,7 @@ def override_materials(materials, model: str, path: str | None = None, map_input
     return done
 
 
-# ---------------------------------------------------------------------------- UI
-
-class HAIRBSDF_OT_model_override_reset(bpy.types.Operator):
-    """Reset the hair model's parameters to their defaults"""
-
-    bl_idname = "hairbsdf.model_override_reset"
-    bl_label = "Reset Parameters"
-    bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return getattr(context, "material", None) is not None
-
-    def execute(self, context):
-        fill_params(context.material.hairbsdf, keep=False)
-        return {"FINISHED"}
-
-
-class HAIRBSDF_MATERIAL_PT_model_override(bpy.types.Panel):
-    bl_label = "Hair Model Override"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "material"
-    COMPAT_ENGINES = {ENGINE_ID}
-
-    @classmethod
-    def poll(cls, context):
-        mat = context.material
-        return mat is not None and not getattr(mat, "grease_pencil", None) and context.engine in cls.COMPAT_ENGINES
-
-    def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        s = context.material.hairbsdf
-        layout.prop(s, "override")
-        if s.override == "NONE":
-            return
-        if s.override == "plugin":
-            layout.prop(s, "plugin_path")
-        if s.schema_error:
-            box = layout.box()
-            box.alert = True
-            box.label(text=s.schema_error[:200], icon="ERROR")
-            return
-        col = layout.column()
-        for p in s.params:
-            row = col.row()
-            row.alert = not p.in_range()
-            text = p.name.replace("_", " ").title()
-            if p.optional:
-                head = row.row(align=True)
-                head.prop(p, "use", text="")
-                row = head
-                row.active = p.use
-            prop = {"FLOAT": "value", "CHOICE": "choice", "BOOL": "flag"}.get(p.kind)
-            if prop is None:
-                prop = "color" if p.max <= 1.0 else "vector"
-            row.prop(p, prop, text=text)
-        layout.operator(HAIRBSDF_OT_model_override_reset.bl_idname, icon="LOOP_BACK")
-        layout.label(text="Replaces each Principled Hair closure; other closures stay.", icon="INFO")
-
-
-classes = (HairbsdfModelParam, HairbsdfMaterialSettings, HAIRBSDF_OT_model_override_reset,
-           HAIRBSDF_MATERIAL_PT_model_override)
+classes = (HairbsdfModelParam, HairbsdfMaterialSettings)  # the panel and its operator live in ui.py
 
 
 def register():

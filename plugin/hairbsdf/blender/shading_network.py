@@ -21,35 +21,29 @@ luminance, vector -> float the average, float -> colour / vector (f, f, f).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from ._common import REC709_Y, mapping_matrix, rgb
 
-# Opcodes and enum values of shading_vm.h (ShadingOp, MathType, MapRangeType, MixBlend).
-OP_MATH, OP_MAP_RANGE, OP_CLAMP, OP_COLOR_RAMP, OP_MIX_COLOR, OP_MIX_FLOAT, OP_MIX_VECTOR = 1, 2, 3, 4, 5, 6, 7
-OP_INVERT, OP_GAMMA, OP_BRIGHT_CONTRAST, OP_COPY, OP_LUMINANCE, OP_AVERAGE = 8, 9, 10, 11, 12, 13
-OP_HAIR_INFO, OP_ATTRIBUTE, OP_IMAGE_TEXTURE = 14, 15, 16
 
-MATH_TYPES = {
-    "ADD": 0, "SUBTRACT": 1, "MULTIPLY": 2, "DIVIDE": 3, "SINE": 4, "COSINE": 5, "TANGENT": 6, "ARCSINE": 7,
-    "ARCCOSINE": 8, "ARCTANGENT": 9, "POWER": 10, "LOGARITHM": 11, "MINIMUM": 12, "MAXIMUM": 13, "ROUND": 14,
-    "LESS_THAN": 15, "GREATER_THAN": 16, "MODULO": 17, "ABSOLUTE": 18, "ARCTAN2": 19, "FLOOR": 20, "CEIL": 21,
-    "FRACT": 22, "SQRT": 23, "INVERSE_SQRT": 24, "SIGN": 25, "EXPONENT": 26, "RADIANS": 27, "DEGREES": 28,
-    "SINH": 29, "COSH": 30, "TANH": 31, "TRUNC": 32, "SNAP": 33, "WRAP": 34, "PINGPONG": 35, "MULTIPLY_ADD": 36,
-    "COMPARE": 37, "SMOOTH_MIN": 38, "SMOOTH_MAX": 39, "FLOORED_MODULO": 40,
-}
-MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
-MIX_BLENDS = {
-    "MIX": 0, "ADD": 1, "MULTIPLY": 2, "SUBTRACT": 3, "SCREEN": 4, "DIVIDE": 5, "DIFFERENCE": 6, "DARKEN": 7,
-    "LIGHTEN": 8, "OVERLAY": 9, "DODGE": 10, "BURN": 11, "HUE": 12, "SATURATION": 13, "VALUE": 14, "COLOR": 15,
-    "SOFT_LIGHT": 16, "LINEAR_LIGHT": 17, "EXCLUSION": 18,
-}
-HAIR_INFO_OUTPUTS = {"Random": 0, "Intercept": 1, "Length": 2, "Is Strand": 3}
-IMAGE_INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}  # Smart: Cubic, as Cycles' CPU kernel
-IMAGE_EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
-IMAGE_UNASSOCIATE_ALPHA, IMAGE_SRGB_DECODE = 1, 2
+@functools.cache
+def vm_instruction_set() -> dict:
+    """The shading VM's opcodes, argument counts and enums under Blender's identifiers
+    ({"ops", "argument_counts", "math_types", "map_range_types", "mix_blends",
+    "hair_info_outputs", "image_interpolations", "image_extensions", "image_flags"}), as
+    render/shading_vm.h declares them. Read from the renderer module on first use (it loads
+    Embree and TBB)."""
+    from hairbsdf import _render
+    return _render.shading_vm_instruction_set()
+
+
+def _vm(table: str) -> dict:
+    return vm_instruction_set()[table]
+
+
 # Curve attribute names that stand for a UV map: UV_ATTRIBUTE is the default one (Texture
 # Coordinate > UV, a UV Map node with no map named), UV_ATTRIBUTE + name a named map. The hair
 # exporter resolves them per object (export_hair.uv_rgba).
@@ -158,9 +152,12 @@ class ShadingNetwork:
         self.temps += n
         return reg
 
-    def _emit(self, opcode, args, reads, writes, dynamic=False):
-        """args: ints and Regs after the opcode; reads / writes: (argument index, width)."""
-        ins = _Instruction([opcode] + list(args), [(i + 1, w) for i, w in reads], [(i + 1, w) for i, w in writes])
+    def _emit(self, op: str, args, reads, writes, dynamic=False):
+        """op: the instruction's name in vm_instruction_set()["ops"]; args: ints and Regs after
+        the opcode; reads / writes: (argument index, width)."""
+        if len(args) != _vm("argument_counts")[op]:
+            raise AssertionError(f"{op}: {len(args)} arguments, the VM takes {_vm('argument_counts')[op]}")
+        ins = _Instruction([_vm("ops")[op]] + list(args), [(i + 1, w) for i, w in reads], [(i + 1, w) for i, w in writes])
         ins.dynamic = dynamic or any(self._is_dynamic(ins.words[p], w) for p, w in ins.reads)
         if ins.dynamic:
             for p, w in ins.writes:
@@ -185,9 +182,9 @@ class ShadingNetwork:
             out = self._temp(1)
             if src_type == "RGBA":
                 weights = self.constant(REC709_Y)
-                self._emit(OP_LUMINANCE, [out, value.reg, weights.reg], [(1, 3), (2, 3)], [(0, 1)])
+                self._emit("LUMINANCE", [out, value.reg, weights.reg], [(1, 3), (2, 3)], [(0, 1)])
             else:
-                self._emit(OP_AVERAGE, [out, value.reg], [(1, 3)], [(0, 1)])
+                self._emit("AVERAGE", [out, value.reg], [(1, 3)], [(0, 1)])
             return Value(out, 1)
         if value.width == 3:
             return value
@@ -200,7 +197,7 @@ class ShadingNetwork:
         out = self._temp(3)
         dynamic = any(self.is_dynamic(p) for p in parts)  # all three or none: one block
         for i, p in enumerate(parts):
-            self._emit(OP_COPY, [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)], dynamic=dynamic)
+            self._emit("COPY", [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)], dynamic=dynamic)
         return Value(out, 3)
 
     # ------------------------------------------------------------------ sockets
@@ -338,7 +335,7 @@ class ShadingNetwork:
                 r = ins.words[p]
                 if not self._is_dynamic(r, w):
                     const_map[(id(ins), p)] = place(r, w)
-            if ins.words[0] == OP_COLOR_RAMP:
+            if ins.words[0] == _vm("ops")["COLOR_RAMP"]:
                 table, size = ins.words[2], ins.words[3]
                 const_map[(id(ins), 2)] = place(table, 4 * size)
         temp_slots: dict = {}
@@ -410,13 +407,13 @@ def _rgb_node(net, node, out, depth):
 
 
 def _hair_info(net, node, out, depth):
-    which = HAIR_INFO_OUTPUTS.get(out.identifier)
+    which = _vm("hair_info_outputs").get(out.identifier)
     if which is None:
         return _UNSUPPORTED
-    if which == HAIR_INFO_OUTPUTS["Intercept"]:
+    if which == _vm("hair_info_outputs")["Intercept"]:
         net.uses_intercept = True
     reg = net._temp(1)
-    net._emit(OP_HAIR_INFO, [which, reg], [], [(1, 1)], dynamic=True)
+    net._emit("HAIR_INFO", [which, reg], [], [(1, 1)], dynamic=True)
     return Value(reg, 1)
 
 
@@ -428,7 +425,7 @@ def _attribute_block(net, name):
         index = net.attributes.index(name)
         net.attribute_names.add(name)
         block = Value(net._temp(5), 5)
-        net._emit(OP_ATTRIBUTE, [index, block.reg], [], [(1, 5)], dynamic=True)
+        net._emit("ATTRIBUTE", [index, block.reg], [], [(1, 5)], dynamic=True)
         net._outputs[key] = block
     return block
 
@@ -479,7 +476,7 @@ def _mapping(net, node, out, depth):
         acc = net.constant((m[i, 3],))
         for j in (2, 1, 0):
             reg = net._temp(1)
-            net._emit(OP_MATH, [MATH_TYPES["MULTIPLY_ADD"], 0, reg, net.component(vec, j).reg,
+            net._emit("MATH", [_vm("math_types")["MULTIPLY_ADD"], 0, reg, net.component(vec, j).reg,
                                 net.constant((m[i, j],)).reg, acc.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
             acc = Value(reg, 1)
         parts.append(acc)
@@ -494,8 +491,8 @@ def _image_texture(net, node, out, depth):
         # Cycles' missing-texture colour (magenta, alpha 1)
         net.warn(f"'{node.name}' has no image; like Cycles, it reads magenta")
         return net.constant((1.0, 0.0, 1.0) if out.identifier == "Color" else (1.0,))
-    if getattr(image, "source", "FILE") not in ("FILE", "GENERATED") or node.interpolation not in IMAGE_INTERPOLATIONS \
-            or node.extension not in IMAGE_EXTENSIONS:
+    if getattr(image, "source", "FILE") not in ("FILE", "GENERATED") or node.interpolation not in _vm("image_interpolations") \
+            or node.extension not in _vm("image_extensions"):
         return _UNSUPPORTED
     key = (node.as_pointer(), "__image__")
     block = net._outputs.get(key)
@@ -507,12 +504,12 @@ def _image_texture(net, node, out, depth):
         vector = _in(net, node, "Vector", "vector", depth) if src is not None else _uv(net)
         # Cycles divides by alpha only when the Alpha output is used and alpha was associated.
         alpha_used = any(o.identifier == "Alpha" and o.is_linked for o in node.outputs)
-        flags = IMAGE_UNASSOCIATE_ALPHA if alpha_used and net.attributes.images.associated[index] else 0
+        flags = _vm("image_flags")["UNASSOCIATE_ALPHA"] if alpha_used and net.attributes.images.associated[index] else 0
         if net.attributes.images.srgb_encoded[index]:  # 8-bit sRGB: decoded after the lookup, as Cycles
-            flags |= IMAGE_SRGB_DECODE
+            flags |= _vm("image_flags")["SRGB_DECODE"]
         block = Value(net._temp(4), 4)
-        net._emit(OP_IMAGE_TEXTURE, [index, IMAGE_INTERPOLATIONS[node.interpolation],
-                                     IMAGE_EXTENSIONS[node.extension], flags, block.reg, vector.reg],
+        net._emit("IMAGE_TEXTURE", [index, _vm("image_interpolations")[node.interpolation],
+                                     _vm("image_extensions")[node.extension], flags, block.reg, vector.reg],
                   [(5, 3)], [(4, 4)])
         net._outputs[key] = block
     if out.identifier == "Alpha":
@@ -521,22 +518,22 @@ def _image_texture(net, node, out, depth):
 
 
 def _math(net, node, out, depth):
-    op = MATH_TYPES.get(node.operation)
+    op = _vm("math_types").get(node.operation)
     if op is None:
         return _UNSUPPORTED
     a, b, c = (net.input(node, s, "float", depth) for s in list(node.inputs)[:3])
     reg = net._temp(1)
-    net._emit(OP_MATH, [op, int(node.use_clamp), reg, a.reg, b.reg, c.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+    net._emit("MATH", [op, int(node.use_clamp), reg, a.reg, b.reg, c.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
     return Value(reg, 1)
 
 
 def _map_range(net, node, out, depth):
     if getattr(node, "data_type", "FLOAT") != "FLOAT" or out.identifier != "Result":
         return _UNSUPPORTED
-    kind = MAP_RANGE_TYPES[node.interpolation_type]
+    kind = _vm("map_range_types")[node.interpolation_type]
     ins = [_in(net, node, name, "float", depth) for name in ("Value", "From Min", "From Max", "To Min", "To Max", "Steps")]
     reg = net._temp(1)
-    net._emit(OP_MAP_RANGE, [kind, int(node.clamp), reg] + [v.reg for v in ins],
+    net._emit("MAP_RANGE", [kind, int(node.clamp), reg] + [v.reg for v in ins],
               [(k, 1) for k in range(3, 9)], [(2, 1)])
     return Value(reg, 1)
 
@@ -544,7 +541,7 @@ def _map_range(net, node, out, depth):
 def _clamp(net, node, out, depth):
     ins = [_in(net, node, name, "float", depth) for name in ("Value", "Min", "Max")]
     reg = net._temp(1)
-    net._emit(OP_CLAMP, [1 if node.clamp_type == "RANGE" else 0, reg] + [v.reg for v in ins],
+    net._emit("CLAMP", [1 if node.clamp_type == "RANGE" else 0, reg] + [v.reg for v in ins],
               [(2, 1), (3, 1), (4, 1)], [(1, 1)])
     return Value(reg, 1)
 
@@ -562,7 +559,7 @@ def _color_ramp(net, node, out, depth):
             table.extend(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
         tab = net.constant(table)
         block = Value(net._temp(4), 4)
-        net._emit(OP_COLOR_RAMP, [int(ramp.interpolation != "CONSTANT"), tab.reg, RAMP_TABLE_SIZE,
+        net._emit("COLOR_RAMP", [int(ramp.interpolation != "CONSTANT"), tab.reg, RAMP_TABLE_SIZE,
                                   block.reg, Reg("t", block.reg.index + 3), fac.reg],
                   [(5, 1)], [(3, 3), (4, 1)])
         net._outputs[key] = block
@@ -573,13 +570,13 @@ def _color_ramp(net, node, out, depth):
 
 def _mix_color(net, blend, flags, fac, a, b):
     reg = net._temp(3)
-    net._emit(OP_MIX_COLOR, [MIX_BLENDS[blend], flags, reg, fac.reg, a.reg, b.reg], [(3, 1), (4, 3), (5, 3)],
+    net._emit("MIX_COLOR", [_vm("mix_blends")[blend], flags, reg, fac.reg, a.reg, b.reg], [(3, 1), (4, 3), (5, 3)],
               [(2, 3)])
     return Value(reg, 3)
 
 
 def _mix_rgb(net, node, out, depth):
-    if node.blend_type not in MIX_BLENDS:
+    if node.blend_type not in _vm("mix_blends"):
         return _UNSUPPORTED
     fac = _in(net, node, "Fac", "float", depth)
     a = _in(net, node, "Color1", "color", depth)
@@ -590,7 +587,7 @@ def _mix_rgb(net, node, out, depth):
 def _mix(net, node, out, depth):
     dt = node.data_type
     if dt == "RGBA":
-        if node.blend_type not in MIX_BLENDS:
+        if node.blend_type not in _vm("mix_blends"):
             return _UNSUPPORTED
         fac = _in(net, node, "Factor_Float", "float", depth)
         a = _in(net, node, "A_Color", "color", depth)
@@ -602,7 +599,7 @@ def _mix(net, node, out, depth):
         a = _in(net, node, "A_Float", "float", depth)
         b = _in(net, node, "B_Float", "float", depth)
         reg = net._temp(1)
-        net._emit(OP_MIX_FLOAT, [int(node.clamp_factor), reg, fac.reg, a.reg, b.reg], [(2, 1), (3, 1), (4, 1)],
+        net._emit("MIX_FLOAT", [int(node.clamp_factor), reg, fac.reg, a.reg, b.reg], [(2, 1), (3, 1), (4, 1)],
                   [(1, 1)])
         return Value(reg, 1)
     if dt == "VECTOR":
@@ -612,7 +609,7 @@ def _mix(net, node, out, depth):
         a = _in(net, node, "A_Vector", "vector", depth)
         b = _in(net, node, "B_Vector", "vector", depth)
         reg = net._temp(3)
-        net._emit(OP_MIX_VECTOR, [int(non_uniform), int(node.clamp_factor), reg, fac.reg, a.reg, b.reg],
+        net._emit("MIX_VECTOR", [int(non_uniform), int(node.clamp_factor), reg, fac.reg, a.reg, b.reg],
                   [(3, 3 if non_uniform else 1), (4, 3), (5, 3)], [(2, 3)])
         return Value(reg, 3)
     return _UNSUPPORTED
@@ -640,7 +637,7 @@ def _invert(net, node, out, depth):
     fac = _in(net, node, "Fac", "float", depth)
     color = _in(net, node, "Color", "color", depth)
     reg = net._temp(3)
-    net._emit(OP_INVERT, [reg, fac.reg, color.reg], [(1, 1), (2, 3)], [(0, 3)])
+    net._emit("INVERT", [reg, fac.reg, color.reg], [(1, 1), (2, 3)], [(0, 3)])
     return Value(reg, 3)
 
 
@@ -648,7 +645,7 @@ def _gamma(net, node, out, depth):
     color = _in(net, node, "Color", "color", depth)
     gamma = _in(net, node, "Gamma", "float", depth)
     reg = net._temp(3)
-    net._emit(OP_GAMMA, [reg, color.reg, gamma.reg], [(1, 3), (2, 1)], [(0, 3)])
+    net._emit("GAMMA", [reg, color.reg, gamma.reg], [(1, 3), (2, 1)], [(0, 3)])
     return Value(reg, 3)
 
 
@@ -657,7 +654,7 @@ def _bright_contrast(net, node, out, depth):
     bright = _in(net, node, "Bright", "float", depth)
     contrast = _in(net, node, "Contrast", "float", depth)
     reg = net._temp(3)
-    net._emit(OP_BRIGHT_CONTRAST, [reg, color.reg, bright.reg, contrast.reg], [(1, 3), (2, 1), (3, 1)], [(0, 3)])
+    net._emit("BRIGHT_CONTRAST", [reg, color.reg, bright.reg, contrast.reg], [(1, 3), (2, 1), (3, 1)], [(0, 3)])
     return Value(reg, 3)
 
 

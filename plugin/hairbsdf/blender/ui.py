@@ -1,11 +1,14 @@
 """UI of the HAIRBSDF engine: its own settings (scene.hairbsdf) and panel, Cycles' panels
 for the settings the engine reads from scene.cycles / scene.cycles_curves, Blender's
-generic panels, and small material/world/light panels (Cycles' own ones poll on
-CyclesButtonsPanel, i.e. on 'CYCLES' only)."""
+generic panels, small material/world/light panels (Cycles' own ones poll on
+CyclesButtonsPanel, i.e. on 'CYCLES' only), and the Hair Model Override panel with its reset
+operator (the override's properties and export step live in model_override.py)."""
 
 from __future__ import annotations
 
 import bpy
+
+from .model_override import fill_params
 
 ENGINE_ID = "HAIRBSDF"
 
@@ -227,8 +230,70 @@ class HAIRBSDF_LIGHT_PT_light(bpy.types.Panel):
             col.prop(light, "spot_blend")
 
 
+class HAIRBSDF_OT_model_override_reset(bpy.types.Operator):
+    """Reset the hair model's parameters to their defaults"""
+
+    bl_idname = "hairbsdf.model_override_reset"
+    bl_label = "Reset Parameters"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "material", None) is not None
+
+    def execute(self, context):
+        fill_params(context.material.hairbsdf, keep=False)
+        return {"FINISHED"}
+
+
+class HAIRBSDF_MATERIAL_PT_model_override(bpy.types.Panel):
+    bl_label = "Hair Model Override"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        mat = context.material
+        return mat is not None and not getattr(mat, "grease_pencil", None) and context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        s = context.material.hairbsdf
+        layout.prop(s, "override")
+        if s.override == "NONE":
+            return
+        if s.override == "plugin":
+            layout.prop(s, "plugin_path")
+        if s.schema_error:
+            box = layout.box()
+            box.alert = True
+            box.label(text=s.schema_error[:200], icon="ERROR")
+            return
+        col = layout.column()
+        for p in s.params:
+            row = col.row()
+            row.alert = not p.in_range()
+            text = p.name.replace("_", " ").title()
+            if p.optional:
+                head = row.row(align=True)
+                head.prop(p, "use", text="")
+                row = head
+                row.active = p.use
+            prop = {"FLOAT": "value", "CHOICE": "choice", "BOOL": "flag"}.get(p.kind)
+            if prop is None:
+                prop = "color" if p.max <= 1.0 else "vector"
+            row.prop(p, prop, text=text)
+        layout.operator(HAIRBSDF_OT_model_override_reset.bl_idname, icon="LOOP_BACK")
+        layout.label(text="Replaces each Principled Hair closure; other closures stay.", icon="INFO")
+
+
 classes = (HairBsdfSceneSettings, HAIRBSDF_RENDER_PT_settings, HAIRBSDF_MATERIAL_PT_surface,
-           HAIRBSDF_WORLD_PT_surface, HAIRBSDF_LIGHT_PT_light)
+           HAIRBSDF_WORLD_PT_surface, HAIRBSDF_LIGHT_PT_light, HAIRBSDF_OT_model_override_reset,
+           HAIRBSDF_MATERIAL_PT_model_override)
 
 
 def register():

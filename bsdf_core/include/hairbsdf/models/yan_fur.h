@@ -29,7 +29,6 @@
 #include "hairbsdf/closure.h"
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/yan_fur_tables.h"
-#include "hairbsdf/params/principled_hair.h"
 
 namespace hairbsdf {
 

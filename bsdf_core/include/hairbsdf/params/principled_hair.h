@@ -33,26 +33,6 @@ struct PrincipledHairInputs {
     double secondary_reflection = 1.0;  // "Secondary Reflection" (TRT)
 };
 
-// Chiang 2016 eq. 7: longitudinal roughness -> variance of M_p.
-inline double longitudinal_variance(double beta_m) {
-    const double b2 = beta_m * beta_m, b4 = b2 * b2, b20 = b4 * b4 * b4 * b4 * b4;
-    return sqr(0.726 * beta_m + 0.812 * b2 + 3.7 * b20);
-}
-
-// Chiang 2016 eq. 8: azimuthal roughness -> logistic scale, without sqrt(pi/8).
-inline double azimuthal_scale_raw(double beta_n) {
-    const double b2 = beta_n * beta_n, b4 = b2 * b2, b8 = b4 * b4, b16 = b8 * b8;
-    return 0.265 * beta_n + 1.194 * b2 + 5.372 * b16 * b4 * b2;
-}
-// ... and with sqrt(pi/8), the scale N_p uses (Cycles folds it in at setup).
-inline double azimuthal_scale(double beta_n) { return kSqrtPiOver8 * azimuthal_scale_raw(beta_n); }
-
-// Chiang 2016 eq. 9 denominator; Cycles' bsdf_principled_hair_albedo_roughness_scale.
-inline double albedo_roughness_scale(double beta_n) {
-    const double x = beta_n, x2 = x * x, x3 = x2 * x, x4 = x2 * x2, x5 = x4 * x;
-    return 5.969 - 0.215 * x + 2.532 * x2 - 10.73 * x3 + 5.574 * x4 + 0.245 * x5;
-}
-
 // Direct coloring: sigma_a = (ln(max(C, 0)) / P(beta_n))^2 per channel. A black channel
 // gives +inf (fully absorbing), where Cycles before 5.0 took ln of a negative number.
 inline RGB absorption_from_color(RGB color, double radial_roughness) {

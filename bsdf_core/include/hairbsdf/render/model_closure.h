@@ -1,6 +1,6 @@
 // The `hair_model` closure (docs/scene_desc.md): a zoo model or a plugin in place of a
 // material's hair closure, built once per material by the model factory
-// (models/model_factory.h) and prepared once per hit; eval and sample go through the
+// (model_factory.h) and prepared once per hit; eval and sample go through the
 // HairModel visitors of closures.h. A non-finite result (e.g. a failed plugin call) is no
 // value and no sample, so it never reaches the image. The renderer labels the lobes with the
 // model's scatter_label (closures.h; Principled Hair's unless the model has its own).
@@ -10,7 +10,7 @@
 #include <memory>
 #include <string>
 
-#include "hairbsdf/models/model_factory.h"
+#include "hairbsdf/model_factory.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {

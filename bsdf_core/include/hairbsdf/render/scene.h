@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "hairbsdf/closures.h"
-#include "hairbsdf/models/model_params.h"
+#include "hairbsdf/model_params.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "hairbsdf/render/shading_vm.h"
 
@@ -90,7 +90,7 @@ struct ClosureDesc {
     RGB color{0.8};
     double strength = 1.0;  // emission only
     // hair_model: a zoo model ("kajiya_kay", "epic", ...) or "plugin" (the library at
-    // model_path) with named parameters; built by models/model_factory.h.
+    // model_path) with named parameters; built by model_factory.h.
     std::string model_name;
     std::string model_path;
     ModelParams model_params;

@@ -4,13 +4,14 @@
 //
 // Registers are float slots. Slots [0, constants.size()) hold the program's constants and are
 // never written; the rest start at 0 for every evaluation. A colour or vector is 3 consecutive
-// slots. An instruction is an opcode followed by a fixed number of int32 arguments (the table
-// in shading_vm.cpp); `validate_program` checks every slot index once, so `run_program` does
+// slots. An instruction is an opcode followed by a fixed number of int32 arguments
+// (`shading_instruction_set()`); `validate_program` checks every slot index once, so `run_program` does
 // no bounds checks. Depends on nothing but the standard library: the models never see it.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hairbsdf::render {
@@ -71,6 +72,27 @@ enum class MixBlend : int32_t {
     Saturation, Value, Color, SoftLight, LinearLight, Exclusion,
     Count
 };
+
+// The instruction set as the exporter names it: each opcode with its argument count, and each
+// enum under Blender's identifiers for the node setting it stands for. This is the one place
+// these numbers are written; the exporter reads them through
+// hairbsdf._render.shading_vm_instruction_set().
+struct ShadingNamedValue {
+    const char* name;
+    int32_t value;
+};
+struct ShadingOpInfo {
+    const char* name;
+    ShadingOp op;
+    int32_t argument_count;  // after the opcode
+};
+struct ShadingInstructionSet {
+    std::vector<ShadingOpInfo> ops;  // in opcode order, from 1
+    // "math_types", "map_range_types", "mix_blends", "hair_info_outputs", "image_interpolations",
+    // "image_extensions", "image_flags"
+    std::vector<std::pair<std::string, std::vector<ShadingNamedValue>>> enums;
+};
+const ShadingInstructionSet& shading_instruction_set();
 
 struct ShadingProgram {
     std::vector<int32_t> code;

@@ -1,6 +1,6 @@
 // Named model parameters as plain data: the schema of one parameter (name, kind, default,
 // range) and the values a caller gives by name. Shared by the model factory
-// (models/model_factory.h), the renderer's `hair_model` closure (render/scene.h) and the
+// (model_factory.h), the renderer's `hair_model` closure (render/scene.h) and the
 // bindings; no model code here.
 #pragma once
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "hairbsdf/closures.h"
-#include "hairbsdf/models/model_params.h"
+#include "hairbsdf/model_params.h"
 
 namespace hairbsdf {
 
