@@ -76,3 +76,65 @@ def test_light_units_match_cycles(run_blender, engine_kind, renderer_available, 
         print(f"\n[light units] {r['version']}:\n  " + "\n  ".join(lines))
     assert not bad, f"{r['version']}: light means differ beyond the noise for {bad}:\n" + "\n".join(lines)
     assert all(np.isfinite(m["ours"]) and m["cycles"] > 1e-3 for m in r["lights"].values())
+
+
+# Hair lit only by an emissive mesh quad (lab/emissive_mesh_clamp.py's setup, smaller), Clamp
+# Direct / Indirect 0.03: low enough to cut Cycles' own light samples (its mean drops by a third
+# against Clamp 0), so the engine must match Cycles' contribution sizes, not only their sum.
+# Cycles light-samples emissive triangles (3.x: its light distribution, 4.x / 5.x: its light tree)
+# and weights BSDF hits of them by MIS; an engine that reaches them by BSDF rays only has rare,
+# large contributions that the clamp cuts (0.07 of Cycles' mean at Clamp 1, docs/engine.md). Each engine renders the one scene SEEDS times; the image means over the hair
+# pixels are compared with the harness's mean-bias test (metrics.mean_bias, t-critical).
+EMISSIVE_MESH = r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+scene = hs.reset(width=ARGS["size"][0], height=ARGS["size"][1], spp=ARGS["spp"], film_transparent=True)
+cy = scene.cycles
+cy.max_bounces = 2
+cy.sample_clamp_direct = cy.sample_clamp_indirect = ARGS["clamp"]
+scene.hairbsdf.threads = 2
+world = bpy.data.worlds.new("W")
+world.use_nodes = False
+world.color = (0.0, 0.0, 0.0)
+scene.world = world
+base = hs.make_plane(size=0.8, location=(0.0, 0.0, 0.0), name="Scalp")
+hs.add_slot(base, hs.diffuse_material("Skin", (0.2, 0.2, 0.2)))
+hs.add_slot(base, hs.hair_material("Hair", melanin=0.2, roughness=0.3))
+hs.add_particle_hair(base, count=60, length=0.5, radius_scale=0.02, material_slot=2, seed=3)
+base.show_instancer_for_render = False
+# a 0.5 m quad above and in front of the hair, facing it, outside the camera's view
+lamp = hs.make_plane(size=0.5, location=(0.0, -1.0, 1.5), name="Lamp")
+lamp.rotation_euler = (3.83, 0.0, 0.0)
+hs.add_slot(lamp, hs.emission_material("Glow", (1.0, 0.9, 0.8), 30.0))
+hs.make_camera(location=(0.0, -3.0, 0.3), target=(0.0, 0.0, 0.25))
+stacks = {"CYCLES": [], "HAIRBSDF": []}
+for seed in range(ARGS["seeds"]):
+    cy.seed = seed
+    for eng, px in render_engines(scene, f"s{seed}_").items():
+        stacks[eng].append(px)
+    assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
+cyc, ours = np.asarray(stacks["CYCLES"]), np.asarray(stacks["HAIRBSDF"])
+mask = (cyc[..., 3] > 0.5).all(axis=0) & (ours[..., 3] > 0.5).all(axis=0)
+# each render's mean RGB over the hair pixels
+emit({"version": bpy.app.version_string, "pixels": int(mask.sum()),
+      "cycles": cyc[:, mask, :3].mean(axis=1).tolist(), "ours": ours[:, mask, :3].mean(axis=1).tolist()})
+'''
+
+
+def test_emissive_mesh_light_sampling_with_clamp(run_blender, engine_kind, renderer_available, capsys):
+    from hairbsdf.compare import metrics
+    need_renderer(engine_kind, renderer_available)
+    r = run_blender(engine_kind, EMISSIVE_MESH,
+                    args={"size": (48, 36), "spp": 32, "seeds": 4, "clamp": 0.03}).result
+    assert r["pixels"] > 50, "too few hair pixels"
+    # per-render image means as 1 x 1 images: mean_bias's statistics over the renders
+    b = metrics.mean_bias(np.asarray(r["cycles"])[:, None, None, :], np.asarray(r["ours"])[:, None, None, :])
+    crit = metrics.mean_bias_critical(b["df"])
+    record(f"engine_emissive_mesh_{ENGINE_KINDS[engine_kind]}", {k: b[k] for k in ("mean_a", "mean_b", "rel", "z", "df")})
+    line = (f"Cycles {b['mean_a']:.5f} ours {b['mean_b']:.5f} ratio {b['mean_b'] / b['mean_a']:.4f} "
+            f"z {b['z']:.2f} (critical {crit:.2f}, relative sigma {b['rel_sigma']:.1e})")
+    with capsys.disabled():
+        print(f"\n[emissive mesh, clamp 0.03] {r['version']}: {line}")
+    # resolving power: a 10 % bias must stand out (the BSDF-only engine was 94 % dark)
+    assert b["rel_sigma"] < 0.03, line
+    assert abs(b["z"]) < crit, f"{r['version']}: image means differ beyond the noise: {line}"

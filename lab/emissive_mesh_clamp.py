@@ -1,7 +1,8 @@
 """Hair lit only by an emissive mesh quad, Cycles against the HAIRBSDF engine, with Clamp
 Direct/Indirect off and at 1 (the emissive-mesh row of docs/engine.md). Cycles light-samples
-emissive meshes; the engine reaches them by BSDF rays only, so its contributions are rare and
-large: the same mean without clamping, far more noise, and a clamp cuts much more.
+emissive meshes; an engine that reaches them by BSDF rays only has rare, large contributions:
+the same mean without clamping, far more noise, and a clamp cuts much more (0.056 of Cycles'
+mean at clamp 1 before the engine light-sampled them too; about 1.0 since).
 
   .venv/bin/python lab/emissive_mesh_clamp.py [--spp 128] [--seeds 4]
 

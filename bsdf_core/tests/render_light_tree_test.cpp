@@ -164,7 +164,16 @@ TEST(RenderLightTree, WorldEnergyCountsTheStrengthTwice) {
     const Light world(RGB(0.0), tex, true);
     const LightTreeEmitter& e = world.tree_emitter();
     EXPECT_EQ(e.kind, LightTreeEmitter::Kind::World);
-    EXPECT_NEAR(e.energy(), kPi * 0.4 * 2.0, 1e-6);
+    // Cycles' importance map at the texture's 8 x 4 texel centres: a constant 0.4 averages to
+    // 0.4 x (sum of the rows' sin(theta)) / 4 x pi / 2 (1.026 x 0.4 on 4 rows), times the strength.
+    const double rows = (std::sin(kPi / 8) + std::sin(3 * kPi / 8) + std::sin(5 * kPi / 8) + std::sin(7 * kPi / 8)) / 4;
+    EXPECT_NEAR(e.energy(), kPi * 0.4 * rows * (kPi / 2) * 2.0, 1e-6);  // texels are float
+    // World > Settings > Map Resolution 64: a 64 x 32 map, whose row sum is closer to 2 / pi.
+    double rows64 = 0;
+    for (int i = 0; i < 32; ++i) rows64 += std::sin(kPi * (i + 0.5) / 32) / 32;
+    const Light manual(RGB(0.0), tex, true, 64);
+    EXPECT_NEAR(manual.tree_emitter().energy(), kPi * 0.4 * rows64 * (kPi / 2) * 2.0, 1e-6);
+    EXPECT_GT(std::fabs(manual.tree_emitter().energy() - e.energy()), 0.02 * e.energy());
     EXPECT_EQ(e.measure.cone.theta_o, kPi);
     // Importance: E whatever the normal, I_min = 0.
     const LightTree t({e});
@@ -338,4 +347,73 @@ TEST(RenderLightTree, SpotConeAndBlend) {
     EXPECT_NEAR(I.max, std::cos(std::max(0.0, ti - tu)) * E * std::cos(std::max(0.0, theta - tu)) / (dist * dist), 1e-9);
     EXPECT_GT(blend, 0.0);
     EXPECT_LT(blend, 1.0);  // the test point sits in the blend zone
+}
+
+// Emissive meshes as Cycles 4.5 puts them in the tree: one "mesh" emitter per object in the
+// top level, each with a subtree of its triangles. The pdf over lamps and triangles sums to 1
+// (transmission: nothing culled) and sample() draws each triangle with its pdf.
+TEST(RenderLightTree, EmissiveMeshSubtrees) {
+    SceneDesc s;
+    s.integrator.light_tree = true;
+    MaterialDesc m;
+    ClosureDesc e;
+    e.type = ClosureDesc::Type::Emission;
+    e.strength = 8.0;
+    m.closures.push_back(e);
+    s.materials.push_back(m);
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    for (int obj = 0; obj < 2; ++obj) {
+        for (int k = 0; k < 11; ++k) {  // 11 triangles: more than a leaf holds
+            const int base = int(s.meshes.vertices.size());
+            const double cx = 3.0 * obj + 0.4 * k, cy = U(rng), cz = 2.0 + U(rng);
+            s.meshes.vertices.push_back({float(cx), float(cy), float(cz)});
+            s.meshes.vertices.push_back({float(cx + 0.3), float(cy + 0.1 * U(rng)), float(cz + 0.1 * U(rng))});
+            s.meshes.vertices.push_back({float(cx + 0.1), float(cy + 0.3), float(cz + 0.1 * U(rng))});
+            s.meshes.triangles.push_back({base, base + 1, base + 2});
+            s.meshes.material.push_back(0);
+            s.meshes.object.push_back(7 + obj);
+        }
+    }
+    for (int i = 0; i < 5; ++i) s.lights.push_back(point_light(U(rng) * 3, U(rng) * 3, U(rng) * 3, 20 + i));
+    s.lights.push_back(sun_light(normalize(Vec3{0.3, 0.2, 1}), 3.0));
+    const LightSet set(s);
+    ASSERT_EQ(set.size(), 6u + 22u);
+    const LightTree& t = *set.tree();
+    // Two mesh emitters after the lights, each with an inner subtree over its 11 triangles.
+    int meshes = 0;
+    for (size_t i = set.size(); i < set.size() + 2; ++i) {
+        const LightTreeEmitter& me = t.emitter(int(i));
+        ASSERT_EQ(me.kind, LightTreeEmitter::Kind::Mesh);
+        EXPECT_FALSE(t.nodes()[size_t(me.subtree)].leaf());
+        EXPECT_EQ(t.nodes()[size_t(me.subtree)].bit_trail, 0u);
+        ++meshes;
+    }
+    EXPECT_EQ(meshes, 2);
+    std::uniform_real_distribution<double> V(0.0, 1.0);
+    for (int trial = 0; trial < 4; ++trial) {
+        const Vec3 P{U(rng), U(rng), U(rng)}, N = random_unit(rng);
+        const bool trans = trial % 2 == 0;
+        std::vector<double> pdf(set.size());
+        double sum = 0;
+        for (size_t i = 0; i < set.size(); ++i) sum += pdf[i] = t.pdf(P, N, trans, int(i));
+        if (trans) {
+            EXPECT_NEAR(sum, 1.0, 1e-9) << trial;
+        }
+        EXPECT_LE(sum, 1.0 + 1e-9);
+        const int n = 200000;
+        std::vector<int> count(set.size(), 0);
+        for (int k = 0; k < n; ++k) {
+            double p = 0;
+            const int i = t.sample(P, N, trans, V(rng), p);
+            if (i < 0) continue;
+            ASSERT_LT(size_t(i), set.size());
+            ++count[size_t(i)];
+            EXPECT_NEAR(p, pdf[size_t(i)], 1e-12 * std::max(1.0, p));
+        }
+        for (size_t i = 0; i < set.size(); ++i) {
+            const double sigma = std::sqrt(n * pdf[i] * (1 - pdf[i])) + 1;
+            EXPECT_NEAR(count[i], n * pdf[i], 5 * sigma) << "trial " << trial << " light " << i;
+        }
+    }
 }

@@ -255,3 +255,154 @@ TEST(RenderLights, NarrowSpreadRectanglesAreClippedAndUnbiased) {
     LightSample s;
     EXPECT_FALSE(light.sample({3.0, 0.0, 0.0}, 0.5, 0.5, s));  // 2 units beyond the edge, reach 0.21
 }
+
+// ---------------------------------------------------------------------------------------
+// Emissive triangles (Cycles' mesh lights)
+
+namespace {
+
+// A scene with two point lights and an emissive mesh of `triangles` triangles (a fan of
+// different areas around z = 1.5, facing down), material 0 emitting `strength`.
+SceneDesc emissive_mesh_scene(int triangles, double strength, EmissionSampling sampling = EmissionSampling::Auto) {
+    SceneDesc s;
+    MaterialDesc m;
+    ClosureDesc e;
+    e.type = ClosureDesc::Type::Emission;
+    e.color = RGB(1.0, 0.9, 0.8);
+    e.strength = strength;
+    m.closures.push_back(e);
+    m.emission_sampling = sampling;
+    s.materials.push_back(m);
+    s.meshes.vertices.push_back({0.0f, 0.0f, 1.5f});
+    for (int k = 0; k <= triangles; ++k) {
+        const double a = 0.9 * k, r = 0.3 + 0.2 * k;
+        s.meshes.vertices.push_back({float(r * std::cos(a)), float(r * std::sin(a)), 1.5f});
+    }
+    for (int k = 0; k < triangles; ++k) {
+        s.meshes.triangles.push_back({0, k + 2, k + 1});  // normal -Z
+        s.meshes.material.push_back(0);
+    }
+    for (int i = 0; i < 2; ++i) {
+        LightDesc d;
+        d.type = LightType::Point;
+        d.position = {0.5 * i, -1.0, 2.0};
+        d.radius = 0.1;
+        s.lights.push_back(d);
+    }
+    return s;
+}
+
+Vec3 vertex(const SceneDesc& s, int tri, int k) {
+    const auto& v = s.meshes.vertices[size_t(s.meshes.triangles[size_t(tri)][size_t(k)])];
+    return {v[0], v[1], v[2]};
+}
+
+}  // namespace
+
+// Cycles 3.x's light distribution: with emissive triangles the lamps share half the
+// probability equally and the triangles half by area; sample() draws with those pdfs.
+TEST(RenderLights, DistributionGivesTrianglesHalfByArea) {
+    const SceneDesc s = emissive_mesh_scene(4, 10.0);
+    const LightSet set(s);
+    ASSERT_EQ(set.lamp_count(), 2u);
+    ASSERT_EQ(set.size(), 6u);
+    double area = 0;
+    for (size_t i = 2; i < set.size(); ++i) area += set.light(i).triangle_area();
+    const LightPickContext at{{0, 0, 0}, {0, 0, 1}, false};
+    double sum = 0;
+    for (size_t i = 0; i < set.size(); ++i) {
+        const double expected = i < 2 ? 0.25 : 0.5 * set.light(i).triangle_area() / area;
+        EXPECT_NEAR(set.selection_pdf(int(i), at), expected, 1e-12) << i;
+        sum += set.selection_pdf(int(i), at);
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+    // Frequencies: each triangle's picks over n (recovered from the sample's triangle index).
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u;
+    const int n = 200000;
+    std::vector<int> count(set.size(), 0);
+    for (int k = 0; k < n; ++k) {
+        LightSample ls;
+        if (!set.sample(at, u(rng), u(rng), u(rng), ls)) continue;
+        if (ls.triangle >= 0) ++count[size_t(set.triangle_light(ls.triangle))];
+    }
+    for (size_t i = 2; i < set.size(); ++i) {
+        const double p = set.selection_pdf(int(i), at);
+        EXPECT_NEAR(count[i], n * p, 5 * std::sqrt(n * p * (1 - p)) + 1) << i;
+    }
+    // Without lamps the triangles take everything.
+    SceneDesc only = s;
+    only.lights.clear();
+    const LightSet tris(only);
+    double tsum = 0;
+    for (size_t i = 0; i < tris.size(); ++i) tsum += tris.selection_pdf(int(i), at);
+    EXPECT_NEAR(tsum, 1.0, 1e-12);
+}
+
+// A triangle's sampling density integrates to 1 over the directions that reach it, from points
+// where Cycles samples the solid angle (close) and the area (far); each sample's pdf is the
+// density the BSDF-hit side (triangle_pdf) reports for that point, as MIS needs.
+TEST(RenderLights, TriangleSamplesMatchTheirHitPdf) {
+    const SceneDesc s = emissive_mesh_scene(1, 10.0);
+    const LightSet set(s);
+    ASSERT_EQ(set.size(), 3u);
+    const Light& light = set.light(2);
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> u;
+    int solid_angle = 0, area = 0;
+    const Vec3 a = vertex(s, 0, 0), b = vertex(s, 0, 1), c = vertex(s, 0, 2);
+    const Vec3 n_unit = normalize(cross(b - a, c - a));
+    const double tri_area = light.triangle_area();
+    for (const Vec3 p : {Vec3{0.05, 0.1, 1.49}, Vec3{0.1, 0.05, 1.52}, Vec3{0.3, -0.2, -6.0}, Vec3{0.2, 0.1, 6.0}}) {
+        // The integral over directions, as one over the triangle's area: pdf x cos / t^2.
+        const int n = 400000;
+        double integral = 0;
+        for (int i = 0; i < n; ++i) {
+            double x = u(rng), y = u(rng);
+            if (x + y > 1) {
+                x = 1 - x;
+                y = 1 - y;
+            }
+            const Vec3 on = a + x * (b - a) + y * (c - a);
+            const Vec3 d = on - p;
+            const double t2 = dot(d, d);
+            integral += light.triangle_pdf(p, on) * std::fabs(dot(n_unit, d)) / (t2 * std::sqrt(t2));
+        }
+        integral *= tri_area / n;
+        EXPECT_NEAR(integral, 1.0, 0.02) << p.x << " " << p.y << " " << p.z;
+        for (int i = 0; i < 2000; ++i) {
+            LightSample ls;
+            ASSERT_TRUE(light.sample(p, u(rng), u(rng), ls));
+            const Vec3 on = p + ls.distance * ls.wi;
+            const Vec3 bary = (1 - ls.u - ls.v) * vertex(s, 0, 0) + ls.u * vertex(s, 0, 1) + ls.v * vertex(s, 0, 2);
+            ASSERT_NEAR(length(on - bary), 0.0, 1e-6);
+            ASSERT_NEAR(ls.pdf, light.triangle_pdf(p, on), 1e-6 * ls.pdf);
+            ASSERT_TRUE(ls.use_mis);
+        }
+        (std::fabs(p.z - 1.5) < 0.1 ? solid_angle : area)++;
+    }
+    EXPECT_EQ(solid_angle, 2);
+    EXPECT_EQ(area, 2);
+    // The two branches were both taken: the solid-angle pdf near the plane is not the area one.
+    const Vec3 near{0.05, 0.1, 1.49}, on = (1.0 / 3.0) * (a + b + c);
+    const Vec3 d = on - near;
+    EXPECT_GT(std::fabs(light.triangle_pdf(near, on) - dot(d, d) / (std::fabs(dot(n_unit, normalize(d))) * tri_area)),
+              0.01 * light.triangle_pdf(near, on));
+}
+
+// Emission Sampling: Auto samples a material whose largest emission channel exceeds 0.5
+// (Cycles' rule), None never, Front only from the front side (Cycles 4.x).
+TEST(RenderLights, EmissionSamplingChoosesTrianglesAndSides) {
+    // two lamps, two triangles
+    EXPECT_EQ(LightSet(emissive_mesh_scene(2, 0.5)).size(), 2u);  // 0.5 x 1.0 = 0.5: not above 0.5
+    EXPECT_EQ(LightSet(emissive_mesh_scene(2, 0.6)).size(), 2u + 2u);
+    EXPECT_EQ(LightSet(emissive_mesh_scene(2, 5.0, EmissionSampling::None)).size(), 2u);
+    const SceneDesc front = emissive_mesh_scene(1, 5.0, EmissionSampling::Front);
+    const LightSet set(front);
+    ASSERT_EQ(set.size(), 3u);
+    LightSample ls;
+    EXPECT_TRUE(set.light(2).sample({0.1, 0.1, 0.0}, 0.3, 0.4, ls));   // below: the front (normal -Z)
+    EXPECT_FALSE(set.light(2).sample({0.1, 0.1, 3.0}, 0.3, 0.4, ls));  // above: the back
+    EXPECT_TRUE(set.light(2).samples_side(false));
+    EXPECT_FALSE(set.light(2).samples_side(true));
+}

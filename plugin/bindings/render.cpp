@@ -304,6 +304,11 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
         md.normals.resize(size_t(n.shape(0)));
         std::memcpy(md.normals.data(), n.data(), md.normals.size() * sizeof(float) * 9);
     }
+    if (m.contains("triangle_object") && !m["triangle_object"].is_none()) {
+        auto to = array_shape<int32_t>(m["triangle_object"], sub(key, "triangle_object"), 0);
+        if (to.shape(0) != t.shape(0)) fail(sub(key, "triangle_object"), "expected one object id per triangle");
+        md.object.assign(to.data(), to.data() + to.shape(0));
+    }
     if (auto o = get_optional(m, "attributes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");
@@ -385,6 +390,12 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
         MaterialDesc md;
         if (m.contains("name") && !m["name"].is_none()) md.name = as_str(m["name"], sub(key, "name"));
         if (auto prog = get_optional(m, "program")) md.program = read_program(*prog, sub(key, "program"));
+        if (m.contains("emission_sampling") && !m["emission_sampling"].is_none()) {
+            md.emission_sampling = as_enum<EmissionSampling>(
+                m["emission_sampling"], sub(key, "emission_sampling"),
+                {{"AUTO", EmissionSampling::Auto}, {"NONE", EmissionSampling::None}, {"FRONT", EmissionSampling::Front},
+                 {"BACK", EmissionSampling::Back}, {"FRONT_BACK", EmissionSampling::FrontBack}});
+        }
         py::object closures = get(m, key, "closures");
         if (!py::isinstance<py::list>(closures) && !py::isinstance<py::tuple>(closures))
             throw py::type_error("scene" + sub(key, "closures") + ": expected a list");
@@ -630,6 +641,11 @@ SceneDesc scene_from_dict(const py::dict& scene) {
         if (auto c = get_optional(wd, "color")) out.world = as_rgb(*c, "['world']['color']");
         if (auto t = get_optional(wd, "texture")) read_environment(*t, out.world_texture);
         if (auto m = get_optional(wd, "mis")) out.world_mis = as_bool(*m, "['world']['mis']");
+        if (auto r = get_optional(wd, "map_resolution")) {
+            const long res = as_int(*r, "['world']['map_resolution']");
+            if (res < 0 || res > 65536) fail("['world']['map_resolution']", "expected 0 (automatic) to 65536");
+            out.world_map_resolution = int(res);
+        }
     }
     read_integrator(scene, out);
     return out;

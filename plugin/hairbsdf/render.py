@@ -24,6 +24,7 @@ from typing import Callable, Optional
 import numpy as np
 
 CURVE_SHAPES = ("RIBBONS", "THICK")
+EMISSION_SAMPLING = ("AUTO", "NONE", "FRONT", "BACK", "FRONT_BACK")  # materials' emission_sampling
 CAMERA_TYPES = ("PERSP", "ORTHO")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 LIGHT_TYPES = ("SUN", "POINT", "SPOT", "AREA")
@@ -240,6 +241,11 @@ def _check_meshes(scene, out):
             raise ValueError(f"{key}['triangle_normals']: expected one row of 3 corner normals per triangle "
                              f"({len(triangles)})")
         out["meshes"]["triangle_normals"] = normals
+    if m.get("triangle_object") is not None:
+        objects = _Checker.array(f"{key}['triangle_object']", m["triangle_object"], np.int32, None)
+        if len(objects) != len(triangles):
+            raise ValueError(f"{key}['triangle_object']: expected one object id per triangle ({len(triangles)})")
+        out["meshes"]["triangle_object"] = objects
     if m.get("attributes") is not None:
         attrs = []
         curve_names = [a["name"] for a in (out.get("curves") or {}).get("attributes", [])]
@@ -361,6 +367,9 @@ def _check_materials(scene, out):
                "closures": [_check_closure(f"{key}['closures'][{j}]", c) for j, c in enumerate(closures)]}
         if m.get("program") is not None:
             mat["program"] = _check_program(f"{key}['program']", m["program"])
+        if m.get("emission_sampling") is not None:
+            mat["emission_sampling"] = _Checker.choice(f"{key}['emission_sampling']", m["emission_sampling"],
+                                                       EMISSION_SAMPLING)
         mats.append(mat)
     out["materials"] = mats
 
@@ -431,6 +440,10 @@ def _check_world(scene, out):
         return
     w = _Checker.dict("scene['world']", scene["world"])
     out["world"] = {"color": _Checker.vector("scene['world']['color']", w.get("color", (0.0, 0.0, 0.0)), 3)}
+    if w.get("mis") is not None:
+        out["world"]["mis"] = _Checker.boolean("scene['world']['mis']", w["mis"])
+    if w.get("map_resolution") is not None:
+        out["world"]["map_resolution"] = _Checker.integer("scene['world']['map_resolution']", w["map_resolution"], 0)
     if w.get("texture") is not None:
         key = "scene['world']['texture']"
         t = _Checker.dict(key, w["texture"])

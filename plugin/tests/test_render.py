@@ -424,6 +424,12 @@ def test_lights_visible_to_camera_only_when_set(visible):
     (lambda s: (s["curves"].update(attributes=[{"name": "<uv>", "domain": "CURVE", "data": np.zeros((5, 4))}]),
                 s.update(meshes=dict(_one_triangle(), attributes=[{"name": "<uv>Other", "data": np.zeros((1, 12))}]))),
      ValueError, r"\['meshes'\]\['attributes'\]\[0\]\['name'\]: expected '<uv>', the curves' attribute 0"),
+    (lambda s: s["materials"][0].update(emission_sampling="BOTH"), ValueError,
+     r"scene\['materials'\]\[0\]\['emission_sampling'\]: 'BOTH' is not allowed; use one of \['AUTO'"),
+    (lambda s: s.update(meshes=dict(_one_triangle(), triangle_object=np.zeros(2, np.int32))), ValueError,
+     r"\['meshes'\]\['triangle_object'\]: expected one object id per triangle"),
+    (lambda s: s["world"].update(map_resolution=-1), ValueError, r"scene\['world'\]\['map_resolution'\]: must be >= 0"),
+    (lambda s: s["world"].update(mis="yes"), TypeError, r"scene\['world'\]\['mis'\]: expected a bool"),
 ])
 def test_structural_errors_name_the_key(mutate, error, match):
     scene = _small_scene()
@@ -554,6 +560,41 @@ def test_light_tree_nee_and_forward_pdfs_agree_on_a_diffuse_clump():
     d = (imgs[1][..., :3] - imgs[0][..., :3])[hair].mean(axis=1)
     mean = imgs[0][..., :3][hair].mean()
     assert abs(d.mean()) < 4 * d.std() / math.sqrt(d.size) + 1e-6, (d.mean() / mean, d.std() / math.sqrt(d.size) / mean)
+
+
+@pytest.mark.parametrize("tree", [False, True])
+def test_emissive_mesh_nee_and_forward_pdfs_agree_on_a_diffuse_clump(tree):
+    """Emissive triangles light-sampled (Cycles' mesh lights) or reached by BSDF rays only give
+    the same mean on a diffuse closure (its pdf is its sampling density) only if NEE and the
+    BSDF ray's hit of a triangle use the same light pdf and selection pdf: with Cycles 3.x's
+    distribution (lamps half, triangles half by area) and with the light tree's mesh subtrees.
+    Light sampling must also lower the noise."""
+    camera, _ = _ortho_camera(_unit((0.2, 0.1, 1.0)), 1.2, (32, 32))
+    quad = np.array([[-0.6, -0.4, 1.0], [0.5, -0.5, 1.1], [0.6, 0.5, 0.9], [-0.4, 0.6, 1.0],
+                     [0.9, -0.2, 0.2], [1.2, 0.3, 0.3], [0.8, 0.4, 0.1]], np.float32)
+    meshes = {"vertices": quad, "triangles": np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6]], np.int32),
+              "triangle_material": np.array([1, 1, 1], np.int32), "triangle_object": np.array([0, 0, 1], np.int32)}
+    glow = {"name": "glow", "closures": [{"type": "emission", "color": (1.0, 0.9, 0.8), "strength": 3.0}]}
+    scene = {"curves": _clump(n=30), "camera": camera, "meshes": meshes, "world": {"color": (0, 0, 0)},
+             "lights": [{"type": "POINT", "position": (0.6, 0.3, 0.5), "strength": (4, 4, 4), "radius": 0.3}],
+             "materials": [{"name": "d", "closures": [{"type": "diffuse", "color": (0.8, 0.8, 0.8)}]}, glow],
+             "integrator": _integrator(samples=192, max_bounces=1, diffuse_bounces=1, film_transparent=True,
+                                       light_tree=tree)}
+    imgs = []
+    for sampling in ("NONE", "FRONT_BACK"):
+        scene["materials"][1] = dict(glow, emission_sampling=sampling)
+        imgs.append(render(scene, threads=2)["combined"])
+    hair = (imgs[0][..., 3] > 0.99) & (imgs[1][..., 3] > 0.99) & (imgs[0][..., 1] > 0)
+    assert hair.sum() > 50
+    d = (imgs[1][..., :3] - imgs[0][..., :3])[hair].mean(axis=1)
+    mean = imgs[0][..., :3][hair].mean()
+    assert abs(d.mean()) < 4 * d.std() / math.sqrt(d.size) + 1e-6, (d.mean() / mean, d.std() / math.sqrt(d.size) / mean)
+    # light-sampled triangles: less pixel noise than BSDF hits alone (paired-neighbour estimate)
+    def noise(img):
+        g = img[..., 1]
+        m = hair[:-1, :] & hair[1:, :]
+        return float(np.std((g[1:, :] - g[:-1, :])[m]))
+    assert noise(imgs[1]) < noise(imgs[0]), (noise(imgs[1]), noise(imgs[0]))
 
 
 def test_bad_arguments():

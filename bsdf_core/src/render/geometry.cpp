@@ -17,6 +17,7 @@ namespace {
 struct QueryContext {
     RTCIntersectContext rtc;
     SkipPrim skip;
+    int light_triangle = -1;  // shadow rays towards an emissive triangle skip it (Cycles' light_prim)
 };
 
 struct MemoryCounter {
@@ -58,7 +59,8 @@ void curve_filter(const RTCFilterFunctionNArguments* args) {
 void triangle_filter(const RTCFilterFunctionNArguments* args) {
     if (args->valid[0] == 0) return;
     const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
-    if (ctx->skip.kind == PrimKind::Triangle && int(RTCHitN_primID(args->hit, args->N, 0)) == ctx->skip.id) {
+    const int prim = int(RTCHitN_primID(args->hit, args->N, 0));
+    if ((ctx->skip.kind == PrimKind::Triangle && prim == ctx->skip.id) || prim == ctx->light_triangle) {
         args->valid[0] = 0;
     }
 }
@@ -284,11 +286,12 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     return hit;
 }
 
-bool Geometry::occluded(const Ray& ray, SkipPrim skip) const {
+bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const {
     if (empty()) return false;
     QueryContext ctx;
     rtcInitIntersectContext(&ctx.rtc);
     ctx.skip = skip;
+    ctx.light_triangle = light_triangle;
     RTCRay r;
     setup_ray(ray, r);
     rtcOccluded1(impl_->scene, &ctx.rtc, &r);

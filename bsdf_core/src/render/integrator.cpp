@@ -138,7 +138,8 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
 // Runs the material's shading program at a hit with Hair Info and the curve attributes there
 // (point-domain values linear in the segment's u, as Cycles interpolates curve keys).
 const float* run_material_program(const PreparedScene& s, const Hit& hit, const SurfacePoint& sp,
-                                  const ShadingProgram& program, PathScratch& scratch) {
+                                  const ShadingProgram& program, PathScratch& scratch,
+                                  std::vector<float>& registers) {
     const CurveData& cd = s.desc.curves;
     const MeshData& md = s.desc.meshes;
     const size_t attribute_count = std::max(cd.attributes.size(), md.attributes.size());
@@ -175,9 +176,9 @@ const float* run_material_program(const PreparedScene& s, const Hit& hit, const 
                 scratch.attributes[4 * i + c] = w[0] * row[c] + w[1] * row[4 + c] + w[2] * row[8 + c];
         }
     }
-    if (scratch.registers.size() < size_t(program.register_count)) scratch.registers.resize(size_t(program.register_count));
-    run_program(program, ctx, scratch.registers.data());
-    return scratch.registers.data();
+    if (registers.size() < size_t(program.register_count)) registers.resize(size_t(program.register_count));
+    run_program(program, ctx, registers.data());
+    return registers.data();
 }
 
 Ray leaving_ray(const SurfacePoint& sp, Vec3 dir, double tmax) {
@@ -293,9 +294,26 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         if (bounce > is.min_light_bounces + 1) q = std::min(std::sqrt(max_abs(throughput)), 1.0);
         const bool killed = q < 1.0 && (q == 0.0 || rng.next() >= q);
 
-        if (!material.program().empty()) sp.g.registers = run_material_program(s, hit, sp, material.program(), scratch);
+        if (!material.program().empty())
+            sp.g.registers = run_material_program(s, hit, sp, material.program(), scratch, scratch.registers);
         const RGB emission = material.emission(sp.g.registers);
-        if (emission.r != 0 || emission.g != 0 || emission.b != 0) add(throughput * emission, bounce - 1);
+        if (emission.r != 0 || emission.g != 0 || emission.b != 0) {
+            // A light-sampled emissive triangle hit by a BSDF ray: MIS against next-event
+            // estimation on the sides it samples (Cycles' SD_MIS_FRONT / SD_MIS_BACK).
+            double mis = 1.0;
+            const int tri_light = hit.kind == PrimKind::Triangle ? s.lights.triangle_light(hit.prim) : -1;
+            if (tri_light >= 0 && !camera) {
+                const Light& l = s.lights.light(size_t(tri_light));
+                const auto& tri = s.desc.meshes.triangles[size_t(hit.prim)];
+                const auto& v0 = s.desc.meshes.vertices[size_t(tri[0])];
+                const auto& v1 = s.desc.meshes.vertices[size_t(tri[1])];
+                const auto& v2 = s.desc.meshes.vertices[size_t(tri[2])];
+                const Vec3 a{v0[0], v0[1], v0[2]}, b{v1[0], v1[1], v1[2]}, c{v2[0], v2[1], v2[2]};
+                const bool back = dot(cross(b - a, c - a), ray.dir) > 0;
+                if (l.samples_side(back)) mis = forward_mis(l.triangle_pdf(mis_origin.p, sp.p) * selection(tri_light));
+            }
+            add(mis * (throughput * emission), bounce - 1);
+        }
         if (killed || terminate_after || !material.has_bsdf()) return res;
         if (q != 1.0) throughput = (1.0 / q) * throughput;
 
@@ -316,6 +334,20 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             LightSample ls;
             const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
             if (s.lights.sample(at, u_sel, u0, u1, ls)) {
+                if (ls.triangle >= 0) {
+                    // An emissive triangle: its material's emission at the sampled point.
+                    Hit on_light;
+                    on_light.kind = PrimKind::Triangle;
+                    on_light.prim = ls.triangle;
+                    on_light.u = ls.u;
+                    on_light.v = ls.v;
+                    const MaterialShader& emitter = s.materials[size_t(s.desc.meshes.material[size_t(ls.triangle)])];
+                    const float* regs = emitter.program().empty()
+                                            ? nullptr
+                                            : run_material_program(s, on_light, SurfacePoint{}, emitter.program(), scratch,
+                                                                   scratch.light_registers);
+                    ls.radiance = emitter.emission(regs);
+                }
                 const BsdfValue b = bsdf.eval(ls.wi);
                 const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
                 const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (throughput * b.value * ls.radiance);
@@ -323,7 +355,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
                     const double tmax = std::isfinite(ls.distance) ? ls.distance : 1e30;
                     const Ray shadow = leaving_ray(sp, ls.wi, tmax);
                     ++counters.rays;
-                    if (!s.geometry.occluded(shadow, sp.self)) {
+                    if (!s.geometry.occluded(shadow, sp.self, ls.triangle)) {
                         const RGB added = add(c, bounce);
                         if (first_hair) {
                             const auto direct = lobe_shares(b.lobes, b.value);
@@ -363,7 +395,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
             split = true;
         }
         mis_ray_pdf = sc.pdf;
-        if (s.lights.uses_tree()) mis_origin = {sp.p, sp.g.n, bsdf.has_transmission()};
+        mis_origin = {sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
         min_ray_pdf = std::min(min_ray_pdf, sc.blur_pdf);
         if (++bounce >= is.max_bounces + 1) terminate_after = true;
         if (sc.label & LabelReflect) {

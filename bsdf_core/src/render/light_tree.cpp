@@ -136,18 +136,56 @@ LightTreeImportance light_tree_importance(Vec3 N, bool has_transmission, Vec3 pt
 // ---------------------------------------------------------------------------------------
 // Build
 
-LightTree::LightTree(std::vector<LightTreeEmitter> emitters) : emitters_(std::move(emitters)) {
+LightTree::LightTree(std::vector<LightTreeEmitter> emitters, const std::vector<std::pair<int, Vec3>>& object_centers)
+    : emitters_(std::move(emitters)) {
+    public_count_ = emitters_.size();
     std::vector<int> local, distant;
-    for (size_t i = 0; i < emitters_.size(); ++i) (emitters_[i].distant() ? distant : local).push_back(int(i));
-    order_ = local;
-    order_.insert(order_.end(), distant.begin(), distant.end());
-    leaf_of_.assign(emitters_.size(), -1);
+    std::vector<std::pair<int, std::vector<int>>> meshes;  // object -> its triangle emitters
+    for (size_t i = 0; i < public_count_; ++i) {
+        const LightTreeEmitter& e = emitters_[i];
+        if (e.kind == LightTreeEmitter::Kind::Triangle) {
+            auto it = std::find_if(meshes.begin(), meshes.end(), [&](const auto& m) { return m.first == e.object; });
+            if (it == meshes.end()) {
+                meshes.push_back({e.object, {}});
+                it = meshes.end() - 1;
+            }
+            it->second.push_back(int(i));
+        } else {
+            (e.distant() ? distant : local).push_back(int(i));
+        }
+    }
+    // Order: triangles (mesh by mesh), local lights, mesh emitters, distant lights (Cycles' layout).
+    order_.clear();
+    for (const auto& m : meshes) order_.insert(order_.end(), m.second.begin(), m.second.end());
+    const int triangles = int(order_.size());
+    leaf_of_.assign(public_count_ + meshes.size(), -1);
+    mesh_of_.assign(public_count_ + meshes.size(), -1);
     nodes_.push_back(Node{});  // root
     nodes_[0].count = -1;
-    const int left = build(0, int(local.size()), 0, 1);
+    int start = 0;
+    for (const auto& m : meshes) {
+        const int end = start + int(m.second.size());
+        LightTreeEmitter mesh;
+        mesh.kind = LightTreeEmitter::Kind::Mesh;
+        mesh.object = m.first;
+        mesh.subtree = build(start, end, 0, 0);
+        mesh.measure = nodes_[size_t(mesh.subtree)].measure;
+        mesh.centroid = mesh.measure.bbox.center();
+        for (const auto& c : object_centers)
+            if (c.first == m.first) mesh.centroid = c.second;
+        const int index = int(emitters_.size());
+        for (int k = start; k < end; ++k) mesh_of_[size_t(order_[size_t(k)])] = index;
+        emitters_.push_back(mesh);
+        start = end;
+    }
+    order_.insert(order_.end(), local.begin(), local.end());
+    for (size_t k = 0; k < meshes.size(); ++k) order_.push_back(int(public_count_ + k));
+    const int local_end = int(order_.size());
+    order_.insert(order_.end(), distant.begin(), distant.end());
+    const int left = build(triangles, local_end, 0, 1);
     Node d;
     d.distant = true;
-    d.first = int(local.size());
+    d.first = local_end;
     d.count = int(distant.size());
     d.bit_trail = 1;
     d.depth = 1;
@@ -265,6 +303,7 @@ int LightTree::build(int start, int end, uint64_t bit_trail, int depth) {
 
 LightTreeImportance LightTree::emitter_importance(Vec3 P, Vec3 N, bool t, int index) const {
     const LightTreeEmitter& e = emitters_[size_t(index)];
+    if (e.kind == LightTreeEmitter::Kind::Mesh) return node_importance(P, N, t, nodes_[size_t(e.subtree)]);
     double energy = e.energy();
     LightTreeCone cone = e.measure.cone;
     Vec3 ptc;
@@ -334,6 +373,29 @@ LightTreeImportance LightTree::emitter_importance(Vec3 P, Vec3 N, bool t, int in
             cos_u = -1.0;
             break;
         }
+        case LightTreeEmitter::Kind::Triangle: {
+            // Cycles' triangle_light_tree_parameters: distances from the centroid and the
+            // corners, the widest corner angle; visible when the emitting side faces P (or
+            // two-sided) and a corner is above the surface.
+            double d;
+            ptc = normalize_len(e.centroid - P, d);
+            d_min = d;
+            d_max = d;
+            cos_u = 1e300;
+            bool above = false;
+            for (int i = 0; i < 3; ++i) {
+                double dc;
+                const Vec3 w = normalize_len(e.tri_v[i] - P, dc);
+                cos_u = std::min(cos_u, dot(ptc, w));
+                above = above || dot(w, N) > 0;
+                d_max = std::max(d_max, dc);
+            }
+            const bool front = cone.theta_o != 0 || dot(cone.axis, ptc) < 0;
+            visible = front && above;
+            break;
+        }
+        case LightTreeEmitter::Kind::Mesh:
+            return {};  // handled above
     }
     visible = visible || t;
     if (!visible) return {};
@@ -384,6 +446,7 @@ int LightTree::sample(Vec3 P, Vec3 N, bool t, double u, double& pdf) const {
     if (emitters_.empty()) return -1;
     double p = 1.0;
     int node = 0;
+    for (;;) {  // the top level, then (a mesh emitter picked) its subtree
     while (!nodes_[size_t(node)].leaf()) {
         const Node& n = nodes_[size_t(node)];
         const double pl = left_probability(P, N, t, n);
@@ -441,16 +504,31 @@ int LightTree::sample(Vec3 P, Vec3 N, bool t, double u, double& pdf) const {
     }
     if (chosen < 0) return -1;
     const double pe = 0.5 * (imp[chosen].max / sum_max + (uniform ? 1.0 / positive : imp[chosen].min / sum_min));
-    pdf = p * pe;
-    return order_[size_t(leaf.first + chosen)];
+    p *= pe;
+    const int picked = order_[size_t(leaf.first + chosen)];
+    if (emitters_[size_t(picked)].kind == LightTreeEmitter::Kind::Mesh) {
+        node = emitters_[size_t(picked)].subtree;  // continue in the object's subtree
+        continue;
+    }
+    pdf = p;
+    return picked;
+    }
 }
 
 double LightTree::pdf(Vec3 P, Vec3 N, bool t, int emitter) const {
-    if (emitter < 0 || size_t(emitter) >= emitters_.size()) return 0.0;
-    const int target_leaf = leaf_of_[size_t(emitter)];
-    const uint64_t trail = nodes_[size_t(target_leaf)].bit_trail;
+    if (emitter < 0 || size_t(emitter) >= public_count_) return 0.0;
+    const int mesh = mesh_of_[size_t(emitter)];
+    const int top_target = mesh >= 0 ? mesh : emitter;
+    double p = subtree_pdf(0, nodes_[size_t(leaf_of_[size_t(top_target)])].bit_trail, P, N, t, top_target);
+    if (mesh < 0 || !(p > 0)) return p;
+    // A triangle: then from its object's subtree root, by its leaf's trail there.
+    return p * subtree_pdf(emitters_[size_t(mesh)].subtree, nodes_[size_t(leaf_of_[size_t(emitter)])].bit_trail, P, N,
+                           t, emitter);
+}
+
+double LightTree::subtree_pdf(int node, uint64_t trail, Vec3 P, Vec3 N, bool t, int emitter) const {
     double p = 1.0;
-    int node = 0, depth = 0;
+    int depth = 0;
     while (!nodes_[size_t(node)].leaf()) {
         const Node& n = nodes_[size_t(node)];
         const double pl = left_probability(P, N, t, n);

@@ -13,6 +13,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 Vec3 to_vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+Vec3 to_vec3(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
 bool is_zero(RGB c) { return c.r == 0 && c.g == 0 && c.b == 0; }
 
 // 1 - cos(asin(sqrt(s2))) without cancellation.
@@ -175,7 +176,7 @@ static Vec3 sample_uniform_sphere(double u0, double u1) {
     return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
+Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis, int map_resolution, bool tree_energy)
     : world_(true), radiance_(world_radiance) {
     contributes_ = !is_zero(world_radiance) && isfinite(world_radiance);
     if (texture.has_texture() && !is_zero(texture.weight)) {
@@ -184,7 +185,7 @@ Light::Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis)
     }
     // Cycles enables the background light only for a spatially varying world shader.
     use_mis_ = world_mis && environment_ != nullptr;
-    make_tree_emitter(nullptr);
+    make_tree_emitter(nullptr, map_resolution, tree_energy);
 }
 
 Light::Light(const LightDesc& d) : type_(d.type) {
@@ -273,31 +274,43 @@ Light::Light(const LightDesc& d) : type_(d.type) {
     make_tree_emitter(&d);
 }
 
-void Light::make_tree_emitter(const LightDesc* desc) {
+void Light::make_tree_emitter(const LightDesc* desc, int map_resolution, bool tree_energy) {
     LightTreeEmitter& e = tree_;
     auto avg_abs = [](RGB c) { return (std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b)) / 3.0; };
     if (world_) {
-        // Cycles: E = pi x average radiance of the importance map x the shader's emission
-        // estimate (the Background strength, counted twice as Cycles does). The average is
-        // taken here over a 256 x 128 latitude-longitude grid weighted by solid angle; with a
-        // texture the estimate is taken as avg(weight) (exact for one Background node).
-        // TODO: Cycles' map resolution and its Nishita sun blend are not reproduced.
+        // Cycles (scene/light.cpp, device_update_background; light_tree.cpp): E = pi x the
+        // importance map's average radiance x the shader's emission estimate (the Background
+        // strength, counted twice as Cycles does; avg(weight), exact for one Background node).
+        // The map: the world at the pixel centres of a res_x x res_y latitude-longitude grid (row i
+        // at polar angle pi (i + 0.5) / res_y from the zenith, column j at azimuth
+        // pi - 2 pi (j + 0.5) / res_x, so an unmapped texture is read at its texel centres), its
+        // average |radiance| weighted by sin(theta) over res_x res_y, times pi / 2. Resolution:
+        // World > Settings > Map Resolution (res x res / 2) when set, else the texture's size
+        // (Cycles' automatic choice), else 1024 x 512.
         e.kind = LightTreeEmitter::Kind::World;
-        double sum = 0, wsum = 0;
-        const int nt = 128, np = 256;
-        for (int i = 0; i < nt; ++i) {
-            const double theta = kPi * (i + 0.5) / nt, st = std::sin(theta);
-            for (int j = 0; j < np; ++j) {
-                const double phi = kTwoPi * (j + 0.5) / np;
-                LightHit h;
-                eval_direction({st * std::cos(phi), st * std::sin(phi), std::cos(theta)}, h);
-                sum += st * avg_abs(h.radiance);
-                wsum += st;
-            }
-        }
-        const double estimate = environment_ ? avg_abs(environment_->weight()) : 1.0;
-        e.measure.energy = kPi * (wsum > 0 ? sum / wsum : 0.0) * estimate;
         e.measure.cone = {{0, 0, 1}, kPi, 0.0};
+        if (!tree_energy) return;
+        int nx = map_resolution > 0 ? map_resolution : (environment_ ? environment_->width() : 0);
+        int ny = map_resolution > 0 ? map_resolution / 2 : (environment_ ? environment_->height() : 0);
+        if (nx <= 0 || ny <= 0) {
+            nx = 1024;
+            ny = 512;
+        }
+        double sum = 0;
+        for (int i = 0; i < ny; ++i) {
+            const double theta = kPi * (i + 0.5) / ny, st = std::sin(theta), ct = std::cos(theta);
+            double row = 0;
+            for (int j = 0; j < nx; ++j) {
+                const double phi = kPi - kTwoPi * (j + 0.5) / nx;
+                LightHit h;
+                eval_direction({st * std::cos(phi), st * std::sin(phi), ct}, h);
+                row += avg_abs(h.radiance);
+            }
+            sum += st * row;
+        }
+        const double average_radiance = sum / (double(nx) * double(ny)) * (kPi / 2);
+        const double estimate = environment_ ? avg_abs(environment_->weight()) : 1.0;
+        e.measure.energy = kPi * average_radiance * estimate;
         return;
     }
     const LightDesc& d = *desc;
@@ -379,6 +392,7 @@ double Light::spread_attenuation(Vec3 to_light) const {
 
 bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
     if (!contributes_) return false;
+    if (triangle_ >= 0) return sample_triangle(p, u0, u1, out);
     out.use_mis = use_mis_;
     if (world_) {
         out.distance = kInf;
@@ -502,7 +516,7 @@ bool Light::sample(Vec3 p, double u0, double u1, LightSample& out) const {
 }
 
 bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
-    if (!contributes_ || world_) return false;
+    if (!contributes_ || world_ || triangle_ >= 0) return false;
     switch (type_) {
         case LightType::Sun:
             return false;
@@ -565,7 +579,7 @@ bool Light::intersect(const Ray& ray, double tmax, LightHit& out) const {
 }
 
 bool Light::eval_direction(Vec3 dir, LightHit& out) const {
-    if (!contributes_) return false;
+    if (!contributes_ || triangle_ >= 0) return false;
     if (world_) {
         out.t = kInf;
         out.radiance = environment_ ? radiance_ + environment_->eval(dir) : radiance_;
@@ -580,6 +594,147 @@ bool Light::eval_direction(Vec3 dir, LightHit& out) const {
     return true;
 }
 
+
+// ---------------------------------------------------------------------------------------
+// Emissive triangles (Cycles' mesh lights, kernel/light/triangle.h)
+
+Light::Light(const TriangleLightDesc& t) : triangle_(t.prim) {
+    tri_v_[0] = t.v0;
+    tri_v_[1] = t.v1;
+    tri_v_[2] = t.v2;
+    tri_front_ = t.front;
+    tri_back_ = t.back;
+    const Vec3 n = cross(t.v1 - t.v0, t.v2 - t.v0);
+    area_ = 0.5 * length(n);
+    contributes_ = area_ > 0 && (t.front || t.back);
+    use_mis_ = true;           // Cycles sets SHADER_USE_MIS on every triangle light sample
+    visible_camera_ = false;   // found by the BVH, not by LightSet::intersect
+    LightTreeEmitter& e = tree_;
+    e.kind = LightTreeEmitter::Kind::Triangle;
+    e.object = t.object;
+    for (int k = 0; k < 3; ++k) e.measure.bbox.grow(tri_v_[k]);
+    e.position = e.centroid = (1.0 / 3.0) * (t.v0 + t.v1 + t.v2);
+    e.tri_v[0] = t.v0;
+    e.tri_v[1] = t.v1;
+    e.tri_v[2] = t.v2;
+    e.measure.energy = area_ * t.estimate;
+    if (t.front != t.back) {
+        // One-sided: the normal (reversed for Back), emitting into a hemisphere.
+        const Vec3 axis = normalize(n);
+        e.measure.cone = {t.front ? axis : -1.0 * axis, 0.0, kPi / 2};
+    } else {
+        // Two-sided: any axis in the plane, theta_o = pi / 2.
+        e.measure.cone = {normalize(t.v0 - t.v1), kPi / 2, kPi / 2};
+    }
+}
+
+bool Light::triangle_uses_solid_angle(Vec3 p) const {
+    // Cycles' heuristic, kept literally: the longest edge against the distance to the plane
+    // divided by |N| (N the unnormalised cross product, so the "distance" is dist / (2 area)).
+    const Vec3 e0 = tri_v_[1] - tri_v_[0], e1 = tri_v_[2] - tri_v_[0], e2 = tri_v_[2] - tri_v_[1];
+    const double longest2 = std::max(dot(e0, e0), std::max(dot(e1, e1), dot(e2, e2)));
+    const Vec3 n = cross(e0, e1);
+    const double d = dot(n, tri_v_[0] - p) / dot(n, n);
+    return longest2 > d * d;
+}
+
+namespace {
+
+// Solid angle of the spherical triangle of unit vectors a, b, c (Van Oosterom and Strackee).
+double spherical_triangle_area(Vec3 a, Vec3 b, Vec3 c) {
+    return 2.0 * std::atan2(std::fabs(dot(a, cross(b, c))), 1.0 + dot(b, c) + dot(a, c) + dot(a, b));
+}
+
+Vec3 safe_unit(Vec3 v) {
+    const double l = length(v);
+    return l > 0 ? (1.0 / l) * v : Vec3{0, 0, 0};
+}
+
+// Moeller-Trumbore: distance and barycentrics (of v1, v2) where the ray meets the triangle.
+bool ray_triangle(Vec3 o, Vec3 d, Vec3 v0, Vec3 v1, Vec3 v2, double& t, double& u, double& v) {
+    const Vec3 e1 = v1 - v0, e2 = v2 - v0, pv = cross(d, e2);
+    const double det = dot(e1, pv);
+    if (det == 0) return false;
+    const double inv = 1.0 / det;
+    const Vec3 tv = o - v0;
+    u = dot(tv, pv) * inv;
+    const Vec3 qv = cross(tv, e1);
+    v = dot(d, qv) * inv;
+    t = dot(e2, qv) * inv;
+    const double eps = 1e-9;
+    return u >= -eps && v >= -eps && u + v <= 1.0 + eps && t > 0;
+}
+
+}  // namespace
+
+bool Light::sample_triangle(Vec3 p, double u0, double u1, LightSample& out) const {
+    const Vec3 n = cross(tri_v_[1] - tri_v_[0], tri_v_[2] - tri_v_[0]);
+    // Only the sides with Emission Sampling are sampled (Cycles 4.x); p behind N sees the back.
+    const bool back = dot(n, tri_v_[0] - p) > 0;
+    if (!samples_side(back)) return false;
+    out.use_mis = true;
+    out.triangle = triangle_;
+    out.radiance = RGB(0.0);
+    if (triangle_uses_solid_angle(p)) {
+        // Uniform in the solid angle (Arvo 1995, "Stratified Sampling of Spherical Triangles").
+        const Vec3 A = safe_unit(tri_v_[0] - p), B = safe_unit(tri_v_[1] - p), C = safe_unit(tri_v_[2] - p);
+        const double solid_angle = spherical_triangle_area(A, B, C);
+        if (!(solid_angle > 0)) return false;
+        const double cos_alpha = std::clamp(dot(safe_unit(cross(A, B)), safe_unit(cross(A, C))), -1.0, 1.0);
+        const double alpha = std::acos(cos_alpha), sin_alpha = std::sqrt(std::max(0.0, 1.0 - cos_alpha * cos_alpha));
+        const double area_hat = u0 * solid_angle;
+        const double s = std::sin(area_hat - alpha), c = std::cos(area_hat - alpha);
+        const double uu = c - cos_alpha, vv = s + sin_alpha * dot(A, B);
+        const double den = (vv * s + uu * c) * sin_alpha;
+        const double q = den == 0 ? 1.0 : std::clamp(((vv * c - uu * s) * cos_alpha - vv) / den, -1.0, 1.0);
+        const Vec3 U = safe_unit(C - dot(C, A) * A);
+        const Vec3 C2 = safe_unit(q * A + std::sqrt(std::max(0.0, 1.0 - q * q)) * U);
+        const double z = 1.0 - u1 * (1.0 - dot(C2, B));
+        out.wi = safe_unit(z * B + std::sqrt(std::max(0.0, 1.0 - z * z)) * safe_unit(C2 - dot(C2, B) * B));
+        double t, bu, bv;
+        if (!ray_triangle(p, out.wi, tri_v_[0], tri_v_[1], tri_v_[2], t, bu, bv)) return false;
+        out.distance = t;
+        out.u = std::clamp(bu, 0.0, 1.0);
+        out.v = std::clamp(bv, 0.0, 1.0 - out.u);
+        out.pdf = 1.0 / solid_angle;
+        return true;
+    }
+    // Uniform in area (Heitz 2019, "A Low-Distortion Map Between Triangle and Square").
+    double bu = u0, bv = u1;
+    if (bv > bu) {
+        bu *= 0.5;
+        bv -= bu;
+    } else {
+        bv *= 0.5;
+        bu -= bv;
+    }
+    const Vec3 pl = (1.0 - bu - bv) * tri_v_[0] + bu * tri_v_[1] + bv * tri_v_[2];
+    const Vec3 dv = pl - p;
+    const double t = length(dv);
+    if (!(t > 0)) return false;
+    out.wi = (1.0 / t) * dv;
+    out.distance = t;
+    out.u = bu;
+    out.v = bv;
+    const double cos_l = std::fabs(dot(normalize(n), out.wi));
+    if (!(cos_l > 0)) return false;
+    out.pdf = t * t / (cos_l * area_);
+    return true;
+}
+
+double Light::triangle_pdf(Vec3 origin, Vec3 on_light) const {
+    if (triangle_uses_solid_angle(origin)) {
+        const double sa = spherical_triangle_area(safe_unit(tri_v_[0] - origin), safe_unit(tri_v_[1] - origin),
+                                                  safe_unit(tri_v_[2] - origin));
+        return sa > 0 ? 1.0 / sa : 0.0;
+    }
+    const Vec3 n = normalize(cross(tri_v_[1] - tri_v_[0], tri_v_[2] - tri_v_[0]));
+    const Vec3 d = on_light - origin;
+    const double t2 = dot(d, d);
+    const double cos_l = std::fabs(dot(n, d)) / std::sqrt(t2);
+    return cos_l > 0 && area_ > 0 ? t2 / (cos_l * area_) : 0.0;
+}
+
 LightSet::LightSet(const SceneDesc& scene) {
     for (const LightDesc& d : scene.lights) {
         Light l(d);
@@ -590,7 +745,7 @@ LightSet::LightSet(const SceneDesc& scene) {
         }
         lights_.push_back(l);
     }
-    Light world(scene.world, scene.world_texture, scene.world_mis);
+    Light world(scene.world, scene.world_texture, scene.world_mis, scene.world_map_resolution, scene.integrator.light_tree);
     if (world.has_contribution()) {
         if (world.use_mis()) {
             world_ = int(lights_.size());
@@ -599,10 +754,88 @@ LightSet::LightSet(const SceneDesc& scene) {
             background_ = std::make_shared<const Light>(world);
         }
     }
+    lamps_ = lights_.size();
+    add_triangle_lights(scene);
+    const size_t triangles = lights_.size() - lamps_;
+    lamp_share_ = triangles == 0 ? 1.0 : (lamps_ == 0 ? 0.0 : 0.5);
     if (scene.integrator.light_tree && !lights_.empty()) {
         std::vector<LightTreeEmitter> emitters;
         for (const Light& l : lights_) emitters.push_back(l.tree_emitter());
-        tree_ = std::make_shared<const LightTree>(std::move(emitters));
+        tree_ = std::make_shared<const LightTree>(std::move(emitters), mesh_object_centers(scene.meshes));
+    }
+}
+
+EmissionSampling resolved_emission_sampling(const MaterialDesc& m, double& estimate) {
+    // Cycles' emission estimate (scene/shader.cpp): colour x strength of each Emission closure;
+    // a linked colour counts as 1, a linked strength as 0 (Cycles estimates the node feeding it,
+    // 0 for anything but another emission node).
+    RGB e(0.0);
+    bool any = false;
+    for (const ClosureDesc& c : m.closures) {
+        if (c.type != ClosureDesc::Type::Emission) continue;
+        any = true;
+        bool color_linked = false, strength_linked = false;
+        for (const ClosureDesc::Link& l : c.links) {
+            color_linked |= l.input == ClosureDesc::Input::Color;
+            strength_linked |= l.input == ClosureDesc::Input::Strength;
+        }
+        if (strength_linked) continue;
+        e += c.strength * (c.weight * (color_linked ? RGB(1.0) : c.color));
+    }
+    estimate = (std::fabs(e.r) + std::fabs(e.g) + std::fabs(e.b)) / 3.0;
+    if (!any) return EmissionSampling::None;
+    if (m.emission_sampling != EmissionSampling::Auto) return m.emission_sampling;
+    const double largest = std::max(std::fabs(e.r), std::max(std::fabs(e.g), std::fabs(e.b)));
+    return largest > 0.5 ? EmissionSampling::FrontBack : EmissionSampling::None;
+}
+
+std::vector<std::pair<int, Vec3>> mesh_object_centers(const MeshData& md) {
+    // Cycles' mesh-light centroid: the centre of the object's bounding box (all its triangles).
+    std::vector<std::pair<int, LightTreeBBox>> boxes;
+    for (size_t t = 0; t < md.triangles.size(); ++t) {
+        const int obj = md.object.size() == md.triangles.size() ? md.object[t] : 0;
+        auto it = std::find_if(boxes.begin(), boxes.end(), [&](const auto& b) { return b.first == obj; });
+        if (it == boxes.end()) {
+            boxes.push_back({obj, LightTreeBBox{}});
+            it = boxes.end() - 1;
+        }
+        for (int k = 0; k < 3; ++k) it->second.grow(to_vec3(md.vertices[size_t(md.triangles[t][size_t(k)])]));
+    }
+    std::vector<std::pair<int, Vec3>> out;
+    for (const auto& b : boxes) out.push_back({b.first, b.second.center()});
+    return out;
+}
+
+void LightSet::add_triangle_lights(const SceneDesc& scene) {
+    const MeshData& md = scene.meshes;
+    std::vector<EmissionSampling> sampling(scene.materials.size());
+    std::vector<double> estimate(scene.materials.size(), 0.0);
+    bool any = false;
+    for (size_t m = 0; m < scene.materials.size(); ++m) {
+        sampling[m] = resolved_emission_sampling(scene.materials[m], estimate[m]);
+        any |= sampling[m] != EmissionSampling::None;
+    }
+    if (!any) return;
+    triangle_light_.assign(md.triangles.size(), -1);
+    for (size_t t = 0; t < md.triangles.size(); ++t) {
+        const int32_t m = t < md.material.size() ? md.material[t] : -1;
+        if (m < 0 || size_t(m) >= sampling.size() || sampling[size_t(m)] == EmissionSampling::None) continue;
+        TriangleLightDesc d;
+        d.v0 = to_vec3(md.vertices[size_t(md.triangles[t][0])]);
+        d.v1 = to_vec3(md.vertices[size_t(md.triangles[t][1])]);
+        d.v2 = to_vec3(md.vertices[size_t(md.triangles[t][2])]);
+        d.prim = int(t);
+        d.object = md.object.size() == md.triangles.size() ? md.object[t] : 0;
+        const EmissionSampling es = sampling[size_t(m)];
+        d.front = es == EmissionSampling::Front || es == EmissionSampling::FrontBack;
+        d.back = es == EmissionSampling::Back || es == EmissionSampling::FrontBack;
+        d.estimate = estimate[size_t(m)];
+        Light l(d);
+        if (!l.has_contribution()) continue;
+        triangle_light_[t] = int(lights_.size());
+        triangle_area_total_ += l.triangle_area();
+        triangle_cdf_.push_back(triangle_area_total_);
+        lights_.push_back(l);
     }
 }
 
@@ -614,10 +847,18 @@ bool LightSet::sample(const LightPickContext& at, double u_select, double u0, do
         const int k = tree_->sample(at.p, at.n, at.transmission, u_select, selection);
         if (k < 0 || !(selection > 0)) return false;  // no light has importance: the sample is lost
         i = size_t(k);
+    } else if (u_select < lamp_share_) {
+        // Cycles 3.x's distribution: a lamp, uniformly.
+        i = std::min(size_t(u_select / lamp_share_ * double(lamps_)), lamps_ - 1);
+        selection = lamp_share_ / double(lamps_);
     } else {
-        const size_t n = lights_.size();
-        i = std::min(size_t(u_select * double(n)), n - 1);
-        selection = 1.0 / double(n);
+        // ... or an emissive triangle by area.
+        const double target = (u_select - lamp_share_) / (1.0 - lamp_share_) * triangle_area_total_;
+        const size_t k = std::min(size_t(std::upper_bound(triangle_cdf_.begin(), triangle_cdf_.end(), target) -
+                                         triangle_cdf_.begin()),
+                                  triangle_cdf_.size() - 1);
+        i = lamps_ + k;
+        selection = (1.0 - lamp_share_) * lights_[i].triangle_area() / triangle_area_total_;
     }
     if (!lights_[i].sample(at.p, u0, u1, out)) return false;
     out.pdf *= selection;
@@ -626,7 +867,7 @@ bool LightSet::sample(const LightPickContext& at, double u_select, double u0, do
 
 int LightSet::intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* hits, int max_hits) const {
     int n = 0;
-    for (size_t i = 0; i < lights_.size(); ++i) {
+    for (size_t i = 0; i < lamps_; ++i) {
         const Light& l = lights_[i];
         if (l.is_distant() || (!camera_ray && !l.use_mis()) || (camera_ray && !l.visible_camera())) continue;
         LightHit h;
@@ -649,7 +890,7 @@ int LightSet::intersect(const Ray& ray, double tmax, bool camera_ray, LightHit* 
 
 int LightSet::eval_suns(Vec3 dir, bool camera_ray, LightHit* hits, int max_hits) const {
     int n = 0;
-    for (size_t i = 0; i < lights_.size() && n < max_hits; ++i) {
+    for (size_t i = 0; i < lamps_ && n < max_hits; ++i) {
         const Light& l = lights_[i];
         // Cycles intersects sun discs only for MIS suns, camera rays included (when visible).
         if (l.is_world() || !l.is_distant() || !l.use_mis() || (camera_ray && !l.visible_camera())) continue;

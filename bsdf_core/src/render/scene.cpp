@@ -293,6 +293,7 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             }
             out.material.push_back(mat);
             if (t < md.normals.size()) out.normals.push_back(md.normals[t]);
+            if (md.object.size() == md.triangles.size()) out.object.push_back(md.object[t]);
             kept.push_back(t);
         }
         for (auto& attr : md.attributes) {  // the kept triangles' rows; a wrong length reads 0

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 
-from ._common import REC709_Y, find_socket, rgb
+from ._common import REC709_Y, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork
 
 GREY = (0.8, 0.8, 0.8)
@@ -180,6 +180,8 @@ class MaterialTranslator:
         if program is not None:
             out["program"] = program
         out["closures"] = override_closures(material, out["closures"], self.warn)
+        if any(c.get("type") == "emission" for c in out["closures"]):
+            out["emission_sampling"] = emission_sampling(material)
         return out
 
     def program_needs(self) -> tuple:
@@ -279,6 +281,16 @@ class MaterialTranslator:
                 "offset": self.value(node, "Offset", "float", 0.0),
                 "roughness_u": self.value(node, "RoughnessU", "float", 0.1),
                 "roughness_v": self.value(node, "RoughnessV", "float", 1.0)}
+
+
+def emission_sampling(material) -> str:
+    """Which sides of the material's emissive triangles Cycles light-samples (docs/scene_desc.md):
+    Blender >= 4.0's Settings > Emission Sampling ("AUTO" is resolved by the engine, by Cycles' rule),
+    Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold)."""
+    settings = getattr(material, "cycles", None)
+    if blender_version() >= (4, 0, 0):
+        return str(getattr(settings, "emission_sampling", "AUTO"))
+    return "FRONT_BACK" if getattr(settings, "sample_as_light", True) else "NONE"
 
 
 def _label(node):

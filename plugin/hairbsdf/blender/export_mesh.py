@@ -24,6 +24,7 @@ class MeshBuffer:
         self.material: list[np.ndarray] = []
         self.normals: list[np.ndarray] = []
         self.attributes: list[dict] = []  # per object: {name: (T, 12) float32 RGBA per corner}
+        self.objects: list[np.ndarray] = []  # per object: its index, once per triangle
         self._nverts = 0
 
     def add(self, verts, tris, mat, normals, attributes=None):
@@ -34,6 +35,7 @@ class MeshBuffer:
         self.material.append(mat)
         self.normals.append(normals)
         self.attributes.append(attributes or {})
+        self.objects.append(np.full(tris.shape[0], len(self.objects), np.int32))
         self._nverts += verts.shape[0]
 
     def finish(self, attribute_names=()) -> dict:
@@ -45,7 +47,8 @@ class MeshBuffer:
         out = {"vertices": np.ascontiguousarray(np.concatenate(self.vertices), np.float32),
                "triangles": np.ascontiguousarray(np.concatenate(self.triangles), np.int32),
                "triangle_material": np.concatenate(self.material).astype(np.int32),
-               "triangle_normals": np.ascontiguousarray(np.concatenate(self.normals), np.float32)}
+               "triangle_normals": np.ascontiguousarray(np.concatenate(self.normals), np.float32),
+               "triangle_object": np.concatenate(self.objects).astype(np.int32)}
         if any(self.attributes) and attribute_names:
             out["attributes"] = [
                 {"name": name, "data": np.ascontiguousarray(np.concatenate(

@@ -69,7 +69,8 @@ def export_world(scene, report) -> dict:
 
     if src is not None:
         walk(src[0], (1.0, 1.0, 1.0))
-    result = {"color": tuple(float(c) for c in color), "mis": world_mis(world)}
+    result = {"color": tuple(float(c) for c in color), "mis": world_mis(world),
+              "map_resolution": world_map_resolution(world)}
     if texture.get("pixels") is not None:
         result["texture"] = texture
     return result
@@ -85,6 +86,15 @@ def world_mis(world) -> bool:
     if hasattr(cw, "sampling_method"):
         return cw.sampling_method != "NONE"
     return bool(getattr(cw, "sample_as_light", True))
+
+
+def world_map_resolution(world) -> int:
+    """World > Settings > Map Resolution when Sampling is Manual; 0 (Automatic) lets the renderer take
+    the environment texture's size, as Cycles does for its importance map (render/lights.cpp)."""
+    cw = getattr(world, "cycles", None)
+    if cw is not None and getattr(cw, "sampling_method", "AUTOMATIC") == "MANUAL":
+        return int(getattr(cw, "sample_map_resolution", 0))
+    return 0
 
 
 def _environment_texture(tr, node, output, weight) -> dict:

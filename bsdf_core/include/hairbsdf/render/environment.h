@@ -23,6 +23,8 @@ public:
     Vec3 sample(double u0, double u1, double& pdf) const;
     double pdf(Vec3 dir) const;
     RGB weight() const { return weight_; }  // Background strength x Mix / Add weights
+    int width() const { return width_; }    // the texture's size in texels
+    int height() const { return height_; }
 
     // Texture coordinates of a lookup vector (Cycles' direction_to_equirectangular).
     static void equirectangular_uv(Vec3 lookup, double& u, double& v);

@@ -81,7 +81,8 @@ public:
     Geometry& operator=(const Geometry&) = delete;
 
     Hit intersect(const Ray& ray, SkipPrim skip) const;
-    bool occluded(const Ray& ray, SkipPrim skip) const;
+    // `light_triangle`: a triangle the ray aims at (an emissive-triangle light sample), ignored.
+    bool occluded(const Ray& ray, SkipPrim skip, int light_triangle = -1) const;
 
     CurveShape curve_shape() const { return shape_; }
     int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }

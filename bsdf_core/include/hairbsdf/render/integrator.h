@@ -75,6 +75,7 @@ struct PathResult {
 struct PathScratch {
     Bsdf bsdf;
     std::vector<float> registers;   // the hit material's shading program
+    std::vector<float> light_registers;  // an emissive triangle's program at a light sample
     std::vector<float> attributes;  // RGBA of each curve attribute at the hit
 };
 

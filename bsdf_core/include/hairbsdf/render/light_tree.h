@@ -6,10 +6,14 @@
 // * Why: the hair closures' reported pdfs are not their sampling densities, so with MIS the
 //   expected image depends on the selection probabilities; matching Cycles' image needs
 //   Cycles' probabilities, not only an unbiased estimator.
-// * Emitters are the lights of LightSet (same indices): point, spot, area, sun and the world
-//   when it is light-sampled (an environment texture with MIS on). Emissive meshes are not
-//   light-sampled by this engine (docs/engine.md), so the tree has no mesh / triangle emitters
-//   and no instance nodes. Curves are never emitters in Cycles either.
+// * Emitters are the lights of LightSet (same indices): point, spot, area, sun, the world
+//   when it is light-sampled (an environment texture with MIS on) and emissive triangles.
+//   As in Cycles 4.5, the triangles of each mesh object get their own subtree (built like the
+//   top level, bit trail from 0), and the object enters the top level as one "mesh" emitter
+//   whose measure is the subtree root's and whose centroid is the object's bounding-box centre;
+//   its importance is that node's, and picking it continues the walk in its subtree. Meshes are
+//   world space here (Cycles applies the transform of a mesh used once), so no instance
+//   transforms. Curves are never emitters in Cycles either.
 // * Each emitter has a measure (bbox, bounding cone, energy E). The tree root is
 //   an inner node: left = a SAOH-built subtree over the local lights (point, spot, area),
 //   right = one "distant" leaf holding the suns and the world (§1.5).
@@ -31,12 +35,14 @@
 // * The centroid box and bucket indices are computed in float as in Cycles (evenly spaced
 //   lights sit on bucket boundaries); measures and SAOH costs are double, so a near-tie of
 //   costs could still give another topology than Cycles' float costs.
-// * World energy: average radiance from a 256 x 128 solid-angle grid, not Cycles' importance
-//   map (its resolution, and the 0.8 / 0.2 blend with a Nishita sun); the emission estimate is
+// * World energy: Cycles' importance-map average (the world at the texel centres of the
+//   texture's size, or World > Map Resolution; render/lights.cpp), in double where Cycles sums
+//   in float; no Nishita sky, so no 0.8 / 0.2 sun blend. The emission estimate is
 //   avg(EnvironmentDesc::weight), which is Cycles' rule for one Background node but not for
 //   every Mix / Add network.
 // * Emitter order: the scene's light order (the exporter's depsgraph order, which Cycles'
-//   object order follows); meshes are not interleaved as in 4.5 because there are none.
+//   object order follows), then the mesh emitters in order of their first triangle (Cycles:
+//   local lights, then mesh lights, each in object order).
 // * has_transmission for a Huang closure outside its ellipse (Entry::Kind::Transparent) is
 //   taken as set; unchecked against Cycles (it only matters when mixed with an eval closure).
 #pragma once
@@ -77,7 +83,9 @@ struct LightTreeMeasure {
 
 // One light as the tree sees it. Built by LightSet from the scene light (lights.cpp).
 struct LightTreeEmitter {
-    enum class Kind { Point, Spot, Area, Sun, World } kind = Kind::Point;
+    // Triangle: an emissive mesh triangle. Mesh: one emissive object (made by LightTree from
+    // its triangles): its measure is its subtree's, and picking it continues into the subtree.
+    enum class Kind { Point, Spot, Area, Sun, World, Triangle, Mesh } kind = Kind::Point;
     LightTreeMeasure measure;
     Vec3 centroid;          // splitting position (local lights)
     // point / spot
@@ -90,6 +98,10 @@ struct LightTreeEmitter {
     Vec3 normal, extent_u, extent_v;
     // sun: unit direction towards the sun (Cycles' ptc)
     Vec3 to_sun;
+    // triangle: world-space vertices; triangle / mesh: the object; mesh: its subtree's root node
+    Vec3 tri_v[3];
+    int object = 0;
+    int subtree = -1;
     double energy() const { return measure.energy; }
     bool distant() const { return kind == Kind::Sun || kind == Kind::World; }
 };
@@ -114,7 +126,9 @@ public:
         bool leaf() const { return count >= 0; }
     };
 
-    explicit LightTree(std::vector<LightTreeEmitter> emitters);
+    // `object_centers`: each mesh object's bounding-box centre (the mesh lights' centroids).
+    explicit LightTree(std::vector<LightTreeEmitter> emitters,
+                       const std::vector<std::pair<int, Vec3>>& object_centers = {});
 
     // Picks an emitter (index into the constructor's vector) at shading point P with normal N;
     // -1 when no light has importance. `pdf` = the selection probability.
@@ -133,6 +147,9 @@ private:
     int build(int start, int end, uint64_t bit_trail, int depth);
     bool should_split(int start, int end, LightTreeMeasure& measure, int& middle);
     LightTreeImportance child_importance(Vec3 P, Vec3 N, bool t, const Node& node) const;
+    // The probability of reaching `target` (an emitter of the subtree at `node`) from `node`;
+    // `trail` is the bit trail of the target's leaf within that subtree.
+    double subtree_pdf(int node, uint64_t trail, Vec3 P, Vec3 N, bool t, int target) const;
     // Left probability at an inner node; < 0 when both children have zero importance.
     double left_probability(Vec3 P, Vec3 N, bool t, const Node& node) const;
 
@@ -140,6 +157,8 @@ private:
     std::vector<int> order_;        // emitter indices in leaf order
     std::vector<Node> nodes_;       // nodes_[0] = root
     std::vector<int> leaf_of_;      // emitter -> leaf node
+    std::vector<int> mesh_of_;      // triangle emitter -> its object's mesh emitter (-1 for others)
+    size_t public_count_ = 0;       // emitters given to the constructor (meshes follow)
 };
 
 }  // namespace hairbsdf::render

@@ -20,10 +20,13 @@
 //   WORLD: uniform radiance plus an optional environment texture (render/environment.h).
 // `normalize = false` drops the 1 / area factor, as Cycles does.
 //
-// Next-event estimation picks one light uniformly, or (integrator `light_tree`, Cycles 4.x's
-// default) with Cycles' light tree (render/light_tree.h). The two picks have the same
-// expectation only where the closures' reported pdfs are their sampling densities, which the
-// hair closures' are not: hence the tree. A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
+// Next-event estimation picks a light with Cycles' light distribution (Cycles 3.x, and 4.x with
+// the tree off: lamps equally likely, emissive triangles by area, half each when both exist) or
+// (integrator `light_tree`, Cycles 4.x's default) with Cycles' light tree (render/light_tree.h).
+// Picks with other pdfs would have the same expectation only where the closures' reported pdfs
+// are their sampling densities, which the hair closures' are not: hence Cycles' own picks.
+// Emissive mesh triangles (Cycles' mesh lights) follow the lamps in the light list; the
+// integrator evaluates their material's emission at the sampled point. A light takes part in MIS (Cycles' SHADER_USE_MIS) when it can be
 // hit by BSDF rays: POINT / SPOT with r > 0, SUN with angle > 0, AREA with spread > 0, the
 // world; and use_mis is set. Lights are not in the BVH: rays pass through them (Cycles
 // counts each as a transparent bounce) and they cast no shadows.
@@ -49,6 +52,20 @@ struct LightSample {
     RGB radiance;       // strength x eval_fac x attenuation
     double pdf = 0;     // solid-angle density of this light's sampler (selection excluded)
     bool use_mis = false;
+    // An emissive triangle: the triangle and the sampled point's barycentrics (Embree's u, v:
+    // point = (1 - u - v) v0 + u v1 + v v2). `radiance` is left 0: the integrator evaluates the
+    // triangle's material there.
+    int triangle = -1;
+    double u = 0, v = 0;
+};
+
+// An emissive mesh triangle as a light (Cycles' mesh lights): world-space vertices, the sides
+// next-event estimation samples (EmissionSampling), the emission estimate for the light tree.
+struct TriangleLightDesc {
+    Vec3 v0, v1, v2;
+    int prim = -1, object = 0;
+    bool front = true, back = true;
+    double estimate = 0;  // average |emission estimate| (Cycles' shader->emission_estimate)
 };
 
 // A light hit by a ray: where, what it emits towards the ray origin, and the density
@@ -66,9 +83,20 @@ struct RectangleView;       // lights.cpp: an optional SphericalRectangle and `u
 class Light {
 public:
     Light(const LightDesc& desc);       // scene light
-    // The world: uniform radiance plus the environment texture, if any.
-    Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis = true);
+    // The world: uniform radiance plus the environment texture, if any. `map_resolution`: the light
+    // tree's importance map (SceneDesc::world_map_resolution); `tree_energy` false skips that map.
+    Light(RGB world_radiance, const EnvironmentDesc& texture, bool world_mis = true, int map_resolution = 0,
+          bool tree_energy = true);
+    explicit Light(const TriangleLightDesc& triangle);  // an emissive triangle
     bool is_world() const { return world_; }
+    int triangle() const { return triangle_; }  // the mesh triangle, or -1
+    double triangle_area() const { return area_; }
+    // Whether next-event estimation samples the triangle's back side (true) / front side (false):
+    // Cycles' SD_MIS_BACK / SD_MIS_FRONT, which also decide MIS on BSDF hits of that side.
+    bool samples_side(bool back) const { return back ? tri_back_ : tri_front_; }
+    // Emissive triangle: the solid-angle density with which sample() from `origin` picks the
+    // point `on_light` (Cycles' triangle_light_pdf, selection excluded).
+    double triangle_pdf(Vec3 origin, Vec3 on_light) const;
     bool is_distant() const { return world_ || type_ == LightType::Sun; }
     bool use_mis() const { return use_mis_; }
     bool visible_camera() const { return visible_camera_; }
@@ -91,9 +119,15 @@ private:
     // uniformly over their area; `unreachable` when no part of a narrowed spread reaches p.
     RectangleView solid_angle_rectangle(Vec3 p) const;
 
-    void make_tree_emitter(const LightDesc* desc);
+    void make_tree_emitter(const LightDesc* desc, int map_resolution = 0, bool tree_energy = true);
+    bool sample_triangle(Vec3 p, double u0, double u1, LightSample& out) const;
+    // Cycles' choice between solid-angle and area sampling of a triangle seen from p.
+    bool triangle_uses_solid_angle(Vec3 p) const;
 
     bool world_ = false;
+    int triangle_ = -1;
+    Vec3 tri_v_[3];
+    bool tri_front_ = true, tri_back_ = true;
     LightTreeEmitter tree_;
     std::shared_ptr<const EnvironmentMap> environment_;  // world texture, or null
     bool contributes_ = true;
@@ -130,13 +164,23 @@ class LightSet {
 public:
     LightSet(const SceneDesc& scene);
     size_t size() const { return lights_.size(); }
+    // Lights before this index are lamps (and the world); the rest are emissive triangles.
+    size_t lamp_count() const { return lamps_; }
+    // The light of mesh triangle `prim`, or -1 when it is not light-sampled.
+    int triangle_light(int prim) const {
+        return prim >= 0 && size_t(prim) < triangle_light_.size() ? triangle_light_[size_t(prim)] : -1;
+    }
     const Light& light(size_t i) const { return lights_[i]; }
     bool uses_tree() const { return tree_ != nullptr; }
     const LightTree* tree() const { return tree_.get(); }
-    // The probability that sample() picks light `i` at `at` (uniform: 1 / size()).
+    // The probability that sample() picks light `i` at `at`. Without the tree, Cycles 3.x's
+    // light distribution: lamps (the world counting as one) equally likely, triangles by area,
+    // each group half the probability when both exist.
     double selection_pdf(int i, const LightPickContext& at) const {
         if (lights_.empty() || i < 0) return 0.0;
-        return tree_ ? tree_->pdf(at.p, at.n, at.transmission, i) : 1.0 / double(lights_.size());
+        if (tree_) return tree_->pdf(at.p, at.n, at.transmission, i);
+        if (size_t(i) < lamps_) return lamp_share_ / double(lamps_);
+        return (1.0 - lamp_share_) * lights_[size_t(i)].triangle_area() / triangle_area_total_;
     }
     bool has_finite_mis_lights(bool camera) const { return camera ? has_finite_camera_ : has_finite_mis_; }
 
@@ -155,12 +199,25 @@ public:
     const Light* world() const { return world_ >= 0 ? &lights_[size_t(world_)] : background_.get(); }
 
 private:
-    std::vector<Light> lights_;  // the lights NEE picks from
+    void add_triangle_lights(const SceneDesc& scene);
+    std::vector<Light> lights_;  // the lights NEE picks from: lamps, the world, emissive triangles
+    size_t lamps_ = 0;
+    double lamp_share_ = 1.0;               // distribution: the lamps' total probability
+    double triangle_area_total_ = 0.0;
+    std::vector<double> triangle_cdf_;      // distribution: cumulative triangle areas
+    std::vector<int> triangle_light_;       // mesh triangle -> light index, -1
     int world_ = -1;
     std::shared_ptr<const Light> background_;  // a world that is not a light (not sampled)
     std::shared_ptr<const LightTree> tree_;     // integrator.light_tree; null: uniform pick
     bool has_finite_camera_ = false, has_finite_mis_ = false;
 };
+
+// A material's resolved Emission Sampling (Auto by Cycles' rule) and its emission estimate
+// (average of |colour x strength| over the Emission closures; Cycles' shader emission_estimate).
+EmissionSampling resolved_emission_sampling(const MaterialDesc& material, double& estimate);
+// Each mesh object's bounding-box centre (MeshData::object; one object 0 without it), in order
+// of first appearance: the light tree's mesh-light centroids.
+std::vector<std::pair<int, Vec3>> mesh_object_centers(const MeshData& meshes);
 
 // Cycles' MIS weight (power heuristic).
 inline double power_heuristic(double a, double b) {

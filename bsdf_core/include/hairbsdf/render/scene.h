@@ -70,6 +70,9 @@ struct MeshData {
         std::vector<std::array<float, 12>> corners;  // one row per triangle
     };
     std::vector<CornerAttribute> attributes;
+    // Optional: the object of each triangle (any ids; empty: one object). Cycles 4.x's light
+    // tree gives each emissive object a subtree of its triangles (render/light_tree.h).
+    std::vector<int32_t> object;
 };
 
 // One entry of a material's flat weighted closure sum.
@@ -108,8 +111,14 @@ struct ClosureDesc {
     std::vector<Link> links;
 };
 
+// Which sides of a material's emissive triangles next-event estimation samples (Cycles 4.x's
+// Material > Settings > Emission Sampling; Cycles 3.x's Multiple Importance is FrontBack or
+// None). Auto: FrontBack when the emission estimate's largest channel exceeds 0.5 (Cycles' rule).
+enum class EmissionSampling { Auto, None, Front, Back, FrontBack };
+
 struct MaterialDesc {
     std::string name;
+    EmissionSampling emission_sampling = EmissionSampling::Auto;
     std::vector<ClosureDesc> closures;
     ShadingProgram program;  // empty: every input is constant
 };
@@ -227,6 +236,9 @@ struct SceneDesc {
     // World > Settings > Sampling (4.x Method != None, 3.x Multiple Importance). Even on, a
     // world without a texture is not sampled as a light (render/lights.h).
     bool world_mis = true;
+    // World > Settings > Map Resolution for the light tree's importance map (res x res / 2); 0:
+    // Cycles' automatic choice (the environment texture's size). render/lights.cpp.
+    int world_map_resolution = 0;
     IntegratorSettings integrator;
 };
 
