@@ -43,30 +43,35 @@ TEST(Diffuse, EvalIsCosineOverPiOnTheNormalsSideAndReciprocal) {
 }
 
 TEST(Diffuse, SamplesFollowTheCosineDensityChiSquare) {
-    // cos^2(theta) of a cosine-distributed direction is uniform on [0, 1]: 20 bins, chi-square.
+    // A cosine-distributed direction has cos^2(theta) and the azimuth about N independent and
+    // uniform: 10 x 8 equal-probability bins, chi-square.
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     const DiffuseBsdf m;
     const Vec3 n = normalize(Vec3{-0.5, 0.4, 0.7});
+    Vec3 a, b;
+    make_orthonormals(n, a, b);
     const auto sp = m.prepare(surface(n, n, n));
-    constexpr int kBins = 20;
+    constexpr int kTheta = 10, kPhi = 8;
     const long count = test::scaled(200000);
-    std::array<long, kBins> hist{};
+    std::array<long, kTheta * kPhi> hist{};
     long accepted = 0;
     for (long i = 0; i < count; ++i) {
         const BsdfSample s = m.sample(sp, {uni(rng), uni(rng), uni(rng)});
         ASSERT_NO_FATAL_FAILURE(test::expect_sample_matches_eval(m, sp, s, test::random_unit(rng)));
         if (s.lobe < 0) continue;
         ++accepted;
-        const double c2 = sqr(dot(n, s.wi));
-        ++hist[size_t(std::min(kBins - 1, int(c2 * kBins)))];
+        const int t = std::min(kTheta - 1, int(sqr(dot(n, s.wi)) * kTheta));
+        const double phi = std::atan2(dot(b, s.wi), dot(a, s.wi)) + kPi;
+        const int p = std::min(kPhi - 1, int(phi / kTwoPi * kPhi));
+        ++hist[size_t(t * kPhi + p)];
         EXPECT_NEAR(s.weight.r, 1.0, 1e-12);  // value / pdf: the albedo is the closure weight
     }
     EXPECT_GT(accepted, count * 99 / 100);
     double chi2 = 0;
-    const double expected = double(accepted) / kBins;
+    const double expected = double(accepted) / (kTheta * kPhi);
     for (long h : hist) chi2 += sqr(double(h) - expected) / expected;
-    EXPECT_LT(chi2, 43.8) << "chi2(0.999, 19 degrees of freedom)";
+    EXPECT_LT(chi2, 123.6) << "chi2(0.999, 79 degrees of freedom)";
 }
 
 TEST(Diffuse, SamplerRejectsDirectionsBelowTheGeometricNormal) {
