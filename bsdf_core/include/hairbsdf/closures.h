@@ -256,6 +256,22 @@ inline ScatterSample sample_at_hit(const HairModel& m, const PreparedModel& poin
         m);
 }
 
+// Cycles' closure pick (surface_shader_bsdf_bssrdf_pick): closure i of `count` with probability
+// sample_weight(i) / total, and `u` rescaled to [0, 1] within the picked closure's share.
+template <class SampleWeight>
+size_t pick_closure(size_t count, double total, const SampleWeight& sample_weight, double& u) {
+    double r = u * total;
+    for (size_t i = 0; i < count; ++i) {
+        const double w = sample_weight(i);
+        if (r < w || i + 1 == count) {
+            u = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
+            return i;
+        }
+        r -= w;
+    }
+    return count - 1;
+}
+
 // A weighted sum of closures, evaluated and sampled as Cycles does with several BSDFs:
 // eval sums weight * value, the pdf is the sample-weight mixture of the closures' pdfs.
 class ClosureSum {
@@ -316,17 +332,8 @@ public:
         BsdfSample out;
         if (!(total_sample_weight_ > 0)) return out;
         if (closures_.size() == 1) return weighted(closures_[0], sample_model(closures_[0].model, sp.models[0], u));
-        double r = u[2] * total_sample_weight_;
-        size_t picked = closures_.size() - 1;
-        for (size_t i = 0; i < closures_.size(); ++i) {
-            const double w = closures_[i].sample_weight();
-            if (r < w || i + 1 == closures_.size()) {
-                picked = i;
-                u[2] = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
-                break;
-            }
-            r -= w;
-        }
+        const size_t picked = pick_closure(
+            closures_.size(), total_sample_weight_, [&](size_t i) { return closures_[i].sample_weight(); }, u[2]);
         const BsdfSample s = sample_model(closures_[picked].model, sp.models[picked], u);
         if (s.lobe < 0) return out;
         // Combine with the other closures' values and pdfs at the sampled direction.

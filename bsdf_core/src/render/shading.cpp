@@ -264,18 +264,9 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
     if (count_ == 0) return out;
     // Pick a closure with u2 and rescale it (Cycles' surface_shader_bsdf_bssrdf_pick).
     int picked = count_ - 1;
-    if (count_ > 1) {
-        double r = u2 * total_sample_weight_;
-        for (int i = 0; i < count_; ++i) {
-            const double w = closures_[size_t(i)].sample_weight;
-            if (r < w || i + 1 == count_) {
-                picked = i;
-                u2 = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
-                break;
-            }
-            r -= w;
-        }
-    }
+    if (count_ > 1)
+        picked = int(pick_closure(size_t(count_), total_sample_weight_,
+                                  [&](size_t i) { return closures_[i].sample_weight; }, u2));
     const HitClosure& c = closures_[size_t(picked)];
     if (c.transparent) {
         // Cycles' transparent BSDF: straight on, value = weight, pdf = the pick probability.
