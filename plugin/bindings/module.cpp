@@ -528,6 +528,12 @@ py::list schema_list(const std::vector<ModelParamSpec>& schema) {
     }
     return out;
 }
+py::dict model_dict(const DiffuseBsdf&) {
+    py::dict d;
+    d["model"] = "diffuse";
+    return d;
+}
+
 py::dict model_dict(const CyclesHair& m) {
     const CyclesHairParams& p = m.params();
     py::dict d;

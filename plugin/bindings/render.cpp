@@ -834,7 +834,7 @@ py::tuple py_eval_hit_bsdf(const py::dict& scene_dict, int material, py::handle 
         g.tangent = Vec3{1, 0, 0};
         g.h = h.data()[i];
         g.random = random;
-        bsdf.set(shader, g, blur, lookup3_hash_uint2(uint32_t(i), seed), true);
+        bsdf.set_seeded(shader, g, blur, lookup3_hash_uint2(uint32_t(i), seed), true);
         const BsdfValue b = bsdf.empty() ? BsdfValue{} : bsdf.eval(row(wi.data(), i));
         for (int c = 0; c < 3; ++c) {
             ov[3 * i + size_t(c)] = b.value[c];

@@ -1,7 +1,7 @@
 """One code path: the engine's BSDF at a hit (render::Bsdf, set up and evaluated by the
 integrator's code, through the test hook _render.eval_hit_bsdf) equals `eval` of the Python API
 at the same inputs, for every closure the engine renders: Principled Hair (Chiang; Huang's
-stochastic eval against Closure.cycles_estimate with the same seeds, an expected failure for now),
+stochastic eval against Closure.cycles_estimate with the same seeds),
 the legacy Hair BSDF, every zoo model and diffuse. Bit for bit where the engine does the API's arithmetic, else within float
 rounding (1e-12 relative)."""
 
@@ -16,13 +16,22 @@ from test_render_models import IDS as ZOO_IDS, ZOO
 N = 400
 
 
+def _stable(v):
+    """Rows of v normalized, and which of them normalizing again leaves bit-identical. The API
+    normalizes every direction it is given and the engine hook does not, so other rows reach the
+    two one ulp apart (enough for Huang's stochastic eval to take another random path)."""
+    for _ in range(4):
+        v = v / np.linalg.norm(v, axis=1, keepdims=True)
+    return v, np.all(v / np.linalg.norm(v, axis=1, keepdims=True) == v, axis=1)
+
+
 def _directions(seed):
     rng = np.random.default_rng(seed)
-    wo = rng.normal(size=(N, 3))
-    wi = rng.normal(size=(N, 3))
-    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
-    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    return wo, wi, rng.uniform(-0.99, 0.99, N)
+    wo, wo_ok = _stable(rng.normal(size=(3 * N, 3)))
+    wi, wi_ok = _stable(rng.normal(size=(3 * N, 3)))
+    keep = np.flatnonzero(wo_ok & wi_ok)[:N]
+    assert len(keep) == N
+    return wo[keep], wi[keep], rng.uniform(-0.99, 0.99, N)
 
 
 def _hits(closures, *, normal=None, seed=0, **integrator):
@@ -63,8 +72,6 @@ def test_chiang_hits_equal_eval(parametrization, inputs):
     _assert_same(lobes[:, :4], np.asarray(weight) * api.eval_lobes(wo, wi, h), "lobes")
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 25): the engine's Huang eval differs from cycles_estimate at "
-                   "float rounding in ~45 % of hits and takes another random path in ~1 %; cause not found yet")
 def test_huang_hits_equal_cycles_estimate():
     inputs = {"melanin": 0.3, "roughness": 0.3, "aspect_ratio": 0.8}
     closure = {"type": "principled_hair", "weight": (1, 1, 1), "model": "HUANG", "parametrization": "MELANIN",

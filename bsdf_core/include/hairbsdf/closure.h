@@ -30,6 +30,11 @@ struct ShadingContext {
     // "Shadow", deep-opacity / shadow-map fraction), 1 = unoccluded (the default), 0 = fully in
     // the hair's shadow.
     double shadow = 1;
+    // Optional fields of surfaces in the renderer (the diffuse model and the legacy Hair BSDF's
+    // reflection test): the hit's shading normal N and geometric normal Ng, on the viewer's side;
+    // zero: the model's own choice.
+    Vec3 shading_normal{0, 0, 0};
+    Vec3 geometric_normal{0, 0, 0};
 };
 
 // R, TT, TRT, TRRT+ (Chiang), then the medulla-scattered TTs and TRTs of yan_fur (docs/models.md §7);
@@ -59,6 +64,20 @@ struct BsdfEval {
     std::array<RGB, kLobeCount> lobes{};
     double pdf = 0;
     RGB value() const { return sum_of_lobes(lobes); }
+};
+
+// A sample as the renderer takes it from a model (closures.h, sample_at_hit): the direction,
+// the value and per-lobe values there (without the closure weight; lobes only when asked), the
+// pdf and lobe. `value_from_lobes`: the value is the sum of the weighted lobes (a stochastic
+// eval's); `blur_pdf_one`: Filter Glossy sees pdf 1 (Cycles' Huang sampler reports 1).
+struct ScatterSample {
+    Vec3 wi{};
+    RGB value{};
+    std::array<RGB, 6> lobes{};
+    double pdf = 0;
+    int lobe = -1;  // -1: no sample
+    bool value_from_lobes = false;
+    bool blur_pdf_one = false;
 };
 
 struct BsdfSample {

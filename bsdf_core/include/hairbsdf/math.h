@@ -44,6 +44,34 @@ inline void make_orthonormals(Vec3 n, Vec3& a, Vec3& b) {
     b = cross(n, a);
 }
 
+// Shirley-Chiu concentric map of (u0, u1) in [0, 1)^2 to the unit disk.
+inline void sample_concentric_disk(double u0, double u1, double& x, double& y) {
+    const double a = 2.0 * u0 - 1.0, b = 2.0 * u1 - 1.0;
+    if (a == 0 && b == 0) {
+        x = y = 0;
+        return;
+    }
+    double r, phi;
+    if (a * a > b * b) {
+        r = a;
+        phi = (kPi / 4) * (b / a);
+    } else {
+        r = b;
+        phi = kPi / 2 - (kPi / 4) * (a / b);
+    }
+    x = r * std::cos(phi);
+    y = r * std::sin(phi);
+}
+// A cosine-distributed direction about the unit vector n (density cos / pi).
+inline Vec3 sample_cos_hemisphere(Vec3 n, double u0, double u1) {
+    double x, y;
+    sample_concentric_disk(u0, u1, x, y);
+    const double z = std::sqrt(std::max(0.0, 1.0 - x * x - y * y));
+    Vec3 a, b;
+    make_orthonormals(n, a, b);
+    return normalize(x * a + y * b + z * n);
+}
+
 // Linear RGB in the scene-linear working space.
 struct RGB {
     double r = 0, g = 0, b = 0;

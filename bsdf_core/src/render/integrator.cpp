@@ -324,8 +324,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
         }
         Bsdf& bsdf = scratch.bsdf;
         sp.g.near_field = camera && hit.kind == PrimKind::Curve;
-        const uint32_t huang_seed = material.has_huang() ? uint32_t(rng.next() * 4294967296.0) : 0u;
-        bsdf.set(material, sp.g, blur, huang_seed, first_hair);
+        bsdf.set(material, sp.g, blur, rng, first_hair);  // draws the seed of a stochastic eval
         if (bsdf.empty()) return res;
 
         // Next-event estimation.

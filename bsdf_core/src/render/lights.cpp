@@ -133,24 +133,6 @@ RectangleView Light::solid_angle_rectangle(Vec3 p) const {
     return {rect, false};
 }
 
-void sample_concentric_disk(double u0, double u1, double& x, double& y) {
-    const double a = 2.0 * u0 - 1.0, b = 2.0 * u1 - 1.0;
-    if (a == 0 && b == 0) {
-        x = y = 0;
-        return;
-    }
-    double r, phi;
-    if (a * a > b * b) {
-        r = a;
-        phi = (kPi / 4) * (b / a);
-    } else {
-        r = b;
-        phi = kPi / 2 - (kPi / 4) * (a / b);
-    }
-    x = r * std::cos(phi);
-    y = r * std::sin(phi);
-}
-
 Vec3 sample_uniform_cone(Vec3 axis, double one_minus_cos, double u0, double u1) {
     const double cos_t = 1.0 - u0 * one_minus_cos;
     const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
@@ -158,15 +140,6 @@ Vec3 sample_uniform_cone(Vec3 axis, double one_minus_cos, double u0, double u1) 
     Vec3 a, b;
     make_orthonormals(axis, a, b);
     return normalize((sin_t * std::cos(phi)) * a + (sin_t * std::sin(phi)) * b + cos_t * axis);
-}
-
-Vec3 sample_cos_hemisphere(Vec3 n, double u0, double u1) {
-    double x, y;
-    sample_concentric_disk(u0, u1, x, y);
-    const double z = std::sqrt(std::max(0.0, 1.0 - x * x - y * y));
-    Vec3 a, b;
-    make_orthonormals(n, a, b);
-    return normalize(x * a + y * b + z * n);
 }
 
 static Vec3 sample_uniform_sphere(double u0, double u1) {

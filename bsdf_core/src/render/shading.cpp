@@ -1,7 +1,6 @@
 // Materials and the per-hit closure mixture; see render/shading.h.
 #include "hairbsdf/render/shading.h"
 
-#include "hairbsdf/render/lights.h"
 
 namespace hairbsdf::render {
 
@@ -67,10 +66,11 @@ void apply_links(const std::vector<ClosureDesc::Link>& links, const float* r, Pr
 RGB MaterialShader::emission(const float* registers) const {
     RGB e = emission_;
     if (!registers) return e;
-    for (const LinkedEmission& l : linked_emission_) {
-        const RGB color = l.color_register >= 0 ? register_rgb(registers, l.color_register) : l.color;
-        const double strength = l.strength_register >= 0 ? register_value(registers, l.strength_register) : l.strength;
-        e += strength * (l.weight * color);
+    for (const EmissionClosure& l : linked_emission_) {
+        const RGB color = l.color_register >= 0 ? register_rgb(registers, l.color_register) : l.model.color();
+        const double strength =
+            l.strength_register >= 0 ? register_value(registers, l.strength_register) : l.model.strength();
+        e += Emission(color, strength).radiance(l.weight);
     }
     return e;
 }
@@ -80,27 +80,33 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
     : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler),
       huang_glass_albedo_table_(huang_glass_albedo_table) {
     const bool with_program = !desc.program.empty();
+    // The closures by kind, in the order the sum keeps them (the pick order: it changes the noise only).
+    std::vector<MaterialClosure> hair, cycles_hair, diffuse, models;
+    auto room = [&] {
+        return hair.size() + cycles_hair.size() + diffuse.size() + models.size() < size_t(kMaxBsdfClosures);
+    };
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
             case ClosureDesc::Type::PrincipledHair: {
                 if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
-                HairClosure h;
+                MaterialClosure h;
                 h.weight = c.weight;
-                h.inputs = c.hair;
+                h.hair = c.hair;
                 h.random_from_curve = c.random_from_curve;
                 if (with_program) h.links = c.links;
-                h.depends_on_random = (c.random_from_curve && hair_depends_on_random(c.hair)) || !h.links.empty();
                 h.huang = c.hair_model == ClosureDesc::HairModel::Huang;
-                has_huang_ = has_huang_ || h.huang;
-                if (!h.depends_on_random) {
+                const bool per_hit = (c.random_from_curve && hair_depends_on_random(c.hair)) || !h.links.empty();
+                if (!per_hit) {
                     PrincipledHairInputs in = c.hair;
                     if (c.random_from_curve) in.random = 0.0;  // unused by the parameters
                     if (h.huang)
-                        h.fixed_huang.emplace(render_huang_params(in, huang_sampler, huang_glass_albedo_table));
+                        h.model = std::make_shared<const HairModel>(
+                            std::in_place_type<HuangHair>, render_huang_params(in, huang_sampler, huang_glass_albedo_table));
                     else
-                        h.fixed.emplace(chiang_params_from_principled(in, accuracy, tilt));
+                        h.model = std::make_shared<const HairModel>(std::in_place_type<ChiangHair>,
+                                                                    chiang_params_from_principled(in, accuracy, tilt));
                 }
-                if (closure_count() < size_t(kMaxBsdfClosures)) hair_.push_back(std::move(h));
+                if (room()) hair.push_back(std::move(h));
                 break;
             }
             case ClosureDesc::Type::CyclesHair: {
@@ -112,27 +118,25 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 p.offset = c.offset;
                 p.roughness_u = c.roughness_u;
                 p.roughness_v = c.roughness_v;
-                if (closure_count() < size_t(kMaxBsdfClosures)) cycles_hair_.push_back({w, CyclesHair(p)});
+                MaterialClosure m;
+                m.weight = w;
+                m.model = std::make_shared<const HairModel>(std::in_place_type<CyclesHair>, p);
+                if (room()) cycles_hair.push_back(std::move(m));
                 break;
             }
             case ClosureDesc::Type::Diffuse: {
-                int32_t color_register = -1;
+                MaterialClosure d;
                 if (with_program)
                     for (const ClosureDesc::Link& l : c.links)
-                        if (l.input == ClosureDesc::Input::Color) color_register = l.reg;
-                if (color_register >= 0) {
-                    if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
-                    if (closure_count() < size_t(kMaxBsdfClosures))
-                        diffuse_.push_back({c.weight, color_register});
-                    break;
-                }
-                const RGB w = c.weight * c.color;
-                if (std::fabs(average(w)) < kClosureWeightCutoff) break;
-                if (closure_count() < size_t(kMaxBsdfClosures)) diffuse_.push_back({w});
+                        if (l.input == ClosureDesc::Input::Color) d.color_register = l.reg;
+                d.weight = d.color_register >= 0 ? c.weight : c.weight * c.color;
+                if (std::fabs(average(d.weight)) < kClosureWeightCutoff) break;
+                d.model = std::make_shared<const HairModel>(std::in_place_type<DiffuseBsdf>);
+                if (room()) diffuse.push_back(std::move(d));
                 break;
             }
             case ClosureDesc::Type::Emission: {
-                LinkedEmission l{c.weight, c.color, c.strength};
+                EmissionClosure l{c.weight, Emission(c.color, c.strength)};
                 if (with_program)
                     for (const ClosureDesc::Link& k : c.links) {
                         if (k.input == ClosureDesc::Input::Color) l.color_register = k.reg;
@@ -141,190 +145,113 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 if (l.color_register >= 0 || l.strength_register >= 0)
                     linked_emission_.push_back(l);
                 else
-                    emission_ += c.strength * (c.weight * c.color);
+                    emission_ += l.model.radiance(l.weight);
                 break;
             }
-            case ClosureDesc::Type::Model:  // render/model_closure.h
-                if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
-                if (closure_count() < size_t(kMaxBsdfClosures))
-                    models_.push_back(build_model_closure(c, "material '" + desc.name + "'"));
+            case ClosureDesc::Type::Model: {  // render/model_closure.h
+                if (std::fabs(average(c.weight)) < kClosureWeightCutoff || !room()) break;
+                const ModelClosure built = build_model_closure(c, "material '" + desc.name + "'");
+                MaterialClosure m;
+                m.weight = built.weight;
+                m.model = built.model;
+                models.push_back(std::move(m));
                 break;
+            }
         }
     }
+    for (std::vector<MaterialClosure>* kind : {&hair, &cycles_hair, &diffuse, &models})
+        for (MaterialClosure& m : *kind) closures_.push_back(std::move(m));
 }
 
-namespace {
-// A per-hit closure's Principled Hair inputs: the curve's random and the program's values.
-PrincipledHairInputs hit_inputs(const MaterialShader::HairClosure& h, const ShadingGeometry& g) {
-    PrincipledHairInputs in = h.inputs;
-    bool random_from_curve = h.random_from_curve;
-    if (g.registers) apply_links(h.links, g.registers, in, random_from_curve);
-    if (random_from_curve) in.random = g.random;
-    return in;
-}
-}  // namespace
-
-void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, uint32_t seed,
-               bool lobes) {
+const HairModel* Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness,
+                               bool lobes) {
     count_ = 0;
     lobes_ = lobes;
-    huang_rng_ = seed;
     total_sample_weight_ = 0;
-    hair_ctx_.tangent = g.tangent;
-    hair_ctx_.wo = g.wo;
-    hair_ctx_.h = clamp(g.h, -1.0, 1.0);
-    n_ = g.n;
-    ng_ = g.ng;
-    for (const MaterialShader::HairClosure& h : material.hair()) {
-        const int slot = count_;
-        if (h.huang) {
-            const HuangHair* model = nullptr;
-            if (h.fixed_huang && !(blur_roughness > 0)) {
-                model = &*h.fixed_huang;
-            } else if (h.fixed_huang) {
-                huang_storage_[size_t(slot)].emplace(h.fixed_huang->blurred(blur_roughness));
-                model = &*huang_storage_[size_t(slot)];
-            } else {
-                const HuangHairParams params = render_huang_params(hit_inputs(h, g), material.huang_sampler(),
-                                                                   material.huang_glass_albedo_table());
-                if (blur_roughness > 0)
-                    huang_storage_[size_t(slot)].emplace(HuangHair(params).blurred(blur_roughness));
-                else
-                    huang_storage_[size_t(slot)].emplace(params);
-                model = &*huang_storage_[size_t(slot)];
-            }
-            ShadingContext ctx = hair_ctx_;
-            ctx.normal = g.curve_normal;
-            ctx.pixel_coverage = g.pixel_coverage;
-            ctx.near_field = g.near_field;
-            huang_points_[size_t(slot)] = model->prepare(ctx);
-            const bool transparent = huang_points_[size_t(slot)].transparent;
-            entries_[size_t(slot)] = {transparent ? Entry::Kind::Transparent : Entry::Kind::Huang, h.weight,
-                                      std::fabs(average(h.weight)), nullptr, model};
-            total_sample_weight_ += entries_[size_t(slot)].sample_weight;
-            ++count_;
-            continue;
-        }
-        const ChiangHair* model = nullptr;
-        if (h.fixed && !(blur_roughness > 0)) {
-            model = &*h.fixed;
-        } else if (h.fixed) {
-            storage_[size_t(slot)].emplace(h.fixed->blurred(blur_roughness));
-            model = &*storage_[size_t(slot)];
-        } else {
-            const ChiangHairParams params =
-                chiang_params_from_principled(hit_inputs(h, g), material.accuracy(), material.tilt());
-            if (blur_roughness > 0)
-                storage_[size_t(slot)].emplace(ChiangHair(params).blurred(blur_roughness));
+    wo_ = g.wo;
+    ShadingContext ctx;
+    ctx.tangent = g.tangent;
+    ctx.wo = g.wo;
+    ctx.h = clamp(g.h, -1.0, 1.0);
+    ctx.random = g.random;
+    ctx.normal = g.curve_normal;
+    ctx.pixel_coverage = g.pixel_coverage;
+    ctx.near_field = g.near_field;
+    ctx.shading_normal = g.n;
+    ctx.geometric_normal = g.ng;
+    const HairModel* stochastic = nullptr;
+    for (const MaterialShader::MaterialClosure& m : material.closures()) {
+        const size_t slot = size_t(count_);
+        HitClosure& c = closures_[slot];
+        c.weight = m.weight;
+        if (m.color_register >= 0)
+            c.weight = g.registers ? m.weight * register_rgb(g.registers, m.color_register) : RGB(0.0);
+        c.model = m.model.get();
+        if (!c.model) {  // Principled Hair with per-hit inputs
+            PrincipledHairInputs in = m.hair;
+            bool random_from_curve = m.random_from_curve;
+            if (g.registers) apply_links(m.links, g.registers, in, random_from_curve);
+            if (random_from_curve) in.random = g.random;
+            if (m.huang)
+                hit_models_[slot].emplace(std::in_place_type<HuangHair>,
+                                          render_huang_params(in, material.huang_sampler(),
+                                                              material.huang_glass_albedo_table()));
             else
-                storage_[size_t(slot)].emplace(params);
-            model = &*storage_[size_t(slot)];
+                hit_models_[slot].emplace(std::in_place_type<ChiangHair>,
+                                          chiang_params_from_principled(in, material.accuracy(), material.tilt()));
+            c.model = &*hit_models_[slot];
         }
-        points_[size_t(slot)].emplace(model->prepare(hair_ctx_));
-        entries_[size_t(slot)] = {Entry::Kind::Hair, h.weight, std::fabs(average(h.weight)), model, nullptr};
-        total_sample_weight_ += entries_[size_t(slot)].sample_weight;
+        if (blur_roughness > 0 && blur_model(*c.model, blur_roughness, hit_models_[slot])) c.model = &*hit_models_[slot];
+        prepare_model(*c.model, ctx, c.point);
+        c.transparent = model_transparent(*c.model, c.point);
+        c.hair_lobes = model_hair_lobes(*c.model);
+        c.sample_weight = std::fabs(average(c.weight));
+        if (!stochastic && model_stochastic_eval(*c.model)) stochastic = c.model;
+        total_sample_weight_ += c.sample_weight;
         ++count_;
     }
-    for (const MaterialShader::CyclesHairClosure& c : material.cycles_hair()) {
-        legacy_points_[size_t(count_)].emplace(c.model.prepare(hair_ctx_));
-        legacy_points_[size_t(count_)]->normal = g.n;  // Cycles' N test uses the hit's shading normal
-        entries_[size_t(count_)] = {Entry::Kind::Legacy, c.weight, std::fabs(average(c.weight)), nullptr, nullptr,
-                                    &c.model};
-        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
-        ++count_;
-    }
-    for (const MaterialShader::DiffuseClosure& d : material.diffuse()) {
-        RGB w = d.weight;
-        if (d.color_register >= 0) w = g.registers ? w * register_rgb(g.registers, d.color_register) : RGB(0.0);
-        entries_[size_t(count_)] = {Entry::Kind::Diffuse, w, std::fabs(average(w)), nullptr, nullptr};
-        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
-        ++count_;
-    }
-    for (const ModelClosure& m : material.models()) {  // hair_model closures (render/model_closure.h)
-        if (count_ >= kMaxBsdfClosures) break;
-        ShadingContext ctx = hair_ctx_;
-        ctx.random = g.random;
-        ctx.normal = g.curve_normal;
-        model_points_[size_t(count_)].prepare(m, ctx);
-        entries_[size_t(count_)] = {Entry::Kind::Model, m.weight, std::fabs(average(m.weight)), nullptr, nullptr};
-        total_sample_weight_ += entries_[size_t(count_)].sample_weight;
-        ++count_;
-    }
+    return stochastic;
+}
+
+void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, Sampler& rng,
+               bool lobes) {
+    const HairModel* stochastic = prepare(material, g, blur_roughness, lobes);
+    eval_state_ = stochastic ? model_eval_seed(*stochastic, rng.next()) : 0u;
     if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
-std::array<RGB, kLobeCount> Bsdf::eval_huang(int i, Vec3 wi) const {
-    const Entry& e = entries_[size_t(i)];
-    const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
-    std::array<RGB, kLobeCount> lobes = e.huang->eval_cycles_stochastic(sp, e.huang->to_local(sp, wi), huang_rng_);
-    for (RGB& l : lobes) l = e.weight * l;
-    return lobes;
+void Bsdf::set_seeded(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness,
+                      uint32_t eval_state, bool lobes) {
+    prepare(material, g, blur_roughness, lobes);
+    eval_state_ = eval_state;
+    if (!(total_sample_weight_ > 0)) count_ = 0;
 }
 
-BsdfValue Bsdf::eval_entry(int i, Vec3 wi) const {
-    const Entry& e = entries_[size_t(i)];
+BsdfValue Bsdf::eval_closure(int i, Vec3 wi) const {
+    const HitClosure& c = closures_[size_t(i)];
     BsdfValue out;
-    if (e.kind == Entry::Kind::Transparent) return out;  // a delta: no value in any sampled direction
-    if (e.kind == Entry::Kind::Model) {
-        const BsdfEval r = model_points_[size_t(i)].eval(wi);
-        for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-        out.value = sum_of_lobes(out.lobes);
-        out.pdf = r.pdf;
-        return out;
-    }
-    if (e.kind == Entry::Kind::Huang) {
-        const HuangHair::ShadingPoint& sp = huang_points_[size_t(i)];
-        out.pdf = e.huang->pdf(sp, wi);
-        if (out.pdf > 0) {
-            out.lobes = eval_huang(i, wi);
-            out.value = sum_of_lobes(out.lobes);
-        }
-        return out;
-    }
-    if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
-        const BsdfEval r = e.kind == Entry::Kind::Hair ? e.hair->eval(*points_[size_t(i)], wi)
-                                                       : e.legacy->eval(*legacy_points_[size_t(i)], wi);
-        for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-        out.value = sum_of_lobes(out.lobes);
-        out.pdf = r.pdf;
-    } else {
-        // Cycles' diffuse eval tests only N; its sampler also requires Ng . wi > 0.
-        const double c = dot(n_, wi);
-        if (c > 0) {
-            out.pdf = c / kPi;
-            out.value = out.pdf * e.weight;
-        }
-    }
+    if (c.transparent) return out;  // a delta: no value in any sampled direction
+    const BsdfEval r = eval_at_hit(*c.model, c.point, wi, eval_state_);
+    for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = c.weight * r.lobes[size_t(k)];
+    out.value = sum_of_lobes(out.lobes);
+    out.pdf = r.pdf;
+    if (!c.hair_lobes) out.lobes = {};
     return out;
 }
 
 bool Bsdf::has_transmission() const {
-    for (int i = 0; i < count_; ++i) {
-        const Entry& e = entries_[size_t(i)];
-        switch (e.kind) {
-            case Entry::Kind::Hair:
-            case Entry::Kind::Huang:
-            case Entry::Kind::Transparent:  // a Huang closure outside its ellipse
-            case Entry::Kind::Model:
-                return true;
-            case Entry::Kind::Legacy:
-                if (!e.legacy->reflection()) return true;
-                break;
-            case Entry::Kind::Diffuse:
-                break;
-        }
-    }
+    for (int i = 0; i < count_; ++i)
+        if (model_transmits(*closures_[size_t(i)].model)) return true;
     return false;
 }
 
 BsdfValue Bsdf::eval(Vec3 wi) const {
     BsdfValue out;
     for (int i = 0; i < count_; ++i) {
-        const Entry& e = entries_[size_t(i)];
-        const BsdfValue v = eval_entry(i, wi);
+        const BsdfValue v = eval_closure(i, wi);
         if (v.pdf != 0.0) {  // Cycles accumulates a closure only where its pdf is non-zero
             out.value += v.value;
-            out.pdf += e.sample_weight * v.pdf;
+            out.pdf += closures_[size_t(i)].sample_weight * v.pdf;
             for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
         }
     }
@@ -337,104 +264,43 @@ BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumb
     if (count_ == 0) return out;
     // Pick a closure with u2 and rescale it (Cycles' surface_shader_bsdf_bssrdf_pick).
     int picked = count_ - 1;
-    if (count_ > 1) {
-        double r = u2 * total_sample_weight_;
-        for (int i = 0; i < count_; ++i) {
-            const double w = entries_[size_t(i)].sample_weight;
-            if (r < w || i + 1 == count_) {
-                picked = i;
-                u2 = w > 0 ? clamp(r / w, 0.0, 1.0) : 0.5;
-                break;
-            }
-            r -= w;
-        }
-    }
-    const Entry& e = entries_[size_t(picked)];
-    BsdfValue own;
-    if (e.kind == Entry::Kind::Transparent) {
+    if (count_ > 1)
+        picked = int(pick_closure(size_t(count_), total_sample_weight_,
+                                  [&](size_t i) { return closures_[i].sample_weight; }, u2));
+    const HitClosure& c = closures_[size_t(picked)];
+    if (c.transparent) {
         // Cycles' transparent BSDF: straight on, value = weight, pdf = the pick probability.
-        out.wi = -1.0 * hair_ctx_.wo;
-        out.value = e.weight;
-        out.pdf = e.sample_weight / total_sample_weight_;
+        out.wi = -1.0 * wo_;
+        out.value = c.weight;
+        out.pdf = c.sample_weight / total_sample_weight_;
         out.blur_pdf = out.pdf;
         out.label = LabelTransparent;
         return out;
     }
-    if (e.kind == Entry::Kind::Huang) {
-        const HuangHair::ShadingPoint& sp = huang_points_[size_t(picked)];
-        int lobe;
-        if (e.huang->params().sampler == HuangSampler::Cycles) {
-            // Cycles' estimator: the traced path's energy estimate as the value, pdf 1.
-            const BsdfSample s = e.huang->sample(sp, {u0, u1, u2});
-            lobe = s.lobe;
-            if (s.lobe < 0) return out;
-            out.wi = s.wi;
-            own.pdf = 1.0;
-            own.value = e.weight * s.value;
-            own.lobes[size_t(std::min(s.lobe, kLobeCount - 1))] = own.value;
-        } else {
-            Vec3 local;
-            lobe = e.huang->sample_direction(sp, {u0, u1, u2}, local);
-            if (lobe < 0) return out;
-            out.wi = e.huang->to_world(sp, local);
-            own.pdf = e.huang->pdf_local(sp, local);
-            if (!(own.pdf > 0)) return out;
-            own.lobes = eval_huang(picked, out.wi);
-            own.value = sum_of_lobes(own.lobes);
-        }
-        out.label = HuangHair::scatter_label(lobe);
-    } else if (e.kind == Entry::Kind::Hair || e.kind == Entry::Kind::Legacy) {
-        const BsdfSample s = e.kind == Entry::Kind::Hair ? e.hair->sample(*points_[size_t(picked)], {u0, u1, u2},
-                                                                          chiang_longitudinal)
-                                                         : e.legacy->sample(*legacy_points_[size_t(picked)], {u0, u1, u2});
-        if (s.lobe < 0 || !(s.pdf > 0)) return out;
-        out.wi = s.wi;
-        own.value = e.weight * s.value;
-        own.pdf = s.pdf;
-        if (lobes_) {
-            // The sampled value per lobe (Cycles' legacy sampler value is not its eval).
-            own.lobes[size_t(s.lobe)] = own.value;
-            if (e.kind == Entry::Kind::Hair) {
-                const BsdfEval r = e.hair->eval(*points_[size_t(picked)], s.wi);
-                for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-            }
-        }
-        out.label = e.kind == Entry::Kind::Hair ? ChiangHair::scatter_label(s.lobe) : e.legacy->scatter_label(s.lobe);
-    } else if (e.kind == Entry::Kind::Model) {
-        const PreparedModelClosure& m = model_points_[size_t(picked)];
-        const BsdfSample s = m.sample({u0, u1, u2});
-        if (s.lobe < 0) return out;
-        out.wi = s.wi;
-        own.value = e.weight * s.value;
-        own.pdf = s.pdf;
-        if (lobes_) {
-            const BsdfEval r = m.eval(s.wi);
-            for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = e.weight * r.lobes[size_t(k)];
-        }
-        out.label = m.scatter_label(s.lobe);
-    } else {
-        out.wi = sample_cos_hemisphere(n_, u0, u1);
-        const double c = dot(n_, out.wi);
-        if (!(c > 0) || !(dot(ng_, out.wi) > 0)) return out;
-        own.pdf = c / kPi;
-        own.value = own.pdf * e.weight;
-        out.label = uint8_t(LabelDiffuse | LabelReflect);
-    }
+    const ScatterSample s = sample_at_hit(*c.model, c.point, {u0, u1, u2}, chiang_longitudinal, eval_state_, lobes_);
+    if (s.lobe < 0) return out;
+    out.wi = s.wi;
+    BsdfValue own;
+    for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = c.weight * s.lobes[size_t(k)];
+    own.value = s.value_from_lobes ? sum_of_lobes(own.lobes) : c.weight * s.value;
+    own.pdf = s.pdf;
+    if (!c.hair_lobes) own.lobes = {};
+    out.label = scatter_label(*c.model, s.lobe);
     // Combine with the other closures at the sampled direction.
     RGB value = own.value;
-    double pdf = e.sample_weight * own.pdf;
+    double pdf = c.sample_weight * own.pdf;
     out.lobes = own.lobes;
     for (int i = 0; i < count_; ++i) {
         if (i == picked) continue;
-        const BsdfValue v = eval_entry(i, out.wi);
+        const BsdfValue v = eval_closure(i, out.wi);
         if (v.pdf != 0.0) {
             value += v.value;
-            pdf += entries_[size_t(i)].sample_weight * v.pdf;
+            pdf += closures_[size_t(i)].sample_weight * v.pdf;
             for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
         }
     }
     out.pdf = pdf / total_sample_weight_;
-    out.blur_pdf = e.kind == Entry::Kind::Huang ? 1.0 : out.pdf;  // Cycles' Huang sampler reports pdf 1
+    out.blur_pdf = s.blur_pdf_one ? 1.0 : out.pdf;  // Cycles' Huang sampler reports pdf 1
     out.value = value;
     if (!(out.pdf > 0) || !std::isfinite(out.pdf)) out.label = LabelNone;
     return out;

@@ -59,6 +59,8 @@ public:
     bool reflection() const { return params_.component == CyclesHairComponent::Reflection; }
     CyclesHair blurred(double) const { return *this; }  // Cycles' bsdf_blur skips the legacy Hair BSDF
     uint8_t scatter_label(int) const { return uint8_t(LabelGlossy | (reflection() ? LabelReflect : LabelTransmit)); }
+    bool transmits() const { return !reflection(); }  // Cycles' SD_BSDF_HAS_TRANSMISSION
+    static constexpr bool kSampleValueIsEval = false;  // Cycles' sampler value is not its eval
     double r1() const { return r1_; }
     double r2() const { return r2_; }
 
@@ -91,6 +93,8 @@ public:
         sp.a = std::atan(((0.5 * kPi + sp.theta_r) * 0.5 - offset_) / r1_);
         sp.b = std::atan(((-0.5 * kPi + sp.theta_r) * 0.5 - offset_) / r1_);
         sp.valid = sp.a > sp.b;
+        if (!(ctx.shading_normal.x == 0 && ctx.shading_normal.y == 0 && ctx.shading_normal.z == 0))
+            sp.normal = ctx.shading_normal;  // the renderer: Cycles' N test uses the hit's shading normal
         return sp;
     }
 

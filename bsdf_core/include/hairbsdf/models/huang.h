@@ -106,6 +106,10 @@ public:
     }
     // Cycles labels every Huang lobe a glossy reflection.
     static uint8_t scatter_label(int) { return uint8_t(LabelGlossy | LabelReflect); }
+    // The renderer's eval is Cycles' stochastic estimator (eval_estimate), its LCG state seeded
+    // per hit with one uniform number u of the path's sampler.
+    static constexpr bool kStochasticEval = true;
+    static uint32_t eval_seed(double u) { return uint32_t(u * 4294967296.0); }
     double alpha() const { return alpha_; }
     double aspect_ratio() const { return b_; }
 
@@ -163,6 +167,44 @@ public:
     double pdf_local(const ShadingPoint& sp, Vec3 O) const;
     Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }
     Vec3 to_world(const ShadingPoint& sp, Vec3 w) const { return w.x * sp.x + w.y * sp.y + w.z * sp.z; }
+
+    // In the renderer. Outside the projected ellipse the closure is a transparent one.
+    static bool transparent(const ShadingPoint& sp) { return sp.transparent; }
+    // Cycles' eval: the mixture's pdf and, where it is positive, the stochastic per-lobe values.
+    BsdfEval eval_estimate(const ShadingPoint& sp, Vec3 wi, uint32_t& rng_state) const {
+        BsdfEval out;
+        out.pdf = pdf(sp, wi);
+        if (out.pdf > 0) out.lobes = eval_cycles_stochastic(sp, to_local(sp, wi), rng_state);
+        return out;
+    }
+    // Cycles' sampler: the traced path's energy estimate as the value with pdf 1; the mixture
+    // sampler: its exact density with the stochastic eval. Filter Glossy sees pdf 1 in both.
+    ScatterSample sample_estimate(const ShadingPoint& sp, const std::array<double, 3>& u, uint32_t& rng_state) const {
+        ScatterSample out;
+        out.blur_pdf_one = true;
+        if (params_.sampler == HuangSampler::Cycles) {
+            const BsdfSample s = sample(sp, u);
+            if (s.lobe < 0) return out;
+            out.wi = s.wi;
+            out.pdf = 1.0;
+            out.value = s.value;
+            out.lobes[size_t(std::min(s.lobe, kLobeCount - 1))] = s.value;
+            out.lobe = s.lobe;
+            return out;
+        }
+        Vec3 local;
+        const int lobe = sample_direction(sp, u, local);
+        if (lobe < 0) return out;
+        const Vec3 wi = to_world(sp, local);
+        const double pdf = pdf_local(sp, local);
+        if (!(pdf > 0)) return out;
+        out.wi = wi;
+        out.pdf = pdf;
+        out.lobes = eval_cycles_stochastic(sp, to_local(sp, wi), rng_state);
+        out.value_from_lobes = true;
+        out.lobe = lobe;
+        return out;
+    }
 
     // Geometry of the cross-section (public for tests).
     double h_to_gamma(double h_div_r, Vec3 w) const;

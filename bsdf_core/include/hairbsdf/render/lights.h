@@ -227,7 +227,5 @@ inline double power_heuristic(double a, double b) {
 
 // Sampling helpers shared with the integrator.
 Vec3 sample_uniform_cone(Vec3 axis, double one_minus_cos, double u0, double u1);
-Vec3 sample_cos_hemisphere(Vec3 n, double u0, double u1);
-void sample_concentric_disk(double u0, double u1, double& x, double& y);
 
 }  // namespace hairbsdf::render

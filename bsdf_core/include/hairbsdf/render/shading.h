@@ -13,19 +13,21 @@
 //     REFLECT (reflection) or GLOSSY TRANSMIT (transmission); the closure weight includes the
 //     node's Color as in Cycles (it sets the pick probability); its N test uses the hit's
 //     shading normal; not blurred by Filter Glossy (Cycles' bsdf_blur skips it);
-//   diffuse -> Lambert, cosine-sampled, label DIFFUSE REFLECT;
-//   emission -> radiance color x strength x weight, two-sided (Cycles' emissive closure);
+//   diffuse -> DiffuseBsdf (models/diffuse.h), Lambert, cosine-sampled, label DIFFUSE REFLECT;
+//   emission -> Emission (models/emission.h): radiance color x strength x weight, two-sided;
 //   hair_model -> a zoo model or a plugin (render/model_closure.h): label GLOSSY, REFLECT for
 //     lobe R, TRANSMIT for the others, as Chiang's; Filter Glossy does not blur it.
 // Inputs linked to the material's shading program (render/shading_vm.h) take the program's
 // registers at the hit (ShadingGeometry::registers); a non-finite register value reads as 0.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <vector>
 
 #include "hairbsdf/closures.h"
 #include "hairbsdf/render/model_closure.h"
+#include "hairbsdf/render/sampler.h"
 #include "hairbsdf/render/scene.h"
 
 namespace hairbsdf::render {
@@ -33,60 +35,44 @@ namespace hairbsdf::render {
 constexpr int kMaxBsdfClosures = 8;
 constexpr double kClosureWeightCutoff = 1e-5;  // Cycles' CLOSURE_WEIGHT_CUTOFF
 
-// One material, prepared once per render.
+// One material, prepared once per render: its BSDF closures (a weight and a model each, in the
+// order principled_hair, cycles_hair, diffuse, hair_model) and its emission closures.
 class MaterialShader {
 public:
     MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy = Accuracy::Cycles,
                    HuangSampler huang_sampler = HuangSampler::Cycles,
                    GlassAlbedoTable huang_glass_albedo_table = GlassAlbedoTable::Cycles4);
-    struct HairClosure {
+    struct MaterialClosure {
         RGB weight;
-        PrincipledHairInputs inputs;
+        // The model when it does not depend on the hit; nullptr: a Principled Hair model built
+        // per hit from `hair` (the curve's random, the shading program's values).
+        std::shared_ptr<const HairModel> model;
+        bool huang = false;  // the per-hit model: Huang (else Chiang)
+        PrincipledHairInputs hair;
         bool random_from_curve = true;
-        bool depends_on_random = false;
-        bool huang = false;               // the Huang model (else Chiang)
         std::vector<ClosureDesc::Link> links;  // inputs from the shading program
-        std::optional<ChiangHair> fixed;  // when the parameters do not depend on the curve
-        std::optional<HuangHair> fixed_huang;
+        int32_t color_register = -1;           // diffuse: weight x the program's colour
     };
-    struct DiffuseClosure {
-        RGB weight;  // weight x color (weight alone when the colour is linked)
-        int32_t color_register = -1;  // the colour from the shading program
-    };
-    struct LinkedEmission {
+    struct EmissionClosure {
         RGB weight;
-        RGB color;
-        double strength = 1;
-        int32_t color_register = -1, strength_register = -1;
+        Emission model;
+        int32_t color_register = -1, strength_register = -1;  // inputs from the shading program
     };
-    struct CyclesHairClosure {
-        RGB weight;        // weight x Color (Cycles' closure weight)
-        CyclesHair model;  // with colour 1
-    };
-    const std::vector<HairClosure>& hair() const { return hair_; }
-    const std::vector<DiffuseClosure>& diffuse() const { return diffuse_; }
-    const std::vector<CyclesHairClosure>& cycles_hair() const { return cycles_hair_; }
-    const std::vector<ModelClosure>& models() const { return models_; }  // hair_model closures
+    const std::vector<MaterialClosure>& closures() const { return closures_; }
     // Emission at a hit; `registers`: the program's registers there (nullptr without a program).
     RGB emission(const float* registers = nullptr) const;
     const ShadingProgram& program() const { return program_; }
-    bool has_bsdf() const { return !hair_.empty() || !diffuse_.empty() || !cycles_hair_.empty() || !models_.empty(); }
-    bool has_huang() const { return has_huang_; }
+    bool has_bsdf() const { return !closures_.empty(); }
     TiltConvention tilt() const { return tilt_; }
     Accuracy accuracy() const { return accuracy_; }
     HuangSampler huang_sampler() const { return huang_sampler_; }
     GlassAlbedoTable huang_glass_albedo_table() const { return huang_glass_albedo_table_; }
 
 private:
-    size_t closure_count() const { return hair_.size() + diffuse_.size() + cycles_hair_.size() + models_.size(); }
-    std::vector<HairClosure> hair_;
-    std::vector<DiffuseClosure> diffuse_;
-    std::vector<ModelClosure> models_;
-    std::vector<CyclesHairClosure> cycles_hair_;
-    RGB emission_{0.0};
-    std::vector<LinkedEmission> linked_emission_;
+    std::vector<MaterialClosure> closures_;
+    RGB emission_{0.0};                          // the emission closures without program inputs
+    std::vector<EmissionClosure> linked_emission_;  // those with
     ShadingProgram program_;
-    bool has_huang_ = false;
     TiltConvention tilt_;
     Accuracy accuracy_;
     HuangSampler huang_sampler_;
@@ -122,46 +108,49 @@ struct BsdfScatter {
     uint8_t label = LabelNone;
 };
 
-// The BSDF at one hit. Reused per thread: set() does not allocate.
+// The BSDF at one hit: the material's closures as a weighted sum of models, prepared for the
+// hit, evaluated and sampled through the model interface of closures.h (eval_at_hit,
+// sample_at_hit, scatter_label, ...) with Cycles' one-sample mixture. Reused per thread: set()
+// does not allocate for models that do not (Huang's shading point does).
 class Bsdf {
 public:
-    // blur_roughness > 0 applies Cycles' Filter Glossy to the hair closures. `seed` drives
-    // the random microfacet normals of Huang's stochastic eval at this hit. `lobes`: fill
-    // the per-lobe values of eval and sample (costs an extra eval per sample).
-    void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
-             uint32_t seed = 0, bool lobes = false);
+    // blur_roughness > 0 applies Cycles' Filter Glossy to the models that blur. Where a closure's
+    // eval is stochastic, set() draws its seed from the path's sampler `rng` (one number per
+    // hit). `lobes`: fill the per-lobe values of eval and sample (costs an extra eval per sample).
+    void set(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness, Sampler& rng,
+             bool lobes = false);
+    // The same with the stochastic eval's state given (the test hook eval_hit_bsdf).
+    void set_seeded(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
+                    uint32_t eval_state, bool lobes = false);
     bool empty() const { return count_ == 0; }
-    // Cycles' SD_BSDF_HAS_TRANSMISSION: a closure that transmits (Principled Hair, Hair BSDF
-    // Transmission, hair_model closures); the light tree then ignores the side of N.
+    // Cycles' SD_BSDF_HAS_TRANSMISSION: a closure whose model transmits; the light tree then
+    // ignores the side of N.
     bool has_transmission() const;
     BsdfValue eval(Vec3 wi) const;
     // `chiang_longitudinal`: Cycles < 3.6's LCG numbers for Principled Hair (Chiang) closures.
     BsdfScatter sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal = nullptr) const;
 
 private:
-    struct Entry {
-        enum class Kind : uint8_t { Hair, Huang, Transparent, Diffuse, Legacy, Model } kind;
+    // One closure at this hit: weight x model, the model prepared for the hit.
+    struct HitClosure {
         RGB weight;
-        double sample_weight;
-        const ChiangHair* hair;
-        const HuangHair* huang;
-        const CyclesHair* legacy = nullptr;
+        double sample_weight = 0;
+        const HairModel* model = nullptr;
+        PreparedModel point;
+        bool transparent = false;  // replaced by a transparent closure here (Huang outside its ellipse)
+        bool hair_lobes = true;    // its value is a share of the hair lobe passes
     };
-    BsdfValue eval_entry(int i, Vec3 wi) const;
-    std::array<RGB, kLobeCount> eval_huang(int i, Vec3 wi) const;
-    std::array<Entry, kMaxBsdfClosures> entries_{};
-    std::array<std::optional<ChiangHair>, kMaxBsdfClosures> storage_;
-    std::array<std::optional<ChiangHair::ShadingPoint>, kMaxBsdfClosures> points_;  // view terms, once per hit
-    std::array<std::optional<HuangHair>, kMaxBsdfClosures> huang_storage_;
-    std::array<HuangHair::ShadingPoint, kMaxBsdfClosures> huang_points_;
-    std::array<PreparedModelClosure, kMaxBsdfClosures> model_points_;  // hair_model closures at this hit
-    std::array<std::optional<CyclesHair::ShadingPoint>, kMaxBsdfClosures> legacy_points_;
-    mutable uint32_t huang_rng_ = 0;  // Cycles-style LCG state of the stochastic eval
+    // Prepares the closures; returns the first with a stochastic eval, or nullptr.
+    const HairModel* prepare(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
+                             bool lobes);
+    BsdfValue eval_closure(int i, Vec3 wi) const;
+    std::array<HitClosure, kMaxBsdfClosures> closures_;
+    std::array<std::optional<HairModel>, kMaxBsdfClosures> hit_models_;  // models built or blurred for this hit
+    mutable uint32_t eval_state_ = 0;  // the stochastic evals' random state, advanced by each eval
     int count_ = 0;
     bool lobes_ = false;
     double total_sample_weight_ = 0;
-    ShadingContext hair_ctx_;
-    Vec3 n_, ng_;
+    Vec3 wo_;
 };
 
 // Reads register `reg` (3 for a colour) as an input value; non-finite values read as 0.
