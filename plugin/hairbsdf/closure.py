@@ -211,7 +211,8 @@ def _extra_args(extra: dict, arrays: list, order=_EXTRA_ORDER) -> list:
 
 def _h_rows(h, wo):
     """h as the kernels take it: a number becomes (N,) in wo's float type; anything else as given."""
-    if isinstance(h, (float, int)) and not isinstance(h, bool) and isinstance(wo, np.ndarray) and wo.ndim == 2:
+    number = isinstance(h, (float, int, np.floating, np.integer)) and not isinstance(h, (bool, np.bool_))
+    if number and isinstance(wo, np.ndarray) and wo.ndim == 2:
         return np.full(len(wo), h, dtype=np.float32 if wo.dtype == np.float32 else np.float64)
     return h
 

@@ -191,6 +191,7 @@ def test_dtypes_and_out():
     # A number for h, and non-contiguous float32 (copied): the kernels still run.
     np.testing.assert_array_equal(closure.eval(wo, wi, 0.25)[:3],
                                   closure.eval(wo[:3], wi[:3], np.full(3, 0.25, np.float32)))
+    assert closure.eval(wo, wi, np.float32(0.25)).dtype == np.float32
     np.testing.assert_array_equal(closure.eval(wo[::2], wi[::2], h[::2]), value32[::2])
 
 
