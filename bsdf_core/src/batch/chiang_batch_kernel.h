@@ -51,14 +51,16 @@ struct ChiangKernel {
         v.zy = xsimd::select(degenerate, B(-1.0f), -woy * inv_len);
         v.zz = xsimd::select(degenerate, B(0.0f), -woz * inv_len);
 
+        // Near the fibre axis float cannot take cos from sin (sin rounds to 1): cos theta_o is the
+        // length of wo's part across the fibre, and eta^2 - sin^2 is written as eta^2 - 1 + cos^2.
         const B eta(c.eta);
         v.sin_o = clampb(wox, -1.0f, 1.0f);
-        v.cos_o = cos_from_sin(v.sin_o);
-        const B sin_t = v.sin_o / eta;
-        const B cos_t = cos_from_sin(sin_t);
+        v.cos_o = xsimd::min(xsimd::sqrt(len2), B(1.0f));
+        const B eta2_minus_sin2 = (eta * eta - B(1.0f)) + v.cos_o * v.cos_o;
+        const B cos_t = xsimd::sqrt(xsimd::max(eta2_minus_sin2, B(0.0f))) / eta;
         const B cos_gamma_o = cos_from_sin(h);
         v.gamma_o = xsimd::asin(clampb(h, -1.0f, 1.0f));
-        const B sin_gamma_t = h * v.cos_o / xsimd::sqrt(eta * eta - v.sin_o * v.sin_o);
+        const B sin_gamma_t = h * v.cos_o / xsimd::sqrt(eta2_minus_sin2);
         const M gamma_t_ok = !xsimd::isnan(sin_gamma_t);
         const B cos_gamma_t = cos_from_sin(sin_gamma_t);
         v.gamma_t = xsimd::asin(clampb(xsimd::select(gamma_t_ok, sin_gamma_t, B(0.0f)), -1.0f, 1.0f));
@@ -295,9 +297,11 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             B value[3], pdf;
             if (!sample) {
                 const B sin_i = K::clampb(s0, -1.0f, 1.0f);
-                const B cos_i = K::cos_from_sin(sin_i);
+                const B cos_i = xsimd::min(xsimd::sqrt(s1 * s1 + s2 * s2), B(1.0f));  // as cos_o in view()
                 const B dy = s1 * v.yy + s2 * v.yz, dz = s1 * v.zy + s2 * v.zz;
-                const B phi = xsimd::atan2(dz, dy) + B(0.5f * K::kPiF);
+                // atan2(0, 0) is 0 as in libm (xsimd's gives NaN): wi along the fibre.
+                const M on_axis = (dy == B(0.0f)) & (dz == B(0.0f));
+                const B phi = xsimd::atan2(dz, xsimd::select(on_axis, B(1.0f), dy)) + B(0.5f * K::kPiF);
                 kernel.eval_local(v, sin_i, cos_i, phi, value, pdf);
                 for (int k = 0; k < 3; ++k) (value[k] * B(c.weight[k])).store_aligned(r[k] + j);
                 pdf.store_aligned(r[3] + j);
