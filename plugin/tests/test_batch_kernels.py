@@ -188,6 +188,12 @@ def test_dtypes_and_out():
     assert closure.pdf(wo, wi, h, out=pdf_out) is pdf_out
     with pytest.raises(ValueError, match="out: must be a writeable C-contiguous float32 array of shape"):
         closure.eval(wo, wi, h, out=np.empty((1000, 3), dtype=np.float64))
+    # On the scalar path out= is filled from the result.
+    out64 = np.empty((1000, 3))
+    assert reference(lambda: closure.eval(wo, wi, h, out=out64)) is out64
+    np.testing.assert_array_equal(out64, reference(lambda: closure.eval(wo, wi, h)))
+    with pytest.raises(ValueError, match=r"out: must be a writeable array of shape \(1000,\)"):
+        reference(lambda: closure.pdf(wo, wi, h, out=np.empty(999)))
     # A number for h, and non-contiguous float32 (copied): the kernels still run.
     np.testing.assert_array_equal(closure.eval(wo, wi, 0.25)[:3],
                                   closure.eval(wo[:3], wi[:3], np.full(3, 0.25, np.float32)))
