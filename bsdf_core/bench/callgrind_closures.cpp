@@ -1,13 +1,16 @@
 // The cost of going through ClosureSum: `sum` runs the scalar eval of a one-closure Chiang sum,
 // `direct` the model's own prepare + eval at the same inputs. scripts/bench --callgrind counts
 // each loop's instructions under callgrind (only inside run_sum / run_direct); the ratio is
-// ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md).
+// ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `kernel_eval`, `kernel_pdf` and
+// `kernel_sample` run the float32 batch kernels (docs/simd.md) over the same rows in one call
+// (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512).
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <random>
 #include <vector>
 
+#include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/params/principled_hair.h"
 
@@ -30,11 +33,34 @@ __attribute__((noinline)) double run_direct(const ChiangHair& model, const Input
     for (size_t i = 0; i < in.ctx.size(); ++i) acc += model.eval(model.prepare(in.ctx[i]), in.wi[i]).pdf;
     return acc;
 }
+struct KernelRows {
+    std::vector<float> wo, wi, h, u;
+};
+
+__attribute__((noinline)) size_t run_kernel(const ChiangBatchConstants& c, ChiangBatchOp op, const KernelRows& in,
+                                            std::vector<float>& value, std::vector<float>& pdf,
+                                            std::vector<float>& wi, std::vector<int32_t>& lobe) {
+    ChiangBatchRows rows;
+    rows.wo = in.wo.data();
+    rows.wi = in.wi.data();
+    rows.h = in.h.data();
+    rows.u = in.u.data();
+    ChiangBatchOutput out;
+    out.value = value.data();
+    out.weight = value.data();
+    out.pdf = pdf.data();
+    out.wi = wi.data();
+    out.lobe = lobe.data();
+    return chiang_batch_run(c, op, rows, out, 0, in.h.size());
+}
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2 || (std::strcmp(argv[1], "sum") != 0 && std::strcmp(argv[1], "direct") != 0)) {
-        std::fprintf(stderr, "usage: %s sum|direct [calls]\n", argv[0]);
+    const bool kernel = argc >= 2 && std::strncmp(argv[1], "kernel_", 7) == 0;
+    if (argc < 2 || (std::strcmp(argv[1], "sum") != 0 && std::strcmp(argv[1], "direct") != 0 &&
+                     std::strcmp(argv[1], "kernel_eval") != 0 && std::strcmp(argv[1], "kernel_pdf") != 0 &&
+                     std::strcmp(argv[1], "kernel_sample") != 0)) {
+        std::fprintf(stderr, "usage: %s sum|direct|kernel_eval|kernel_pdf|kernel_sample [calls]\n", argv[0]);
         return 2;
     }
     const size_t calls = argc > 2 ? size_t(std::atol(argv[2])) : 10000;
@@ -53,6 +79,26 @@ int main(int argc, char** argv) {
     principled.parametrization = Parametrization::Melanin;
     principled.roughness = 0.3;
     const ChiangHair model(chiang_params_from_principled(principled, Accuracy::Cycles));
+    if (kernel) {
+        KernelRows rows;
+        for (size_t i = 0; i < calls; ++i) {
+            const ShadingContext& c = in.ctx[i];
+            for (double x : {c.wo.x, c.wo.y, c.wo.z}) rows.wo.push_back(float(x));
+            for (double x : {in.wi[i].x, in.wi[i].y, in.wi[i].z}) rows.wi.push_back(float(x));
+            for (int k = 0; k < 3; ++k) rows.u.push_back(float(uni(rng)));
+            rows.h.push_back(float(c.h));
+        }
+        std::vector<float> value(3 * calls), pdf(calls), wi(3 * calls);
+        std::vector<int32_t> lobe(calls);
+        const ChiangBatchOp op = std::strcmp(argv[1], "kernel_eval") == 0  ? ChiangBatchOp::Eval
+                                 : std::strcmp(argv[1], "kernel_pdf") == 0 ? ChiangBatchOp::Pdf
+                                                                           : ChiangBatchOp::Sample;
+        const size_t bad = run_kernel(chiang_batch_constants(model.params(), RGB(1.0)), op, rows, value, pdf, wi, lobe);
+        double acc = 0;
+        for (float p : pdf) acc += p;
+        std::printf("%s %zu rows on %s, %zu bad, checksum %.9g\n", argv[1], calls, chiang_batch_isa(), bad, acc);
+        return 0;
+    }
     const ClosureSum sum({Closure{RGB(1.0), model}});
     const double acc = std::strcmp(argv[1], "sum") == 0 ? run_sum(sum, in) : run_direct(model, in);
     std::printf("%s %zu calls, checksum %.17g\n", argv[1], calls, acc);

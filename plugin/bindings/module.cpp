@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "hairbsdf/albedo.h"
+#include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/materialx.h"
@@ -675,6 +676,106 @@ py::tuple huang_sample_directions(const ClosureSum& c, const Array& wo, const Ar
     return py::make_tuple(wi, pdf, lobe);
 }
 
+// --- The Chiang batch kernels (docs/simd.md) --------------------------------------------
+// A single Chiang closure with float (N, 3) / (N,) arrays runs on the float32 SIMD kernels;
+// anything else (sums, other models, eval_lobes, broadcasting, lists, per-sample extras) on the
+// scalar double path above, which stays the reference. "scalar" sends everything there.
+std::atomic<bool> g_kernels_on{true};
+std::atomic<bool> g_convert_f64{false};  // float64 rows: false = the scalar double path
+
+const Closure* single_chiang(const ClosureSum& bsdf) {
+    if (!g_kernels_on.load() || bsdf.closures().size() != 1) return nullptr;
+    const Closure& c = bsdf.closures()[0];
+    return std::holds_alternative<ChiangHair>(c.model) ? &c : nullptr;
+}
+
+bool is_float_array(py::handle o, int ndim) {
+    if (!py::isinstance<py::array>(o)) return false;
+    const auto a = py::reinterpret_borrow<py::array>(o);
+    if (a.ndim() != ndim || (ndim == 2 && a.shape(1) != 3)) return false;
+    return a.dtype().is(py::dtype::of<float>()) || a.dtype().is(py::dtype::of<double>());
+}
+bool is_f32(py::handle o) { return py::reinterpret_borrow<py::array>(o).dtype().is(py::dtype::of<float>()); }
+
+// An output array: `out` when given (checked), else a new one.
+py::array output_array(const py::object& out, const char* name, std::vector<py::ssize_t> shape, bool f64) {
+    const py::dtype dt = f64 ? py::dtype::of<double>() : py::dtype::of<float>();
+    if (out.is_none()) return py::array(dt, shape);
+    if (!py::isinstance<py::array>(out))
+        throw py::type_error(std::string(name) + ": expected a NumPy array, got " +
+                             std::string(py::str(py::type::handle_of(out).attr("__name__"))));
+    auto a = py::reinterpret_borrow<py::array>(out);
+    bool shape_ok = size_t(a.ndim()) == shape.size();
+    for (size_t k = 0; shape_ok && k < shape.size(); ++k) shape_ok = a.shape(py::ssize_t(k)) == shape[k];
+    if (!shape_ok || !a.dtype().is(dt) || !(a.flags() & py::array::c_style) || !a.writeable()) {
+        std::string want = "(";
+        for (size_t k = 0; k < shape.size(); ++k) want += (k ? ", " : "") + std::to_string(shape[k]);
+        want += shape.size() == 1 ? ",)" : ")";
+        throw py::value_error(std::string(name) + ": must be a writeable C-contiguous " + (f64 ? "float64" : "float32") +
+                              " array of shape " + want + " (the inputs' float type)");
+    }
+    return a;
+}
+
+// Runs op on the kernels. Returns None when they do not apply (the caller then validates and
+// takes the scalar path, which also names any argument that is not allowed).
+py::object kernel_call(const ClosureSum& bsdf, ChiangBatchOp op, py::handle wo, py::handle second, py::handle h,
+                       const py::object& out) {
+    const Closure* closure = single_chiang(bsdf);
+    if (!closure || !is_float_array(wo, 2) || !is_float_array(second, 2) || !is_float_array(h, 1)) return py::none();
+    std::array<py::array, 3> in = {py::reinterpret_borrow<py::array>(wo), py::reinterpret_borrow<py::array>(second),
+                                   py::reinterpret_borrow<py::array>(h)};
+    const py::ssize_t n = in[0].shape(0);
+    if (in[1].shape(0) != n || in[2].shape(0) != n) return py::none();
+    // All float32: used in place where C-contiguous (else copied). Any float64: the scalar double
+    // path, unless float64 rows are to be converted here (set_batch_kernel(float64="float32")).
+    const bool f64 = !(is_f32(wo) && is_f32(second) && is_f32(h));
+    if (f64 && !g_convert_f64.load()) return py::none();
+    for (auto& a : in) {
+        if (f64)
+            a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+        else if (!(a.flags() & py::array::c_style))
+            a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+    }
+    const ChiangBatchConstants constants =
+        chiang_batch_constants(std::get<ChiangHair>(closure->model).params(), closure->weight);
+    ChiangBatchRows rows;
+    rows.wo = in[0].data();
+    (op == ChiangBatchOp::Sample ? rows.u : rows.wi) = in[1].data();
+    rows.h = in[2].data();
+    rows.f64 = f64;
+    ChiangBatchOutput o;
+    o.f64 = f64;
+    py::object result;
+    py::array value, pdf, wi, weight;
+    py::array_t<int32_t> lobe;
+    if (op == ChiangBatchOp::Eval) {
+        value = output_array(out, "out", {n, 3}, f64);
+        o.value = value.mutable_data();
+        result = value;
+    } else if (op == ChiangBatchOp::Pdf) {
+        pdf = output_array(out, "out", {n}, f64);
+        o.pdf = pdf.mutable_data();
+        result = pdf;
+    } else {
+        wi = output_array(py::none(), "wi", {n, 3}, f64);
+        weight = output_array(py::none(), "weight", {n, 3}, f64);
+        pdf = output_array(py::none(), "pdf", {n}, f64);
+        lobe = py::array_t<int32_t>({n});
+        o.wi = wi.mutable_data();
+        o.weight = weight.mutable_data();
+        o.pdf = pdf.mutable_data();
+        o.lobe = lobe.mutable_data();
+        result = py::make_tuple(wi, weight, pdf, lobe);
+    }
+    std::atomic<size_t> bad{0};
+    {
+        py::gil_scoped_release release;
+        parallel_for(size_t(n), 16384, [&](size_t b, size_t e) { bad += chiang_batch_run(constants, op, rows, o, b, e); });
+    }
+    return bad.load() ? py::object(py::none()) : result;
+}
+
 template <class Fn>
 py::array_t<double> map1(const Array& x, Fn fn) {
     auto out = new_array(std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));
@@ -697,6 +798,16 @@ PYBIND11_MODULE(_core, m) {
             return batch_eval(c, wo, wi, h, true);
         })
         .def("pdf", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) { return batch_pdf(c, wo, wi, h); })
+        // The batch kernels: None when they do not apply to these arrays (docs/simd.md).
+        .def("kernel_eval", [](const ClosureSum& c, py::handle wo, py::handle wi, py::handle h, py::object out) {
+            return kernel_call(c, ChiangBatchOp::Eval, wo, wi, h, out);
+        })
+        .def("kernel_pdf", [](const ClosureSum& c, py::handle wo, py::handle wi, py::handle h, py::object out) {
+            return kernel_call(c, ChiangBatchOp::Pdf, wo, wi, h, out);
+        })
+        .def("kernel_sample", [](const ClosureSum& c, py::handle wo, py::handle h, py::handle u) {
+            return kernel_call(c, ChiangBatchOp::Sample, wo, u, h, py::none());
+        })
         .def("sample", [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u) { return batch_sample(c, wo, h, u); })
         // The same with the optional per-sample shading fields (None = default): normal (N, 3),
         // pixel_coverage (N,), near_field (N,) as 0 / 1.
@@ -892,4 +1003,12 @@ PYBIND11_MODULE(_core, m) {
     });
     m.def("set_num_threads", [](int n) { g_num_threads = std::max(1, n); });
     m.def("get_num_threads", []() { return g_num_threads.load(); });
+    // "scalar" (the double reference path for every call) or an instruction set of the kernels.
+    m.def("set_batch_kernel", [](const std::string& name, bool convert_float64) {
+        g_kernels_on = name != "scalar";
+        g_convert_f64 = convert_float64;
+        const char* isa = set_chiang_batch_isa(name == "best" || name == "scalar" ? "" : name.c_str());
+        return g_kernels_on.load() ? std::string(isa) : std::string("scalar");
+    });
+    m.def("get_batch_kernel", []() { return g_kernels_on.load() ? std::string(chiang_batch_isa()) : std::string("scalar"); });
 }

@@ -9,6 +9,7 @@ Frames and units: docs/conventions.md in the repository.
 """
 
 from ._platform import load_core
+from . import _validate
 
 _core = load_core()
 from .closure import LOBES, Closure, SampleResult
@@ -55,10 +56,30 @@ def get_num_threads() -> int:
     return _core.get_num_threads()
 
 
+BATCH_KERNELS = ("best", "avx512", "avx2", "sse2", "scalar")
+FLOAT64_POLICIES = ("double", "float32")
+
+
+def set_batch_kernel(name: str = "best", *, float64: str = "double") -> str:
+    """Which code runs batch eval / pdf / sample of a single Chiang closure (docs/simd.md): the
+    float32 SIMD kernels on the best instruction set ("best"), on a given one ("avx512", "avx2",
+    "sse2"; the best available when this CPU lacks it), or the scalar double path ("scalar", the
+    reference). float32 rows go to the kernels; float64 rows stay on the double path
+    (float64="double") or are converted to float32 at the boundary (float64="float32", float64
+    results). Returns the one now in use."""
+    convert = _validate.choice("float64", float64, FLOAT64_POLICIES) == "float32"
+    return _core.set_batch_kernel(_validate.choice("name", name, BATCH_KERNELS), convert)
+
+
+def get_batch_kernel() -> str:
+    """The batch kernel in use: "avx512", "avx2", "sse2" or "scalar"."""
+    return _core.get_batch_kernel()
+
+
 __all__ = [
     "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
-    "get_num_threads", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
+    "get_num_threads", "set_batch_kernel", "get_batch_kernel", "BATCH_KERNELS", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
     "python_bsdf", "PluginConstructor", "PluginError", "PythonBSDF", "ParamSpec", "PLUGIN_ABI_VERSION",
     "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair", "yan_fur", "cycles_hair_bsdf",
     "make_model", "model_schema", "zoo_model_names", "get_include", "get_cmake_dir", "__version__",

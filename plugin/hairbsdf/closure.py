@@ -56,10 +56,18 @@ class Closure:
     #                   (principled_hair takes it as the `random` keyword). Default 0.
     #   shadow:         scalar or (N,) in [0, 1], the Epic model's light visibility through the hair
     #                   volume (docs/models.md §2), default 1 = unoccluded; other models ignore it.
+    # A single Chiang closure given float32 arrays of N rows (wo, wi (N, 3), h (N,) or a number)
+    # runs on the float32 SIMD batch kernels (docs/simd.md): C-contiguous input is read in place,
+    # the result is float32. `out=`: a preallocated result array. float64 rows and everything else
+    # take the scalar double path (hairbsdf.set_batch_kernel chooses otherwise).
     def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-             shadow=None) -> np.ndarray:
+             shadow=None, out=None) -> np.ndarray:
         """BSDF value including the cosine factor (Cycles' convention), (N, 3)."""
-        return self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random, shadow)
+        if normal is None and pixel_coverage is None and near_field is None and random is None and shadow is None:
+            result = self._core.kernel_eval(wo, wi, _h_rows(h, wo), out)
+            if result is not None:
+                return result
+        return _into(out, self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random, shadow))
 
     def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
                    shadow=None) -> np.ndarray:
@@ -68,18 +76,26 @@ class Closure:
         return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow)
 
     def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-            shadow=None) -> np.ndarray:
+            shadow=None, out=None) -> np.ndarray:
         """The density `sample` reports for wi, per unit solid angle, (N,)."""
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
+        if not extra:
+            result = self._core.kernel_pdf(wo, wi, _h_rows(h, wo), out)
+            if result is not None:
+                return result
         rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
         if not extra:
-            return self._core.pdf(*rows)
-        return self._core.pdf_ex(*rows[:3], *_extra_args(extra, rows[3:]))
+            return _into(out, self._core.pdf(*rows))
+        return _into(out, self._core.pdf_ex(*rows[:3], *_extra_args(extra, rows[3:])))
 
     def sample(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None, random=None,
                shadow=None) -> SampleResult:
         """Samples wi from 3 uniform numbers per row (docs/conventions.md for their roles)."""
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
+        if not extra:
+            result = self._core.kernel_sample(wo, _h_rows(h, wo), u)
+            if result is not None:
+                return SampleResult(*result)
         rows = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h), u=check.uniforms("u", u), **extra)
         if not extra:
             wi, weight, pdf, lobe = self._core.sample(*rows)
@@ -191,6 +207,24 @@ def _extra_args(extra: dict, arrays: list, order=_EXTRA_ORDER) -> list:
     near_field, random, shadow) arguments, None where not given."""
     given = dict(zip(extra.keys(), arrays))
     return [given.get(k) for k in order]
+
+
+def _h_rows(h, wo):
+    """h as the kernels take it: a number becomes (N,) in wo's float type; anything else as given."""
+    number = isinstance(h, (float, int, np.floating, np.integer)) and not isinstance(h, (bool, np.bool_))
+    if number and isinstance(wo, np.ndarray) and wo.ndim == 2:
+        return np.full(len(wo), h, dtype=np.float32 if wo.dtype == np.float32 else np.float64)
+    return h
+
+
+def _into(out, result: np.ndarray) -> np.ndarray:
+    """The scalar path's result, written into `out` when one is given."""
+    if out is None:
+        return result
+    if not isinstance(out, np.ndarray) or out.shape != result.shape or not out.flags.writeable:
+        raise ValueError(f"out: must be a writeable array of shape {result.shape}")
+    out[...] = result
+    return out
 
 
 def _fmt_weight(w) -> str:

@@ -75,7 +75,9 @@ def test_weight_equals_eval_over_pdf(accuracy, dtype, rng):
     assert ok.mean() > 0.999
     ev = closure.eval(wo[ok], s.wi[ok], h[ok])
     pdf = closure.pdf(wo[ok], s.wi[ok], h[ok])
-    np.testing.assert_allclose(s.pdf[ok], pdf, rtol=1e-5)
+    # float32 rows run on the float32 kernels (docs/simd.md): the sampler's pdf and the pdf
+    # recomputed from the rounded float32 direction differ by up to ~2e-5 on narrow lobes.
+    np.testing.assert_allclose(s.pdf[ok], pdf, rtol=1e-4 if dtype == np.float32 else 1e-5)
     tol = 1e-3 if dtype == np.float32 else 1e-9
     np.testing.assert_allclose(s.weight[ok], ev / pdf[:, None], rtol=tol, atol=1e-12)
     assert np.all(s.weight[~ok] == 0) and np.all(s.pdf[~ok] == 0)

@@ -1,0 +1,105 @@
+// Constants and run-time dispatch of the Chiang batch kernels (docs/simd.md).
+#include "hairbsdf/batch/chiang_batch.h"
+
+#include <atomic>
+#include <cstring>
+
+namespace hairbsdf {
+namespace batch_detail {
+size_t run_avx512(const ChiangBatchConstants&, ChiangBatchOp, const ChiangBatchRows&, const ChiangBatchOutput&,
+                  size_t, size_t);
+size_t run_avx2(const ChiangBatchConstants&, ChiangBatchOp, const ChiangBatchRows&, const ChiangBatchOutput&,
+                size_t, size_t);
+size_t run_sse2(const ChiangBatchConstants&, ChiangBatchOp, const ChiangBatchRows&, const ChiangBatchOutput&,
+                size_t, size_t);
+}  // namespace batch_detail
+
+namespace {
+
+using RunFn = size_t (*)(const ChiangBatchConstants&, ChiangBatchOp, const ChiangBatchRows&,
+                         const ChiangBatchOutput&, size_t, size_t);
+struct Isa {
+    const char* name;
+    RunFn run;
+    bool (*supported)();
+};
+bool has_avx512() {
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512cd");
+}
+bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
+bool always() { return true; }
+// Best first.
+constexpr Isa kIsas[] = {{"avx512", batch_detail::run_avx512, has_avx512},
+                         {"avx2", batch_detail::run_avx2, has_avx2},
+                         {"sse2", batch_detail::run_sse2, always}};
+
+int best_isa() {
+    for (int i = 0; i < 3; ++i)
+        if (kIsas[i].supported()) return i;
+    return 2;
+}
+std::atomic<int> g_isa{best_isa()};
+
+}  // namespace
+
+ChiangBatchConstants chiang_batch_constants(const ChiangHairParams& params, RGB weight) {
+    ChiangBatchConstants c{};
+    const double sigma[3] = {params.sigma_a.r, params.sigma_a.g, params.sigma_a.b};
+    const double w[3] = {weight.r, weight.g, weight.b};
+    for (int k = 0; k < 3; ++k) {
+        c.sigma_a[k] = float(sigma[k]);
+        c.weight[k] = float(w[k]);
+    }
+    c.zero = !(std::fabs(average(weight)) > 0);
+    c.eta = float(params.eta);
+    c.exact = params.accuracy == Accuracy::Exact;
+    c.blender34 = params.tilt_convention == TiltConvention::Blender34;
+    for (int p = 0; p < 4; ++p) {
+        const RGB& t = params.tint[p];
+        c.tint[p][0] = float(t.r);
+        c.tint[p][1] = float(t.g);
+        c.tint[p][2] = float(t.b);
+        // LongitudinalLobe's normalisation, as log_norm + 1/v for the log forms.
+        const double v = params.v[p], inv_v = 1.0 / v;
+        c.inv_v[p] = float(inv_v);
+        c.log_branch[p] = true;
+        if (c.exact) {
+            c.log_norm_plus_inv_v[p] = float(-std::log(v) - std::log1p(-std::exp(-2.0 * inv_v)));
+        } else if (v <= 0.1) {
+            c.log_norm_plus_inv_v[p] = float(0.6931 + std::log(0.5 * inv_v));
+        } else {
+            c.log_branch[p] = false;
+            c.norm[p] = float(1.0 / (std::sinh(inv_v) * 2.0 * v));
+        }
+        c.v_sample[p] = float(params.v_sample[p]);
+        c.exp_minus_2_over_v[p] = float(std::exp(-2.0 / params.v_sample[p]));
+    }
+    const double angles[3] = {2 * params.tilt, -params.tilt, -4 * params.tilt};
+    for (int p = 0; p < 3; ++p) {
+        const double s = params.s[p];
+        c.s[p] = float(s);
+        c.logistic_norm[p] = float(1.0 / (logistic_cdf(kPi, s) - logistic_cdf(-kPi, s)));
+        c.cdf_minus_pi[p] = float(logistic_cdf(-kPi, s));
+        c.rot_sin[p] = float(std::sin(angles[p]));
+        c.rot_cos[p] = float(std::cos(angles[p]));
+    }
+    return c;
+}
+
+size_t chiang_batch_run(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
+                        const ChiangBatchOutput& out, size_t begin, size_t end) {
+    return kIsas[g_isa.load(std::memory_order_relaxed)].run(c, op, rows, out, begin, end);
+}
+
+const char* chiang_batch_isa() { return kIsas[g_isa.load()].name; }
+
+const char* set_chiang_batch_isa(const char* name) {
+    int pick = best_isa();
+    for (int i = pick; i < 3; ++i)
+        if (name && std::strcmp(name, kIsas[i].name) == 0) pick = i;
+    g_isa = pick;
+    return chiang_batch_isa();
+}
+
+}  // namespace hairbsdf
