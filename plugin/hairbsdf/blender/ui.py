@@ -155,8 +155,8 @@ def _node_panel(layout, id_data, output_type, input_name):
     return True
 
 
-class HAIRBSDF_MATERIAL_PT_surface(bpy.types.Panel):
-    bl_label = "Surface"
+class _MaterialPanel:
+    """The Material tab's panels of this engine: shown for a (non Grease Pencil) material."""
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "material"
@@ -166,6 +166,10 @@ class HAIRBSDF_MATERIAL_PT_surface(bpy.types.Panel):
     def poll(cls, context):
         mat = context.material
         return mat is not None and not getattr(mat, "grease_pencil", None) and context.engine in cls.COMPAT_ENGINES
+
+
+class HAIRBSDF_MATERIAL_PT_surface(_MaterialPanel, bpy.types.Panel):
+    bl_label = "Surface"
 
     def draw(self, context):
         mat = context.material
@@ -246,17 +250,8 @@ class HAIRBSDF_OT_model_override_reset(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class HAIRBSDF_MATERIAL_PT_model_override(bpy.types.Panel):
+class HAIRBSDF_MATERIAL_PT_model_override(_MaterialPanel, bpy.types.Panel):
     bl_label = "Hair Model Override"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "material"
-    COMPAT_ENGINES = {ENGINE_ID}
-
-    @classmethod
-    def poll(cls, context):
-        mat = context.material
-        return mat is not None and not getattr(mat, "grease_pencil", None) and context.engine in cls.COMPAT_ENGINES
 
     def draw(self, context):
         layout = self.layout
