@@ -21,15 +21,13 @@ bool finite_array(const T& a) {
 
 std::string plural(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
-}  // namespace
-
-std::vector<std::string> repair_scene(SceneDesc& s) {
-    std::vector<std::string> warnings;
-
-    // Materials: a default surface for out-of-range indices (Cycles' default is diffuse 0.8).
-    int default_material = -1;
-    auto fallback_material = [&]() {
-        if (default_material < 0) {
+// Materials: a default surface for out-of-range indices (Cycles' default is diffuse 0.8), added
+// to the scene the first time a curve or triangle needs it.
+struct DefaultSurface {
+    SceneDesc& s;
+    int index = -1;
+    int operator()() {
+        if (index < 0) {
             MaterialDesc m;
             m.name = "__default_surface__";
             ClosureDesc c;
@@ -37,12 +35,15 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             c.weight = RGB(1.0);
             c.color = RGB(0.8);
             m.closures.push_back(c);
-            default_material = int(s.materials.size());
+            index = int(s.materials.size());
             s.materials.push_back(m);
         }
-        return default_material;
-    };
-    // Non-finite closure values make the closure black.
+        return index;
+    }
+};
+
+// Non-finite closure values make the closure black.
+void repair_closures(SceneDesc& s, std::vector<std::string>& warnings) {
     size_t bad_closures = 0;
     for (MaterialDesc& m : s.materials) {
         for (ClosureDesc& c : m.closures) {
@@ -64,10 +65,13 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         }
     }
     if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
-    // Shading programs: an invalid one (or a link outside its registers) is dropped, so the
-    // inputs keep their constant values.
+}
+
+// Images: a bad size empties the image (it reads 0), NaN/Inf texels read 0. Shading programs:
+// an invalid one (or a link outside its registers) is dropped, so the inputs keep their
+// constant values.
+void repair_images_and_programs(SceneDesc& s, std::vector<std::string>& warnings) {
     const int attribute_count = int(std::max(s.curves.attributes.size(), s.meshes.attributes.size()));
-    // Images: a bad size empties the image (it reads 0); NaN/Inf texels read 0.
     size_t bad_image_values = 0;
     for (ImageDesc& im : s.images) {
         if (!im.valid()) {
@@ -103,8 +107,11 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             for (ClosureDesc& c : m.closures) c.links.clear();
         }
     }
+}
 
-    // Curves.
+// Curves: strands with NaN/Inf keys, too few keys, no length or no radius are dropped, in place;
+// bad materials, randoms, transforms and per-point arrays are fixed or ignored.
+void repair_curves(SceneDesc& s, std::vector<std::string>& warnings, DefaultSurface& fallback_material) {
     CurveData& cd = s.curves;
     const size_t n_curves = cd.curve_count();
     if (n_curves > 0) {
@@ -258,8 +265,11 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     } else {
         cd = CurveData{};
     }
+}
 
-    // Triangles.
+// Triangles: bad indices, NaN/Inf vertices or no area are dropped; bad materials use the default
+// surface; attributes follow the kept triangles.
+void repair_meshes(SceneDesc& s, std::vector<std::string>& warnings, DefaultSurface& fallback_material) {
     MeshData& md = s.meshes;
     if (!md.triangles.empty()) {
         size_t dropped = 0, bad_material = 0;
@@ -313,8 +323,10 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         if (bad_material) warnings.push_back("meshes: " + plural(bad_material, "triangle") + " with a material index outside materials use the default surface");
         md = std::move(out);
     }
+}
 
-    // Lights.
+// Lights with NaN/Inf or zero-length values are removed; the world's colour and texture repaired.
+void repair_lights_and_world(SceneDesc& s, std::vector<std::string>& warnings) {
     std::vector<LightDesc> lights;
     size_t bad_lights = 0;
     for (const LightDesc& l : s.lights) {
@@ -354,6 +366,11 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             warnings.push_back("world: environment texture with a bad size, weight or matrix removed");
         }
     }
+}
+
+// Warnings for a scene that renders black or empty.
+void warn_nothing_to_render(const SceneDesc& s, std::vector<std::string>& warnings) {
+    const EnvironmentDesc& env = s.world_texture;
     bool any_emission = !(s.world.r == 0 && s.world.g == 0 && s.world.b == 0) ||
                         (env.has_texture() && !(env.weight.r == 0 && env.weight.g == 0 && env.weight.b == 0));
     for (const LightDesc& l : s.lights) any_emission = any_emission || !(l.strength.r == 0 && l.strength.g == 0 && l.strength.b == 0);
@@ -362,8 +379,10 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
             any_emission = any_emission || (c.type == ClosureDesc::Type::Emission && c.strength != 0);
     if (!any_emission) warnings.push_back("scene: no lights, no emission and a black world; the image is black");
     if (s.curves.curve_count() == 0 && s.meshes.triangles.empty()) warnings.push_back("scene: no geometry");
+}
 
-    // Camera and integrator.
+// The camera: NaN/Inf or non-positive settings take defaults.
+void repair_camera(SceneDesc& s, std::vector<std::string>& warnings) {
     CameraDesc& cam = s.camera;
     if (!finite_array(cam.matrix_world)) {
         cam.matrix_world = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
@@ -387,6 +406,10 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
         warnings.push_back("camera: clip_end must exceed clip_start; using clip_start + 1e6");
         cam.clip_end = cam.clip_start + 1e6;
     }
+}
+
+// The integrator: NaN/Inf or out-of-range settings take defaults.
+void repair_integrator(SceneDesc& s, std::vector<std::string>& warnings) {
     IntegratorSettings& in = s.integrator;
     if (!(std::isfinite(in.filter_width) && in.filter_width > 0)) {
         warnings.push_back("integrator: filter_width must be > 0; using 1.5");
@@ -396,6 +419,21 @@ std::vector<std::string> repair_scene(SceneDesc& s) {
     if (!(std::isfinite(in.filter_glossy) && in.filter_glossy >= 0)) in.filter_glossy = 0.0;
     if (!(std::isfinite(in.clamp_direct) && in.clamp_direct >= 0)) in.clamp_direct = 0.0;
     if (!(std::isfinite(in.clamp_indirect) && in.clamp_indirect >= 0)) in.clamp_indirect = 0.0;
+}
+
+}  // namespace
+
+std::vector<std::string> repair_scene(SceneDesc& s) {
+    std::vector<std::string> warnings;
+    DefaultSurface fallback_material{s};
+    repair_closures(s, warnings);
+    repair_images_and_programs(s, warnings);
+    repair_curves(s, warnings, fallback_material);
+    repair_meshes(s, warnings, fallback_material);
+    repair_lights_and_world(s, warnings);
+    warn_nothing_to_render(s, warnings);
+    repair_camera(s, warnings);
+    repair_integrator(s, warnings);
     return warnings;
 }
 
