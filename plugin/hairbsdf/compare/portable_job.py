@@ -22,22 +22,15 @@ import traceback
 import bpy
 import numpy as np
 
+# The harness's own job script, beside this one (its folder is on sys.path when run as a script).
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_job import _scene_lib as _scene_lib_in, _write_json  # noqa: E402
+
 RANDOM_ATTRIBUTE = "hairbsdf_random"
 
 
-def _write_json(path, data):
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=1, default=str)
-    os.replace(tmp, path)
-
-
 def _scene_lib():
-    here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes")
-    if here not in sys.path:
-        sys.path.insert(0, here)
-    import scene_lib
-    return scene_lib
+    return _scene_lib_in(os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes"))
 
 
 def hair_sources(depsgraph):
