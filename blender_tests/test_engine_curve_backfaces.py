@@ -22,11 +22,13 @@ pytestmark = pytest.mark.blender
 
 INSIDE = r'''
 hb = register_engine()
-scene = hs.reset(width=8, height=6, spp=1, curve_shape="THICK", film_transparent=False)
+scene = hs.reset(width=8, height=6, spp=1, curve_shape=CURVE_SHAPE, film_transparent=False)
 scene.hairbsdf.threads = 2
 mat = hs.emission_material("E", (1.0, 0.0, 0.0), 1.0)
 hs.curves_grid("Fat", nx=1, ny=1, n_points=6, length=4.0, radius=0.5, material=mat, location=(0, 0, -2))
 world = bpy.data.worlds.new("W"); world.use_nodes = False; world.color = (0, 1, 0); scene.world = world
+if world.node_tree and "Background" in world.node_tree.nodes:  # 5.x: a world always has its nodes
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 1, 0, 1)
 cam = hs.make_camera(location=(0.0, 0.0, 0.0), target=(0.0, 1.0, 0.0), lens=200.0)
 out = {}
 for frac in (0.0, 0.6, 0.9):
@@ -42,12 +44,26 @@ emit({"version": bpy.app.version_string, "seen": out})
 
 def test_rays_from_inside_a_tube_as_cycles(run_blender, engine_kind, renderer_available, capsys):
     need_renderer(engine_kind, renderer_available)
-    r = run_blender(engine_kind, INSIDE).result
+    r = run_blender(engine_kind, INSIDE.replace("CURVE_SHAPE", '"THICK"')).result
     with capsys.disabled():
         print(f"\n[inside a tube] {r['version']}: " + ", ".join(f"{k}: Cycles {v[0]}, ours {v[1]}"
                                                               for k, v in r["seen"].items()))
     cycles_sees = {v[0] for v in r["seen"].values()}
     assert cycles_sees == ({"world"} if engine_kind == "blender" else {"wall"}), r["seen"]
+    bad = {k: v for k, v in r["seen"].items() if v[0] != v[1]}
+    assert not bad, f"{r['version']}: differs from Cycles: {bad}"
+
+
+def test_linear_3d_curves_are_culled_as_in_cycles_5(run_blender, renderer_available, capsys):
+    """Blender 5.x's Linear 3D Curves are Embree's round linear curves, to which Blender's Embree
+    build applies back-face culling: from inside a tube Cycles 5.3 sees the world everywhere, and
+    so must we (the exporter sets curve_backface_culling for THICK_LINEAR)."""
+    need_renderer("bpy5", renderer_available)
+    r = run_blender("bpy5", INSIDE.replace("CURVE_SHAPE", '"THICK_LINEAR"')).result
+    with capsys.disabled():
+        print(f"\n[inside a linear tube] {r['version']}: " + ", ".join(f"{k}: Cycles {v[0]}, ours {v[1]}"
+                                                                     for k, v in r["seen"].items()))
+    assert {v[0] for v in r["seen"].values()} == {"world"}, r["seen"]
     bad = {k: v for k, v in r["seen"].items() if v[0] != v[1]}
     assert not bad, f"{r['version']}: differs from Cycles: {bad}"
 

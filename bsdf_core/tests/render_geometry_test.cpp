@@ -1,6 +1,8 @@
 // Curve and triangle intersection with Cycles' semantics (render/geometry.h).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "hairbsdf/render/geometry.h"
 
 using namespace hairbsdf;
@@ -153,4 +155,41 @@ TEST(RenderGeometry, CurvesInObjectSpaceAreIntersectedThere) {
     EXPECT_NEAR(p.y, -0.4, 1e-12);
     const Vec3 n = os.normal_to_world({0, 1, 0});
     EXPECT_NEAR(n.y, 1.0 / 3.0, 1e-12);
+}
+
+// Linear 3D Curves (Blender 5.x): straight cones between the keys, joined by spheres. On a
+// bent strand the hit lies on the chord between two keys (not on the Catmull-Rom arc), and
+// curve_point gives the chord's point and direction.
+TEST(RenderGeometry, LinearCurvesFollowTheChords) {
+    SceneDesc s;
+    s.curve_shape = CurveShape::ThickLinear;
+    s.curves.offsets = {0, 3};
+    s.curves.points = {{-1.0f, 0.0f, 0.0f, 0.05f}, {0.0f, 0.0f, 0.5f, 0.05f}, {1.0f, 0.0f, 0.0f, 0.05f}};
+    s.curves.random = {0.5f};
+    s.curves.material = {0};
+    const Geometry g(s);
+    // Straight down at x = -0.5: the chord from key 0 to key 1 is at z = 0.25 there; the
+    // Catmull-Rom arc would lie higher.
+    const Hit h = g.intersect(ray({-0.5, 0, 2}, {0, 0, -1}), {});
+    ASSERT_TRUE(h);
+    const double top = 0.25 + 0.05 * std::sqrt(1.0 + 0.25);  // a cone of radius r around a slope-1/2 line
+    EXPECT_NEAR(2.0 - h.t, top, 1e-4);
+    const CurvePoint c = g.curve_point(h.segment, h.u);
+    EXPECT_NEAR(c.dp.x, 1.0, 1e-6);
+    EXPECT_NEAR(c.dp.z, 0.5, 1e-6);
+    EXPECT_NEAR(c.r, 0.05, 1e-6);
+    // The joint at key 1 is a sphere: a ray straight down at x = 0 hits its top.
+    const Hit joint = g.intersect(ray({0.0, 0, 2}, {0, 0, -1}), {});
+    ASSERT_TRUE(joint);
+    EXPECT_NEAR(2.0 - joint.t, 0.55, 1e-4);
+    // Closed ends (spheres), unlike the open Catmull-Rom tubes: just beyond key 2 is still hit.
+    EXPECT_TRUE(g.intersect(ray({1.02, 0, 1}, {0, 0, -1}), {}));
+}
+
+TEST(RenderGeometry, LinearCurvesCanBeCulled) {
+    SceneDesc s = strands({{0, 0}}, 0.05f, CurveShape::ThickLinear);
+    s.cull_curve_back_faces = true;
+    const Geometry g(s);
+    EXPECT_FALSE(g.intersect(ray({0.1, 0, 0}, {0, 0.3, -1}), {}));
+    EXPECT_TRUE(g.intersect(ray({0.1, 0, 1}, {0, 0, -1}), {}));
 }

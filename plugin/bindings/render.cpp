@@ -627,7 +627,9 @@ SceneDesc scene_from_dict(const py::dict& scene) {
     read_curves(scene, out);
     if (auto o = get_optional(scene, "curve_shape"))
         out.curve_shape = as_enum<CurveShape>(*o, "['curve_shape']",
-                                              {{"RIBBONS", CurveShape::Ribbons}, {"THICK", CurveShape::Thick}});
+                                              {{"RIBBONS", CurveShape::Ribbons},
+                                               {"THICK", CurveShape::Thick},
+                                               {"THICK_LINEAR", CurveShape::ThickLinear}});
     if (auto o = get_optional(scene, "curve_subdivisions")) out.curve_subdivisions = int(as_int(*o, "['curve_subdivisions']"));
     if (auto o = get_optional(scene, "curve_backface_culling"))
         out.cull_curve_back_faces = as_bool(*o, "['curve_backface_culling']");

@@ -23,7 +23,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-CURVE_SHAPES = ("RIBBONS", "THICK")
+CURVE_SHAPES = ("RIBBONS", "THICK", "THICK_LINEAR")
 EMISSION_SAMPLING = ("AUTO", "NONE", "FRONT", "BACK", "FRONT_BACK")  # materials' emission_sampling
 CAMERA_TYPES = ("PERSP", "ORTHO")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")

@@ -165,16 +165,26 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             for (const auto& m : cd.object_transforms) object_spaces_.emplace_back(m);
         }
         if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
-        const bool thick = scene.curve_shape == CurveShape::Thick;
-        const bool cull = thick && scene.cull_curve_back_faces;
+        const bool linear = scene.curve_shape == CurveShape::ThickLinear;
+        const bool round = linear || scene.curve_shape == CurveShape::Thick;
+        const bool cull = round && scene.cull_curve_back_faces;
         const int subdivisions = std::max(0, std::min(scene.curve_subdivisions, 4));
+        // Linear segments start at the segment's second control point (the first key is
+        // duplicated for Catmull-Rom); segments of one curve stay consecutive in the index
+        // buffer, so Embree joins them, and those of different curves never do.
+        if (linear) {
+            linear_first_.reserve(segment_first_.size());
+            for (uint32_t first : segment_first_) linear_first_.push_back(first + 1);
+        }
+        const uint32_t* index_buffer = linear ? linear_first_.data() : segment_first_.data();
         auto curve_geometry = [&](size_t first, size_t count) {
-            RTCGeometry g = rtcNewGeometry(im.device, thick ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
-                                                            : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
-            rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
+            RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
+                                                      : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
+                                                              : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
+            if (!linear) rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
             rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
                                        sizeof(float) * 4, control_points_.size());
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data() + first, 0,
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, index_buffer + first, 0,
                                        sizeof(uint32_t), count);
             rtcSetGeometryUserData(g, segment_curve_.data() + first);
             rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
@@ -239,7 +249,8 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     rtcCommitScene(im.scene);
     check_device(im.device, "scene build");
     im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) + normals_.capacity() * sizeof(normals_[0]) +
-                   segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
+                   (segment_first_.capacity() + linear_first_.capacity()) * sizeof(uint32_t) +
+                   segment_curve_.capacity() * sizeof(int32_t) +
                    curve_object_.capacity() * sizeof(int32_t);
 }
 
@@ -355,8 +366,19 @@ CurvePoint catmull_rom(const std::array<float, 4>* cp, double u) {
     return out;
 }
 
+CurvePoint linear_segment(const std::array<float, 4>* cp, double u) {
+    const Vec3 p1{cp[1][0], cp[1][1], cp[1][2]}, p2{cp[2][0], cp[2][1], cp[2][2]};
+    CurvePoint out;
+    out.p = (1.0 - u) * p1 + u * p2;
+    out.dp = p2 - p1;
+    out.r = (1.0 - u) * double(cp[1][3]) + u * double(cp[2][3]);
+    out.dr = double(cp[2][3]) - double(cp[1][3]);
+    return out;
+}
+
 CurvePoint Geometry::curve_point(int segment, double u) const {
-    return catmull_rom(&control_points_[segment_first_[size_t(segment)]], u);
+    const auto* cp = &control_points_[segment_first_[size_t(segment)]];
+    return shape_ == CurveShape::ThickLinear ? linear_segment(cp, u) : catmull_rom(cp, u);
 }
 
 double Geometry::curve_radius_linear(int segment, double u) const {

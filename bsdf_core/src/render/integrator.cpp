@@ -74,7 +74,7 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
             return lb > 1e-12 ? (1.0 / lb) * b : normalize(cross(t, std::fabs(t.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
         };
         const Vec3 y = bitangent(x, sp.g.wo);
-        if (s.geometry.curve_shape() == CurveShape::Thick) {
+        if (s.geometry.curve_shape() != CurveShape::Ribbons) {  // a tube (Cycles 5.x tests the shape exactly)
             const Vec3 d = p_local - cp.p;
             const Vec3 n = dot(d, d) > 0 ? normal_to_world(normalize(d)) : sp.g.wo;
             sp.g.n = n;

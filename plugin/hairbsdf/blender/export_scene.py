@@ -194,7 +194,14 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
     n_curves = curves["curve_random"].size
     # Back faces of 3D curves: Cycles 3.4 never reports them, Cycles 4.5 does (measured with 3.4.1 and
     # 4.5.15; docs/engine.md, which also says why the cause in 3.x is not the Embree build option).
-    cull_curves = blender_version() < CURVE_CULLING_BEFORE
+    shape = str(_get(getattr(scene, "cycles_curves", None), "shape", "RIBBONS"))
+    subdiv = int(_get(getattr(scene, "cycles_curves", None), "subdivisions", 2))
+    if shape not in ("RIBBONS", "THICK", "THICK_LINEAR"):
+        report.warn(f"curve shape {shape} is not supported; rendered as 3D curves (THICK)")
+        shape = "THICK"
+    # Linear 3D Curves (5.x) are Embree's round linear curves, to which the build's back-face
+    # culling applies (docs/blender5.md), so they are culled in every Blender that has them.
+    cull_curves = blender_version() < CURVE_CULLING_BEFORE or shape == "THICK_LINEAR"
     if n_curves == 0:
         report.warn("the scene has no hair to render (no visible Curves objects or particle hair)")
     else:
@@ -205,11 +212,6 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         elif inside:
             report.warn(f"the camera is inside {inside} hair strand(s); it sees their inner walls (3D curves "
                         "are open tubes and, as in Cycles 3.6+, not back-face culled)")
-    shape = str(_get(getattr(scene, "cycles_curves", None), "shape", "RIBBONS"))
-    subdiv = int(_get(getattr(scene, "cycles_curves", None), "subdivisions", 2))
-    if shape not in ("RIBBONS", "THICK"):
-        report.warn(f"curve shape {shape} is not supported; rendered as 3D curves (THICK)")
-        shape = "THICK"
     integrator = export_integrator(scene, view_layer, render, settings, report)
     world = export_world(scene, report)
     desc = {

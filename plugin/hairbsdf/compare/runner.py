@@ -309,8 +309,10 @@ def expand_cases(scene_args, targets, *, ci=False, spp=None, res=None, seeds=Non
                 else:
                     ex = 1 if det else (0 if ci else min(n, 2))
                 skip = None
-                if t.version < tuple(meta.get("min_blender", (0, 0, 0))):
-                    skip = "needs Blender %s+ (this is %s)" % (".".join(map(str, meta["min_blender"][:2])), t.label)
+                oldest = max(tuple(meta.get("min_blender", (0, 0, 0))),
+                             tuple((meta.get("variant_min_blender") or {}).get(v, (0, 0, 0))))
+                if t.version < oldest:
+                    skip = "needs Blender %s+ (this is %s)" % (".".join(map(str, oldest[:2])), t.label)
                 cid = "%s%s@%s" % (scene, "-" + v if v else "", t.label)
                 cases.append(Case(cid, scene, v, None, t, meta["kind"], meta,
                                   tuple(res or size["res"]), int(spp or size["spp"]), int(n), int(ex), skip))

@@ -8,7 +8,9 @@
 // filter that rejects hits whose geometric normal faces along the ray (Debian's Embree
 // 3.13 has no culling option); RIBBONS = Embree's ray-facing flat curves
 // (Embree itself ignores flat-curve hits closer than 2 r, as Cycles' build does) with
-// tessellation rate 2^subdivisions + 1 as Cycles passes it. A ray leaving a primitive
+// tessellation rate 2^subdivisions + 1 as Cycles passes it; THICK_LINEAR (Blender 5.x's
+// Linear 3D Curves) = Embree's round linear curves through the keys, whose neighbour flags
+// Embree derives from the index buffer as in Cycles' build. A ray leaving a primitive
 // skips it: all of a curve, or one triangle.
 #pragma once
 
@@ -116,6 +118,7 @@ private:
     bool has_curves_ = false, has_triangles_ = false;
     std::vector<std::array<float, 4>> control_points_;  // Embree's vertex buffer: per curve n + 2 points
     std::vector<uint32_t> segment_first_;               // Embree's index buffer: first control point
+    std::vector<uint32_t> linear_first_;                // ThickLinear's index buffer: segment_first_ + 1
     std::vector<int32_t> segment_curve_;                // curve of each segment
     std::vector<std::array<float, 3>> normals_;         // per control point, when the scene has normals
     std::vector<int32_t> curve_object_;                 // per curve (CurveData::object), or empty
@@ -124,6 +127,8 @@ private:
 
 // Uniform Catmull-Rom through four control points (position and radius in xyz/w).
 CurvePoint catmull_rom(const std::array<float, 4>* cp, double u);
+// The straight segment from cp[1] to cp[2] (Linear 3D Curves), with the same four control points.
+CurvePoint linear_segment(const std::array<float, 4>* cp, double u);
 
 // Cycles-style origin offset for rays leaving a triangle: pushes `p` along the geometric
 // normal `ng` (pointing to the side the ray leaves on) by a few float ULPs of p.

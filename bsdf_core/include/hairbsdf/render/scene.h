@@ -15,7 +15,9 @@
 
 namespace hairbsdf::render {
 
-enum class CurveShape { Ribbons, Thick };
+// Thick: round Catmull-Rom sweeps; ThickLinear: Blender 5.x's Linear 3D Curves (cones with spheres
+// at the keys, Embree's round linear curves).
+enum class CurveShape { Ribbons, Thick, ThickLinear };
 
 // All strands, concatenated. Curve c owns points [offsets[c], offsets[c+1]).
 struct CurveData {

@@ -9,6 +9,7 @@ Each entry:
   model        the hair model the scene exercises ("chiang", "huang")
   min_blender  oldest Blender that can build it ((4, 0, 0) for 4.x-only features)
   variants     None, or names of variants that are compared separately (e.g. curve shapes)
+  variant_min_blender  optional {variant: oldest Blender} for variants newer than the scene
   image_mean   True: also gate |image mean / Cycles' image mean - 1| (the furnace)
   cycles_defaults  True: the scene keeps Cycles' default Filter Glossy, Clamp Indirect and Light
                Threshold on purpose (the report lists them as parity warnings)
@@ -70,13 +71,13 @@ SCENES = {
                     "engine's shading VM; an area light and a dim world."),
     "ribbons_vs_3d": dict(
         module="ribbons_vs_3d", kind="noisy", model="chiang", min_blender=(3, 4, 0),
-        variants=["RIBBONS", "THICK"],
+        variants=["RIBBONS", "THICK", "THICK_LINEAR"], variant_min_blender=dict(THICK_LINEAR=(5, 0, 0)),
         # 16 CI seeds: single renders are heavy-tailed here (one seed's image mean ranges 0.96-1.04 x the
         # mean), and 4 seeds made a -2.3 % "bias" (z -4.9) that 16 seeds show to be chance (-0.26 %, z -0.5).
         ci=dict(res=(128, 96), spp=8, seeds=16), full=dict(res=(320, 240), spp=32, seeds=8),
         title="Ribbons vs 3D curves",
-        description="Thick wavy strands seen from close by, rendered as Rounded Ribbons and as 3D Curves "
-                    "(one variant each)."),
+        description="Thick wavy strands seen from close by, rendered as Rounded Ribbons, as 3D Curves and "
+                    "(Blender 5.x) as Linear 3D Curves (one variant each)."),
     "mixed": dict(
         module="mixed", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
         ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(320, 240), spp=32, seeds=8),
