@@ -701,6 +701,74 @@ def test_image_texture_on_mesh_uvs_matches_cycles_per_pixel(run_blender, blender
         assert q["median"] <= 1e-4 and q["p99"] <= 2e-3, (name, q)
 
 
+WORKING_SPACE = IMAGE_COMMON + r'''
+hb = register_engine()
+from hairbsdf.blender import engine
+W, H = ARGS["w"], ARGS["h"]
+scene = emission_scene(W, H)  # a factory-settings file: set the working space after it
+bpy.ops.wm.set_working_color_space(working_space=ARGS["working_space"], convert_colors=False)
+images = make_images()
+images["tex.exr"].colorspace_settings.name = "Linear Rec.709"  # 5.x reads its own float EXRs as sRGB
+# Four emissive quads: an 8-bit sRGB PNG and a linear Rec.709 EXR as Emission Color (Cycles
+# converts both into the working space); Strength from the PNG's colour through a Map Range
+# (the VM's colour -> float, luminance in the working space); Strength from a constant RGB node
+# (the same conversion, folded by the exporter).
+for k, name in enumerate(("PNG", "EXR", "MapRangeLuminance", "ConstantLuminance")):
+    bpy.ops.mesh.primitive_plane_add(size=0.5, location=(-0.9 + 0.6 * k, 0.0, 0.0), rotation=(1.5708, 0.0, 0.0))
+    quad = bpy.context.active_object
+    m, nt, e = emission_material(name)
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    if name in ("PNG", "EXR"):
+        t = image_node(nt, images["tex.png" if name == "PNG" else "tex.exr"], "Linear", "REPEAT")
+        nt.links.new(tc.outputs["UV"], t.inputs["Vector"])
+        nt.links.new(t.outputs["Color"], e.inputs["Color"])
+    elif name == "MapRangeLuminance":
+        t = image_node(nt, images["tex.png"], "Closest", "REPEAT")
+        nt.links.new(tc.outputs["UV"], t.inputs["Vector"])
+        mr = nt.nodes.new("ShaderNodeMapRange")
+        mr.inputs["To Min"].default_value = 0.2; mr.inputs["To Max"].default_value = 1.5
+        nt.links.new(t.outputs["Color"], mr.inputs["Value"])
+        nt.links.new(mr.outputs["Result"], e.inputs["Strength"])
+    else:
+        c = nt.nodes.new("ShaderNodeRGB"); c.outputs[0].default_value = (0.1, 0.2, 0.9, 1.0)
+        nt.links.new(c.outputs[0], e.inputs["Strength"])
+    quad.data.materials.append(m)
+hs.make_camera(location=(0.0, -3.0, 0.0), target=(0.0, 0.0, 0.0), kind="ORTHO", ortho_scale=2.4)
+r = render_engines(scene, "ws_")
+assert engine.LAST_RENDER.get("status") == "ok", engine.LAST_RENDER
+cy, ours = r["CYCLES"], r["HAIRBSDF"]
+covered = (cy[..., 3] > 0.999) & (ours[..., 3] > 0.999)
+rel = np.abs(ours[..., :3] - cy[..., :3]) / np.maximum(np.abs(cy[..., :3]), 1e-3)
+out = {"version": bpy.app.version_string, "working_space": bpy.data.colorspace.working_space,
+       "warnings": engine.LAST_RENDER.get("warnings", []), "quads": {}}
+for k, name in enumerate(("PNG", "EXR", "MapRangeLuminance", "ConstantLuminance")):
+    side = np.zeros(W, bool); side[k * W // 4:(k + 1) * W // 4] = True
+    sel = covered & side[None, :]
+    vals = rel[sel].max(-1)
+    out["quads"][name] = {"covered": int(sel.sum()), "median": float(np.median(vals)),
+                          "p99": float(np.percentile(vals, 99)), "cycles_mean": float(cy[sel][:, :3].mean()),
+                          "ours_mean": float(ours[sel][:, :3].mean())}
+emit(out)
+'''
+
+
+@pytest.mark.parametrize("working_space", ["Linear Rec.2020", "ACEScg"])
+def test_working_space_matches_cycles(run_blender, renderer_available, working_space):
+    """Blender 5.x's working colour space (File > Color Management): Cycles renders in it, so it
+    converts sRGB and linear Rec.709 images into it and weighs colour -> float conversions by its
+    luminance. Per pixel against Cycles 5.3; the exporter read images as Rec.709 and used Rec.709's
+    luminance before (the EXR quad was 5-20 % off in ACEScg)."""
+    need_renderer("bpy5", renderer_available)
+    r = run_blender("bpy5", WORKING_SPACE, args={"w": 192, "h": 48, "working_space": working_space}).result
+    print(f"\n[working space] {r['version']} {r['working_space']}: {r['quads']}")
+    assert r["working_space"] == working_space
+    assert r["warnings"] == ["the scene has no hair to render (no visible Curves objects or particle hair)"], \
+        r["warnings"]
+    for name, q in r["quads"].items():
+        assert q["covered"] > 300, (name, q)
+        assert q["median"] <= 1e-4 and q["p99"] <= 2e-3, (name, q)
+
+
 IMAGE_HAIR = IMAGE_COMMON + r'''
 hb = register_engine()
 from hairbsdf.blender import engine

@@ -150,6 +150,46 @@ def rgb(value, n: int = 3) -> tuple:
 # Luminance of linear Rec.709 (Cycles' rgb_to_y for the default working space); used for
 # Blender's implicit colour -> float socket conversion.
 REC709_Y = (0.2126729, 0.7151522, 0.0721750)
+REC709_WORKING_SPACES = ("Linear Rec.709", "Linear")
+
+
+class WorkingSpace:
+    """The blend file's working colour space (Blender 5.x, File > Color Management; Linear
+    Rec.709 before), which Cycles renders in: colour -> float conversions weigh the channels by
+    its luminance (Cycles' rgb_to_y, the Y row of its RGB -> XYZ D65 matrix) and images are
+    converted into it. Blender's own colour management (mathutils.Color) gives both."""
+
+    def __init__(self, name, rec709_to_scene_linear, luminance):
+        self.name = name
+        self.rec709_to_scene_linear = rec709_to_scene_linear  # 3 x 3 numpy array, None for Rec.709
+        self.luminance = luminance
+
+
+def working_space() -> WorkingSpace:
+    import bpy
+    colorspace = getattr(bpy.data, "colorspace", None)
+    name = str(getattr(colorspace, "working_space", "") or "Linear Rec.709")
+    cached = _WORKING_SPACES.get(name)
+    if cached is not None:
+        return cached
+    if name in REC709_WORKING_SPACES:
+        space = WorkingSpace(name, None, REC709_Y)
+    else:
+        from mathutils import Color
+        basis = [Color(tuple(float(i == j) for j in range(3))) for i in range(3)]
+        to_working = np.array([tuple(c.from_rec709_linear_to_scene_linear()) for c in basis], np.float64).T
+        luminance = tuple(float(c.from_scene_linear_to_xyz_d65()[1]) for c in basis)
+        space = WorkingSpace(name, to_working, luminance)
+    _WORKING_SPACES[name] = space
+    return space
+
+
+_WORKING_SPACES = {}
+
+
+def luminance_weights():
+    """Cycles' colour -> float weights in the file's working space."""
+    return working_space().luminance
 
 
 def lookup3_hash_uint2(kx: int, ky: int) -> int:

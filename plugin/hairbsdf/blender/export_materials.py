@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 
-from ._common import REC709_Y, blender_version, find_socket, rgb
+from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork
 
 GREY = (0.8, 0.8, 0.8)
@@ -135,7 +135,7 @@ class MaterialTranslator:
             if src_kind == "float":
                 return v
             if src_kind == "color":  # Cycles' colour -> float: luminance
-                return sum(a * b for a, b in zip(v, REC709_Y))
+                return sum(a * b for a, b in zip(v, luminance_weights()))
             return sum(v) / 3.0  # vector -> float: average
         if src_kind == "float":
             return (v, v, v)

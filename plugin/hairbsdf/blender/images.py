@@ -5,7 +5,9 @@ nodes RGBA (alpha associated as Cycles' image loader does, see read_image_rgba).
 Files are read with OpenImageIO (the pip wheel in bpy 4.5's venv, Debian's python3-openimageio in
 Blender 3.4), as Cycles reads them; packed, generated or missing files fall back to Blender's own
 pixel buffer. Colour spaces: Linear / Linear Rec.709 / Non-Color / Raw pass through, sRGB is
-decoded with the sRGB transfer function; any other space is read as linear with a warning.
+decoded with the sRGB transfer function; in a working space other than Linear Rec.709 (Blender 5.x)
+sRGB and linear Rec.709 images are then converted into it, as Cycles converts them; any other
+space is read as linear with a warning.
 Alpha: files are read with their alpha as stored (straight stays straight, as Cycles configures
 OpenImageIO) and associated here as Cycles' loader does (read_image_rgba). sRGB files and 8-bit
 sRGB buffers: the Image Texture path keeps the encoded values and the VM decodes after
@@ -18,9 +20,35 @@ import os
 
 import numpy as np
 
+from ._common import working_space
+
 LINEAR_SPACES = {"Linear", "Linear Rec.709", "Linear CIE-XYZ E", "Linear CIE-XYZ D65", "Non-Color", "Raw",
                  "Scene Linear", "scene_linear"}
 SRGB_SPACES = {"sRGB", "sRGB 2.1"}
+REC709_LINEAR_SPACES = {"Linear", "Linear Rec.709"}
+
+
+def _convert_to_working(image, pixels, associated, is_byte, is_srgb, to_working):
+    """An image in a working space other than Rec.709, as Cycles' loader converts it: 8- and
+    16-bit files are stored as half floats, straight alpha is associated first; the conversion
+    divides by alpha, decodes sRGB, applies the Rec.709 -> working matrix and multiplies by alpha
+    again (alpha ignored for alpha mode None and Channel Packed). Returns (pixels, associated)."""
+    def half(x):
+        return x.astype(np.float16).astype(np.float32) if is_byte else x
+
+    ignore_alpha = getattr(image, "alpha_mode", "STRAIGHT") in ("NONE", "CHANNEL_PACKED")
+    px = half(pixels)
+    alpha = px[:, :, 3:4]
+    if not associated and not ignore_alpha:
+        px[:, :, :3] = half(px[:, :, :3] * alpha)
+        associated = True
+    scale = ~ignore_alpha & (alpha > 0.0) & (alpha != 1.0)
+    rgb = np.where(scale, px[:, :, :3] / np.where(scale, alpha, 1.0), px[:, :, :3])
+    if is_srgb:
+        rgb = srgb_to_linear(rgb)
+    rgb = np.einsum("ij,hwj->hwi", to_working, rgb.astype(np.float64)).astype(np.float32)
+    px[:, :, :3] = half(np.where(scale, rgb * alpha, rgb))
+    return px, associated
 
 
 def srgb_to_linear(values: np.ndarray) -> np.ndarray:
@@ -106,15 +134,23 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
         return None, associated, False, False
     space = image.colorspace_settings.name
     encoded = False
-    if space in SRGB_SPACES:
+    # A working space other than Linear Rec.709 (Blender 5.x): Cycles converts sRGB and linear
+    # Rec.709 images into it texel by texel on load (its sRGB shortcut holds only when the
+    # working space is Rec.709), which the matrix below reproduces.
+    to_working = working_space().rec709_to_scene_linear
+    raw_values = from_file or is_byte  # Blender's float buffers are scene-linear already
+    if to_working is not None and raw_values and (space in SRGB_SPACES or space in REC709_LINEAR_SPACES):
+        pixels, associated = _convert_to_working(image, pixels, associated, is_byte, space in SRGB_SPACES,
+                                                 to_working)
+    elif space in SRGB_SPACES:
         # Files and Blender's byte buffers hold encoded values; its float buffers are linear.
         # Cycles keeps every sRGB file encoded, float ones too (Blender 5.x reads the float EXRs
         # it writes as sRGB), and decodes after interpolating.
-        if keep_srgb_bytes and (is_byte or from_file):
+        if keep_srgb_bytes and raw_values:
             encoded = True
-        elif from_file or is_byte:
+        elif raw_values:
             pixels[:, :, :3] = srgb_to_linear(pixels[:, :, :3])
-    elif space not in LINEAR_SPACES:
+    elif space not in LINEAR_SPACES and space != working_space().name:
         warn(f"image '{image.name}': colour space '{space}' is not supported; read as linear")
     if not np.all(np.isfinite(pixels)):
         warn(f"image '{image.name}': NaN/Inf pixels set to 0")

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import REC709_Y, mapping_matrix, rgb
+from ._common import luminance_weights, mapping_matrix, rgb
 
 
 @functools.cache
@@ -181,7 +181,7 @@ class ShadingNetwork:
                 return value
             out = self._temp(1)
             if src_type == "RGBA":
-                weights = self.constant(REC709_Y)
+                weights = self.constant(luminance_weights())
                 self._emit("LUMINANCE", [out, value.reg, weights.reg], [(1, 3), (2, 3)], [(0, 1)])
             else:
                 self._emit("AVERAGE", [out, value.reg], [(1, 3)], [(0, 1)])
@@ -225,7 +225,7 @@ class ShadingNetwork:
             if kind == "float":
                 if getattr(socket, "type", "") == "VECTOR":
                     return self.constant((sum(c) / 3.0,))
-                return self.constant((sum(a * b for a, b in zip(c, REC709_Y)),))
+                return self.constant((sum(a * b for a, b in zip(c, luminance_weights())),))
             return self.constant(c)
 
     def output(self, node, out, depth, consumer, consumer_socket):
