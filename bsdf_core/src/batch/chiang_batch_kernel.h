@@ -13,6 +13,12 @@
 
 #include "hairbsdf/batch/chiang_batch.h"
 
+// The kernel's helpers are forced inline: GCC kept M_p and the view terms out of line, and a call
+// spills every live vector register, since all of them are caller-saved.
+#ifndef HAIRBSDF_BATCH_INLINE
+#define HAIRBSDF_BATCH_INLINE inline __attribute__((always_inline))
+#endif
+
 namespace hairbsdf {
 namespace batch_detail {
 namespace HAIRBSDF_BATCH_NS {
@@ -27,9 +33,9 @@ struct ChiangKernel {
 
     const ChiangBatchConstants& c;
 
-    static B clampb(B x, float lo, float hi) { return xsimd::min(xsimd::max(x, B(lo)), B(hi)); }
-    static B cos_from_sin(B s) { return xsimd::sqrt(xsimd::max(B(1.0f) - s * s, B(0.0f))); }
-    static M finite(B x) { return xsimd::isfinite(x); }
+    HAIRBSDF_BATCH_INLINE static B clampb(B x, float lo, float hi) { return xsimd::min(xsimd::max(x, B(lo)), B(hi)); }
+    HAIRBSDF_BATCH_INLINE static B cos_from_sin(B s) { return xsimd::sqrt(xsimd::max(B(1.0f) - s * s, B(0.0f))); }
+    HAIRBSDF_BATCH_INLINE static M finite(B x) { return xsimd::isfinite(x); }
 
     struct View {
         B sin_o, cos_o, gamma_o, gamma_t;
@@ -41,7 +47,7 @@ struct ChiangKernel {
     };
 
     // Fibre frame and view terms (ChiangHair::view_terms) for unit wo and h in [-1, 1].
-    View view(B wox, B woy, B woz, B h) const {
+    HAIRBSDF_BATCH_INLINE View view(B wox, B woy, B woz, B h) const {
         View v;
         const B len2 = woy * woy + woz * woz;
         const M degenerate = len2 <= B(1e-24f);
@@ -97,7 +103,7 @@ struct ChiangKernel {
         return v;
     }
 
-    static B fresnel(B cos_i, B eta) {
+    HAIRBSDF_BATCH_INLINE static B fresnel(B cos_i, B eta) {
         const B cc = xsimd::abs(cos_i);
         const B g2 = eta * eta - B(1.0f) + cc * cc;
         const M tir = !(g2 > B(0.0f));
@@ -108,7 +114,7 @@ struct ChiangKernel {
     }
 
     // Cycles' ten-term I0 series (cycles_bessel_i0) in Horner form.
-    static B cycles_i0(B x) {
+    HAIRBSDF_BATCH_INLINE static B cycles_i0(B x) {
         const B q = B(0.25f) * x * x;
         B sum(float(1.0 / 131681894400.0));
         sum = xsimd::fma(sum, q, B(float(1.0 / 1625702400.0)));
@@ -123,7 +129,7 @@ struct ChiangKernel {
     }
     // I0 to float precision for the `exact` mode: Abramowitz & Stegun 9.8.1 below 3.75 (relative
     // error < 2e-7), and 9.8.2's sqrt(x) e^-x I0(x) polynomial in 3.75 / x above (< 5e-7).
-    static B exact_i0_small(B x) {
+    HAIRBSDF_BATCH_INLINE static B exact_i0_small(B x) {
         const B t = x * B(1.0f / 3.75f);
         const B t2 = t * t;
         B s(0.0045813f);
@@ -134,7 +140,7 @@ struct ChiangKernel {
         s = xsimd::fma(s, t2, B(3.5156229f));
         return xsimd::fma(s, t2, B(1.0f));
     }
-    static B exact_i0_scaled_large(B x) {  // sqrt(x) e^-x I0(x)
+    HAIRBSDF_BATCH_INLINE static B exact_i0_scaled_large(B x) {  // sqrt(x) e^-x I0(x)
         const B r = B(3.75f) / x;
         B s(0.00392377f);
         s = xsimd::fma(s, r, B(-0.01647633f));
@@ -148,7 +154,7 @@ struct ChiangKernel {
     }
 
     // M_p (LongitudinalLobe::eval) for lobe p.
-    B mp(int p, B sin_i, B cos_i, B sin_o, B cos_o) const {
+    HAIRBSDF_BATCH_INLINE B mp(int p, B sin_i, B cos_i, B sin_o, B cos_o) const {
         const B inv_v(c.inv_v[p]);
         const B cprod = cos_i * cos_o, sprod = sin_i * sin_o;
         const B a = cprod * inv_v;
@@ -175,13 +181,13 @@ struct ChiangKernel {
         return xsimd::select(small, cycles_i0(xsimd::select(small, a, B(0.0f))) * xsimd::exp(near), large);
     }
 
-    static B wrap(B x) { return x - B(kTwoPiF) * xsimd::floor((x + B(kPiF)) * B(1.0f / kTwoPiF)); }
-    static B center(int p, const View& v) {
+    HAIRBSDF_BATCH_INLINE static B wrap(B x) { return x - B(kTwoPiF) * xsimd::floor((x + B(kPiF)) * B(1.0f / kTwoPiF)); }
+    HAIRBSDF_BATCH_INLINE static B center(int p, const View& v) {
         return B(2.0f * p) * v.gamma_t - B(2.0f) * v.gamma_o + B(p * kPiF);
     }
 
     // ChiangHair::eval_local: the value (without the closure weight) and the pdf; 0 where invalid.
-    void eval_local(const View& v, B sin_i, B cos_i, B phi, B value[3], B& pdf) const {
+    HAIRBSDF_BATCH_INLINE void eval_local(const View& v, B sin_i, B cos_i, B phi, B value[3], B& pdf) const {
         for (int k = 0; k < 3; ++k) value[k] = B(0.0f);
         pdf = B(0.0f);
         for (int p = 0; p < 3; ++p) {
@@ -210,17 +216,17 @@ struct ChiangKernel {
     }
 
     // Picks a per-lobe constant by the lane's lobe index p (0..3).
-    static B pick(B p, float a0, float a1, float a2, float a3) {
+    HAIRBSDF_BATCH_INLINE static B pick(B p, float a0, float a1, float a2, float a3) {
         return xsimd::select(p == B(0.0f), B(a0), xsimd::select(p == B(1.0f), B(a1), xsimd::select(p == B(2.0f), B(a2), B(a3))));
     }
-    static B pick(B p, B a0, B a1, B a2, B a3) {
+    HAIRBSDF_BATCH_INLINE static B pick(B p, B a0, B a1, B a2, B a3) {
         return xsimd::select(p == B(0.0f), a0, xsimd::select(p == B(1.0f), a1, xsimd::select(p == B(2.0f), a2, a3)));
     }
 };
 
 // Unit vector and the validity of one row's direction (finite, non-zero).
 template <class B>
-inline auto normalise(B& x, B& y, B& z) {
+HAIRBSDF_BATCH_INLINE auto normalise(B& x, B& y, B& z) {
     const B len2 = x * x + y * y + z * z;
     const auto ok = xsimd::isfinite(len2) & (len2 > B(0.0f));
     const B inv = B(1.0f) / xsimd::sqrt(xsimd::select(ok, len2, B(1.0f)));
@@ -289,7 +295,8 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             s1 = xsimd::select(ok, s1, B(0.5f));
             s2 = xsimd::select(ok, s2, B(0.5f));
             const size_t lanes = std::min(W, n - std::min(n, j));
-            for (size_t l = 0; l < lanes; ++l) bad_rows += ok.get(l) ? 0 : 1;
+            if (!xsimd::all(ok))
+                for (size_t l = 0; l < lanes; ++l) bad_rows += ok.get(l) ? 0 : 1;
 
             typename K::View v = kernel.view(wox, woy, woz, h);
             v.valid = v.valid & ok;
