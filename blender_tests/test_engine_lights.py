@@ -85,6 +85,9 @@ def test_light_units_match_cycles(run_blender, engine_kind, renderer_available, 
 # and weights BSDF hits of them by MIS; an engine that reaches them by BSDF rays only has rare,
 # large contributions that the clamp cuts (0.07 of Cycles' mean at Clamp 1, docs/engine.md). Each engine renders the one scene SEEDS times; the image means over the hair
 # pixels are compared with the harness's mean-bias test (metrics.mean_bias, t-critical).
+# ARGS["textured"]: the quad's Strength is 30 x (0.5 + U) from its UVs (mean 30, as the constant 30):
+# Cycles' emission estimate counts a linked Strength as 1, so Emission Sampling Auto light-samples
+# the quad in 4.x; with the estimate at 0 the engine left it to BSDF rays (ratio 0.0035, z -473, bpy 4.5).
 EMISSIVE_MESH = r'''
 hb = register_engine()
 from hairbsdf.blender import engine
@@ -105,7 +108,17 @@ base.show_instancer_for_render = False
 # a 0.5 m quad above and in front of the hair, facing it, outside the camera's view
 lamp = hs.make_plane(size=0.5, location=(0.0, -1.0, 1.5), name="Lamp")
 lamp.rotation_euler = (3.83, 0.0, 0.0)
-hs.add_slot(lamp, hs.emission_material("Glow", (1.0, 0.9, 0.8), 30.0))
+glow = hs.emission_material("Glow", (1.0, 0.9, 0.8), 30.0)
+if ARGS["textured"]:
+    nt = glow.node_tree
+    em = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeEmission")
+    uv, xyz, strength = (nt.nodes.new(t) for t in ("ShaderNodeTexCoord", "ShaderNodeSeparateXYZ", "ShaderNodeMath"))
+    strength.operation = "MULTIPLY_ADD"
+    strength.inputs[1].default_value, strength.inputs[2].default_value = 30.0, 15.0
+    nt.links.new(uv.outputs["UV"], xyz.inputs[0])
+    nt.links.new(xyz.outputs["X"], strength.inputs[0])
+    nt.links.new(strength.outputs[0], em.inputs["Strength"])
+hs.add_slot(lamp, glow)
 hs.make_camera(location=(0.0, -3.0, 0.3), target=(0.0, 0.0, 0.25))
 stacks = {"CYCLES": [], "HAIRBSDF": []}
 for seed in range(ARGS["seeds"]):
@@ -125,7 +138,7 @@ def test_emissive_mesh_light_sampling_with_clamp(run_blender, engine_kind, rende
     from hairbsdf.compare import metrics
     need_renderer(engine_kind, renderer_available)
     r = run_blender(engine_kind, EMISSIVE_MESH,
-                    args={"size": (48, 36), "spp": 32, "seeds": 4, "clamp": 0.03}).result
+                    args={"size": (48, 36), "spp": 32, "seeds": 4, "clamp": 0.03, "textured": True}).result
     assert r["pixels"] > 50, "too few hair pixels"
     # per-render image means as 1 x 1 images: mean_bias's statistics over the renders
     b = metrics.mean_bias(np.asarray(r["cycles"])[:, None, None, :], np.asarray(r["ours"])[:, None, None, :])
@@ -134,7 +147,7 @@ def test_emissive_mesh_light_sampling_with_clamp(run_blender, engine_kind, rende
     line = (f"Cycles {b['mean_a']:.5f} ours {b['mean_b']:.5f} ratio {b['mean_b'] / b['mean_a']:.4f} "
             f"z {b['z']:.2f} (critical {crit:.2f}, relative sigma {b['rel_sigma']:.1e})")
     with capsys.disabled():
-        print(f"\n[emissive mesh, clamp 0.03] {r['version']}: {line}")
+        print(f"\n[emissive mesh, textured Strength, clamp 0.03] {r['version']}: {line}")
     # resolving power: a 10 % bias must stand out (the BSDF-only engine was 94 % dark)
     assert b["rel_sigma"] < 0.03, line
     assert abs(b["z"]) < crit, f"{r['version']}: image means differ beyond the noise: {line}"

@@ -11,7 +11,12 @@ there.
 Per case, particle hair and Curves, straight strands in front of an orthographic camera, lit by
 a sun, direct light only: the summed alpha (the strands' projected area) and the mean colour of
 the fully covered pixels must match Cycles'. Before object-space curves, the engine scaled the
-radius by |det M|^(1/3) for every transform and drew the "x3" strands 2x too narrow."""
+radius by |det M|^(1/3) for every transform and drew the "x3" strands 2x too narrow.
+
+Two mesh cases (a smooth diffuse quad facing the camera, plain and mirrored): a negative scale
+reverses the triangles' winding in world space, while Cycles keeps Ng where Blender shows the
+normal. Before the exporter reversed the winding of mirrored meshes, the engine took every
+front hit of the mirrored quad for a back face and shaded it black."""
 
 import numpy as np
 import pytest
@@ -31,6 +36,10 @@ CASES = {
     "sheared by the parent": ("particles", (1, 1, 1), (0, 0.5, 0.6), (2.5, 1, 1)),
     "Curves x3": ("curves", (3, 1, 1), (0, 0, 0), None),
     "Curves sheared": ("curves", (1, 1, 1), (0.4, 0, 0.5), (1, 1, 2.5)),
+    # a diffuse quad facing the camera; mirrored, its world-space winding is reversed, and Cycles'
+    # Ng still points where Blender shows the normal (object_negative_scale_applied)
+    "mesh": ("mesh", (1, 1, 1), (1.5708, 0, 0), None),
+    "mesh mirrored, x -1": ("mesh", (-1, 1, 1), (1.5708, 0, 0), None),
 }
 
 SCENE = r'''
@@ -52,6 +61,11 @@ for name, (kind, scale, rotation, parent_scale) in ARGS["cases"].items():
         hs.add_particle_hair(obj, count=5, length=0.35, radius_scale=0.12, tip=1.0, close_tip=False, material_slot=2,
                              seed=3)
         obj.show_instancer_for_render = False
+    elif kind == "mesh":
+        obj = hs.make_plane(size=0.5, location=(0, 0, 0.3))
+        obj.data.materials.append(hs.diffuse_material())
+        for poly in obj.data.polygons:
+            poly.use_smooth = True
     else:
         obj = hs.curves_grid("Grid", nx=3, ny=1, size=0.5, n_points=5, length=0.35, radius=0.06, material=mat)
     obj.scale = scale

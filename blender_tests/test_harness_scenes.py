@@ -62,7 +62,8 @@ REQUIRED = {
     "view_settings.gamma": 1.0, "cycles_curves.subdivisions": 3, "render.resolution_percentage": 100,
     "render.use_motion_blur": False,
 }
-# Scenes marked cycles_defaults=True in the catalog keep Cycles' default Light Paths settings.
+# Scenes marked cycles_defaults=True in the catalog keep Cycles' default Light Paths settings; a scene's
+# deliberate_settings are its other settings away from parity (user_scene's clamps).
 CYCLES_DEFAULTS = {"cycles.blur_glossy": 1.0, "cycles.sample_clamp_indirect": 10.0,
                    "cycles.light_sampling_threshold": 0.01}
 
@@ -81,9 +82,11 @@ def test_scene_builds_with_parity_settings(label, scene, variant, tmp_path):
     assert b.get("ok"), "build failed: %s\n%s" % (b.get("error"), b.get("log_tail", ""))
     s = b["settings"]
     from hairbsdf.compare.runner import load_catalog
-    defaults = load_catalog()[0][scene].get("cycles_defaults", False)
+    meta = load_catalog()[0][scene]
+    deliberate = dict(CYCLES_DEFAULTS if meta.get("cycles_defaults", False) else {})
+    deliberate.update(meta.get("deliberate_settings") or {})
     for key, want in REQUIRED.items():
-        want = CYCLES_DEFAULTS.get(key, want) if defaults else want
+        want = deliberate.get(key, want)
         assert s.get(key) == want, "%s: %s = %r, want %r" % (case.id, key, s.get(key), want)
     assert (s["render.resolution_x"], s["render.resolution_y"]) == tuple(case.res)
     assert s["cycles.samples"] == case.spp
@@ -91,7 +94,7 @@ def test_scene_builds_with_parity_settings(label, scene, variant, tmp_path):
     for k in ("cycles.max_bounces", "cycles.glossy_bounces", "cycles.transmission_bounces",
               "cycles.pixel_filter_type", "cycles.filter_width"):
         assert k in s
-    expected_warnings = len(CYCLES_DEFAULTS) if defaults else 0
+    expected_warnings = len(deliberate)
     assert len(b["parity_warnings"]) == expected_warnings, b["parity_warnings"]
     assert os.path.getsize(b["blend"]) > 10000
 

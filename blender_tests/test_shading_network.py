@@ -650,10 +650,13 @@ scene = emission_scene(W, H)
 images = make_images()
 # Two emissive quads facing the camera: the left one reads the active-render UV map
 # (Texture Coordinate > UV, Linear), the right one a second, rotated and scaled UV map through
-# a UV Map node (Closest, REPEAT: texels outside 0..1 too).
+# a UV Map node (Closest, REPEAT: texels outside 0..1 too), and is mirrored (scale x -1: the
+# exporter reverses its corners, UVs included).
 for k, (name, source, interp) in enumerate((("MeshUV", None, "Linear"), ("MeshNamedUV", "Second", "Closest"))):
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=(-0.55 + 1.1 * k, 0.0, 0.0), rotation=(1.5708, 0.0, 0.0))
     quad = bpy.context.active_object
+    if source is not None:
+        quad.scale = (-1.0, 1.0, 1.0)
     me = quad.data
     uv0 = np.empty(len(me.uv_layers[0].data) * 2, np.float32); me.uv_layers[0].data.foreach_get("uv", uv0)
     second = me.uv_layers.new(name="Second")

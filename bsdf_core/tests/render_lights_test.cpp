@@ -406,3 +406,21 @@ TEST(RenderLights, EmissionSamplingChoosesTrianglesAndSides) {
     EXPECT_TRUE(set.light(2).samples_side(false));
     EXPECT_FALSE(set.light(2).samples_side(true));
 }
+
+// Textured emission: Cycles estimates a linked Colour as 1 and a linked Strength as 1 (the node
+// feeding it is not a closure), so Auto samples a textured emitter whose constant part is above 0.5
+// and the light tree weighs its triangles by that estimate.
+TEST(RenderLights, LinkedEmissionInputsCountAsOneInTheEstimate) {
+    double estimate = 0;
+    MaterialDesc m = emissive_mesh_scene(1, 0.1).materials[0];  // constant: 0.1 x (1, 0.9, 0.8), not sampled
+    EXPECT_EQ(resolved_emission_sampling(m, estimate), EmissionSampling::None);
+    m.closures[0].links.push_back({ClosureDesc::Input::Strength, 0});  // strength 1 x (1, 0.9, 0.8)
+    EXPECT_EQ(resolved_emission_sampling(m, estimate), EmissionSampling::FrontBack);
+    EXPECT_NEAR(estimate, 0.9, 1e-12);
+    m.closures[0].links.push_back({ClosureDesc::Input::Color, 3});  // 1 x 1
+    EXPECT_EQ(resolved_emission_sampling(m, estimate), EmissionSampling::FrontBack);
+    EXPECT_NEAR(estimate, 1.0, 1e-12);
+    m.closures[0].links = {{ClosureDesc::Input::Color, 3}};  // 0.1 x 1: not sampled
+    EXPECT_EQ(resolved_emission_sampling(m, estimate), EmissionSampling::None);
+    EXPECT_NEAR(estimate, 0.1, 1e-12);
+}

@@ -739,9 +739,9 @@ LightSet::LightSet(const SceneDesc& scene) {
 }
 
 EmissionSampling resolved_emission_sampling(const MaterialDesc& m, double& estimate) {
-    // Cycles' emission estimate (scene/shader.cpp): colour x strength of each Emission closure;
-    // a linked colour counts as 1, a linked strength as 0 (Cycles estimates the node feeding it,
-    // 0 for anything but another emission node).
+    // Cycles' emission estimate (scene/shader.cpp, output_estimate_emission): colour x strength of
+    // each Emission closure; a linked colour counts as 1, and so does a linked strength (the node
+    // feeding it has a non-closure output, which Cycles estimates as 1).
     RGB e(0.0);
     bool any = false;
     for (const ClosureDesc& c : m.closures) {
@@ -752,8 +752,7 @@ EmissionSampling resolved_emission_sampling(const MaterialDesc& m, double& estim
             color_linked |= l.input == ClosureDesc::Input::Color;
             strength_linked |= l.input == ClosureDesc::Input::Strength;
         }
-        if (strength_linked) continue;
-        e += c.strength * (c.weight * (color_linked ? RGB(1.0) : c.color));
+        e += (strength_linked ? 1.0 : c.strength) * (c.weight * (color_linked ? RGB(1.0) : c.color));
     }
     estimate = (std::fabs(e.r) + std::fabs(e.g) + std::fabs(e.b)) / 3.0;
     if (!any) return EmissionSampling::None;

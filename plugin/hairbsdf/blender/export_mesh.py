@@ -150,6 +150,13 @@ def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache
     except np.linalg.LinAlgError:
         normal_matrix = np.eye(3)
     n = normals.reshape(-1, 3).astype(np.float64) @ normal_matrix.T
+    if np.linalg.det(m3) < 0:
+        # A negative scale reverses the winding in world space; Cycles keeps Ng where Blender shows
+        # the normal (object_negative_scale_applied), which decides back faces and the emitting
+        # side that Emission Sampling samples. Corners 0 and 2 swap, with their normals and UVs.
+        tris = tris[:, ::-1]
+        n = n.reshape(-1, 3, 3)[:, ::-1].reshape(-1, 3)
+        uvs = {name: corners.reshape(-1, 3, 4)[:, ::-1].reshape(-1, 12) for name, corners in uvs.items()}
     length = np.linalg.norm(n, axis=1, keepdims=True)
     n = np.where(length > 0, n / np.where(length > 0, length, 1.0), 0.0)
     wanted = set(materials.attributes.names)

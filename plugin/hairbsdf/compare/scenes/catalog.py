@@ -13,6 +13,8 @@ Each entry:
   image_mean   True: also gate |image mean / Cycles' image mean - 1| (the furnace)
   cycles_defaults  True: the scene keeps Cycles' default Filter Glossy, Clamp Indirect and Light
                Threshold on purpose (the report lists them as parity warnings)
+  deliberate_settings  {setting: value} the builder sets away from parity on purpose (the report
+               lists them as parity warnings; test_harness_scenes checks them)
   ci / full    default sizes: res (W, H), spp per render, seeds (independent renders per engine)
   title, description  for the report and --list-scenes
 """
@@ -98,4 +100,12 @@ SCENES = {
         title="Huang model, elliptical fibres",
         description="Three swatches of the Huang model with aspect ratios 0.5, 0.8 and 1.0; the ellipse axes "
                     "follow the curve normals (Z Up and Minimum Twist). Blender 4.x only."),
+    "user_scene": dict(
+        module="user_scene", kind="noisy", model="chiang", min_blender=(3, 4, 0), variants=None,
+        deliberate_settings={"cycles.sample_clamp_direct": 2.0, "cycles.sample_clamp_indirect": 0.5},
+        ci=dict(res=(128, 96), spp=8, seeds=4), full=dict(res=(256, 192), spp=16, seeds=8),
+        title="A user's scene",
+        description="What users' scenes reach: particle hair on a sheared emitter, Curves under a negative "
+                    "scale, a ground mesh textured through its UVs, sun, point, spot and area lights, Clamp "
+                    "Direct 2 and Indirect 0.5, an HDRI world and an emissive quad."),
 }
