@@ -141,6 +141,19 @@ def test_closure_sums_weight_and_mix(rng):
         _ = a + 1.0
 
 
+def test_closure_sum_holds_at_most_sixteen_closures(rng):
+    """ClosureSum's shading point has a fixed capacity (no allocation per call): 16 closures evaluate, a 17th is a
+    clear error naming the limit."""
+    a = hairbsdf.principled_hair()
+    total = a
+    for _ in range(15):
+        total = total + a
+    wo, wi, h = directions(rng, 5), directions(rng, 5), rng.uniform(-1, 1, 5)
+    np.testing.assert_allclose(total.eval(wo, wi, h), 16 * a.eval(wo, wi, h), rtol=1e-12)
+    with pytest.raises(ValueError, match="at most 16 closures, got 17"):
+        _ = total + a
+
+
 def test_batch_equals_row_by_row_and_threads_do_not_change_results(rng):
     hair = hairbsdf.principled_hair(offset=0.05, random_roughness=0.3, random=0.7)
     n = 50_000

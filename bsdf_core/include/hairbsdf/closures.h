@@ -3,7 +3,10 @@
 // eval(point, wi), sample(point, u), and the convenience forms taking a ShadingContext.
 #pragma once
 
+#include <array>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -272,53 +275,150 @@ size_t pick_closure(size_t count, double total, const SampleWeight& sample_weigh
     return count - 1;
 }
 
+// What the renderer takes from a sum at a hit (ClosureSum::render_eval): the value (sum of
+// weight x eval, cosine included), the mixture pdf, and the hair closures' share of the value
+// per lobe.
+struct BsdfValue {
+    RGB value;
+    double pdf = 0;
+    std::array<RGB, kLobeCount> lobes{};
+};
+// The renderer's sample of a sum (ClosureSum::render_sample): value and lobes as BsdfValue's
+// at wi, the mixture pdf, the pdf Cycles' Filter Glossy sees (Huang reports 1) and the label.
+struct BsdfScatter {
+    Vec3 wi;
+    RGB value;
+    std::array<RGB, kLobeCount> lobes{};
+    double pdf = 0;
+    double blur_pdf = 0;
+    uint8_t label = LabelNone;
+};
+
+// One closure of a sum prepared at a shading point: weight x model, and the model's shading
+// point. The model is not owned (the ClosureSum's, or the renderer's model for the hit).
+struct PreparedClosure {
+    RGB weight{0.0};
+    double sample_weight = 0;          // |average(weight)|, Cycles' pick share
+    const HairModel* model = nullptr;
+    PreparedModel point;               // model.prepare(ctx)
+    bool transparent = false;          // the renderer's: a transparent closure here (Huang outside its ellipse)
+    bool hair_lobes = true;            // its value is a share of the hair lobe passes
+};
+
+// Cycles adds a closure to a sum's eval only where its pdf is non-zero (surface_shader_bsdf_eval).
+inline bool closure_counts(const BsdfEval& e) { return e.pdf != 0.0; }
+
 // A weighted sum of closures, evaluated and sampled as Cycles does with several BSDFs:
-// eval sums weight * value, the pdf is the sample-weight mixture of the closures' pdfs.
+// eval sums weight * value over the closures with a non-zero pdf, the pdf is the sample-weight
+// mixture of the closures' pdfs, sample picks one closure by sample weight and combines it with
+// the others at the sampled direction. The Python API and the renderer share the shading point
+// below and its loops: the API prepares its own closures (prepare), the renderer adds the
+// models of a hit (ShadingPoint::add_at_hit) and uses the render_ forms.
 class ClosureSum {
 public:
+    static constexpr size_t kCapacity = 16;
+
     ClosureSum() = default;
+    // Throws std::invalid_argument beyond kCapacity closures.
     explicit ClosureSum(std::vector<Closure> closures) : closures_(std::move(closures)) {
+        if (closures_.size() > kCapacity)
+            throw std::invalid_argument("a closure sum holds at most " + std::to_string(kCapacity) +
+                                        " closures, got " + std::to_string(closures_.size()));
         for (const Closure& c : closures_) total_sample_weight_ += c.sample_weight();
     }
     const std::vector<Closure>& closures() const { return closures_; }
 
-    // The closures prepared for one shading point: view-dependent terms computed once and
-    // shared by every eval, pdf and sample at that point.
+    // The closures prepared for one shading point: fixed capacity, no allocation of its own; the
+    // view-dependent terms computed once and shared by every eval, pdf and sample there.
     struct ShadingPoint {
-        std::vector<PreparedModel> models;
+        std::array<PreparedClosure, kCapacity> closures;
+        size_t count = 0;
+        double total_sample_weight = 0;
+        Vec3 wo{};
+
+        // Empties the sum; the closures' shading points keep their storage.
+        void clear(Vec3 view) {
+            count = 0;
+            total_sample_weight = 0;
+            wo = view;
+        }
+        // Adds weight x model prepared at ctx (the model must outlive the point); false when full.
+        bool add(const RGB& weight, const HairModel& model, const ShadingContext& ctx) {
+            if (count == kCapacity) return false;
+            PreparedClosure& c = closures[count++];
+            c.weight = weight;
+            c.sample_weight = std::fabs(average(weight));
+            c.model = &model;
+            prepare_model(model, ctx, c.point);
+            c.transparent = false;
+            c.hair_lobes = model_hair_lobes(model);
+            total_sample_weight += c.sample_weight;
+            return true;
+        }
+        // The same in the renderer, where a model may make the closure a transparent one here.
+        bool add_at_hit(const RGB& weight, const HairModel& model, const ShadingContext& ctx) {
+            if (!add(weight, model, ctx)) return false;
+            PreparedClosure& c = closures[count - 1];
+            c.transparent = model_transparent(model, c.point);
+            return true;
+        }
+        bool empty() const { return count == 0 || !(total_sample_weight > 0); }
+        // Cycles' SD_BSDF_HAS_TRANSMISSION: a closure whose model transmits.
+        bool transmits() const {
+            for (size_t i = 0; i < count; ++i)
+                if (model_transmits(*closures[i].model)) return true;
+            return false;
+        }
+        // The first model whose renderer eval is stochastic (it seeds the eval), or nullptr.
+        const HairModel* stochastic_model() const {
+            for (size_t i = 0; i < count; ++i)
+                if (model_stochastic_eval(*closures[i].model)) return closures[i].model;
+            return nullptr;
+        }
     };
     ShadingPoint prepare(const ShadingContext& ctx) const {
         ShadingPoint sp;
         prepare(ctx, sp);
         return sp;
     }
-    // Reuses `sp`'s storage (no allocation once it has grown to the closure count).
+    // Reuses `sp`'s storage (the models' shading points keep their alternative).
     void prepare(const ShadingContext& ctx, ShadingPoint& sp) const {
-        sp.models.resize(closures_.size());
-        for (size_t i = 0; i < closures_.size(); ++i) prepare_model(closures_[i].model, ctx, sp.models[i]);
+        sp.clear(ctx.wo);
+        for (const Closure& c : closures_) sp.add(c.weight, c.model, ctx);
+        sp.total_sample_weight = total_sample_weight_;
     }
 
-    BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
+    // ---- The Python API: each model's own eval, pdf and sample. ----
+    static BsdfEval eval(const ShadingPoint& sp, Vec3 wi) {
         BsdfEval out;
-        if (!(total_sample_weight_ > 0)) return out;
-        for (size_t i = 0; i < closures_.size(); ++i) add(out, closures_[i], eval_model(closures_[i].model, sp.models[i], wi));
-        out.pdf /= total_sample_weight_;
+        if (!(sp.total_sample_weight > 0)) return out;
+        out.pdf = sum_closures(sp, sp.count, 0.0,
+                               [&](const PreparedClosure& c) { return eval_model(*c.model, c.point, wi); },
+                               [&](const PreparedClosure& c, const BsdfEval& e) { add_lobes(out.lobes, c.weight, e); });
+        out.pdf /= sp.total_sample_weight;
         return out;
     }
     // The scalar form: each closure's shading point lives on the stack for this one call.
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
         BsdfEval out;
         if (!(total_sample_weight_ > 0)) return out;
-        for (const Closure& c : closures_) add(out, c, eval_model(c.model, ctx, wi));
+        for (const Closure& c : closures_) {
+            const BsdfEval e = eval_model(c.model, ctx, wi);
+            if (!closure_counts(e)) continue;
+            add_lobes(out.lobes, c.weight, e);
+            out.pdf += c.sample_weight() * e.pdf;
+        }
         out.pdf /= total_sample_weight_;
         return out;
     }
-    double pdf(const ShadingPoint& sp, Vec3 wi) const {
-        if (!(total_sample_weight_ > 0)) return 0.0;
+    static double pdf(const ShadingPoint& sp, Vec3 wi) {
+        if (!(sp.total_sample_weight > 0)) return 0.0;
         double pdf = 0.0;
-        for (size_t i = 0; i < closures_.size(); ++i)
-            pdf += closures_[i].sample_weight() * pdf_model(closures_[i].model, sp.models[i], wi);
-        return pdf / total_sample_weight_;
+        for (size_t i = 0; i < sp.count; ++i) {
+            const PreparedClosure& c = sp.closures[i];
+            pdf += c.sample_weight * pdf_model(*c.model, c.point, wi);
+        }
+        return pdf / sp.total_sample_weight;
     }
     double pdf(const ShadingContext& ctx, Vec3 wi) const {
         if (!(total_sample_weight_ > 0)) return 0.0;
@@ -328,24 +428,24 @@ public:
     }
 
     // u[2] picks the closure and is rescaled for the closure's own use.
-    BsdfSample sample(const ShadingPoint& sp, std::array<double, 3> u) const {
+    static BsdfSample sample(const ShadingPoint& sp, std::array<double, 3> u) {
         BsdfSample out;
-        if (!(total_sample_weight_ > 0)) return out;
-        if (closures_.size() == 1) return weighted(closures_[0], sample_model(closures_[0].model, sp.models[0], u));
-        const size_t picked = pick_closure(
-            closures_.size(), total_sample_weight_, [&](size_t i) { return closures_[i].sample_weight(); }, u[2]);
-        const BsdfSample s = sample_model(closures_[picked].model, sp.models[picked], u);
+        if (!(sp.total_sample_weight > 0)) return out;
+        if (sp.count == 1) {
+            const PreparedClosure& c = sp.closures[0];
+            return weighted(c.weight, sample_model(*c.model, c.point, u));
+        }
+        const size_t picked = pick(sp, u[2]);
+        const PreparedClosure& p = sp.closures[picked];
+        const BsdfSample s = sample_model(*p.model, p.point, u);
         if (s.lobe < 0) return out;
         // Combine with the other closures' values and pdfs at the sampled direction.
-        RGB value = closures_[picked].weight * s.value;
-        double pdf = closures_[picked].sample_weight() * s.pdf;
-        for (size_t i = 0; i < closures_.size(); ++i) {
-            if (i == picked) continue;
-            const BsdfEval e = eval_model(closures_[i].model, sp.models[i], s.wi);
-            value += closures_[i].weight * e.value();
-            pdf += closures_[i].sample_weight() * e.pdf;
-        }
-        pdf /= total_sample_weight_;
+        RGB value = p.weight * s.value;
+        double pdf = sum_closures(
+            sp, picked, p.sample_weight * s.pdf,
+            [&](const PreparedClosure& c) { return eval_model(*c.model, c.point, s.wi); },
+            [&](const PreparedClosure& c, const BsdfEval& e) { value += c.weight * e.value(); });
+        pdf /= sp.total_sample_weight;
         const RGB weight = (1.0 / pdf) * value;
         if (!(pdf > 0) || !isfinite(weight)) return out;
         out.wi = s.wi;
@@ -360,18 +460,87 @@ public:
         if (closures_.size() != 1) return sample(prepare(ctx), u);
         if (!(total_sample_weight_ > 0)) return {};
         const Closure& c = closures_[0];
-        return weighted(c, std::visit([&](const auto& model) { return model.sample(model.prepare(ctx), u); }, c.model));
+        return weighted(c.weight,
+                        std::visit([&](const auto& model) { return model.sample(model.prepare(ctx), u); }, c.model));
+    }
+
+    // ---- The renderer: each model's eval_at_hit / sample_at_hit (stochastic evals advance
+    // `rng_state`, non-finite results count as none), transparent closures, per-lobe passes. ----
+    static BsdfValue render_eval(const ShadingPoint& sp, Vec3 wi, uint32_t& rng_state) {
+        BsdfValue out;
+        out.pdf = sum_closures(sp, sp.count, 0.0,
+                               [&](const PreparedClosure& c) { return eval_at_hit(*c.model, c.point, wi, rng_state); },
+                               [&](const PreparedClosure& c, const BsdfEval& e) { add_pass(out.value, out.lobes, c, e); });
+        out.pdf /= sp.total_sample_weight;
+        return out;
+    }
+    // `longitudinal`: Cycles < 3.6's numbers for Chiang; `lobes`: fill the per-lobe values.
+    static BsdfScatter render_sample(const ShadingPoint& sp, double u0, double u1, double u2,
+                                     const LongitudinalNumbers* longitudinal, uint32_t& rng_state, bool lobes) {
+        BsdfScatter out;
+        if (sp.count == 0) return out;
+        const size_t picked = sp.count > 1 ? pick(sp, u2) : 0;
+        const PreparedClosure& p = sp.closures[picked];
+        if (p.transparent) {
+            // Cycles' transparent BSDF: straight on, value = weight, pdf = the pick probability.
+            out.wi = -1.0 * sp.wo;
+            out.value = p.weight;
+            out.pdf = p.sample_weight / sp.total_sample_weight;
+            out.blur_pdf = out.pdf;
+            out.label = LabelTransparent;
+            return out;
+        }
+        const ScatterSample s = sample_at_hit(*p.model, p.point, {u0, u1, u2}, longitudinal, rng_state, lobes);
+        if (s.lobe < 0) return out;
+        out.wi = s.wi;
+        for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = p.weight * s.lobes[size_t(k)];
+        RGB value = s.value_from_lobes ? sum_of_lobes(out.lobes) : p.weight * s.value;
+        if (!p.hair_lobes) out.lobes = {};
+        out.label = scatter_label(*p.model, s.lobe);
+        // Combine with the other closures at the sampled direction.
+        double pdf = sum_closures(
+            sp, picked, p.sample_weight * s.pdf,
+            [&](const PreparedClosure& c) { return eval_at_hit(*c.model, c.point, out.wi, rng_state); },
+            [&](const PreparedClosure& c, const BsdfEval& e) { add_pass(value, out.lobes, c, e); });
+        out.pdf = pdf / sp.total_sample_weight;
+        out.blur_pdf = s.blur_pdf_one ? 1.0 : out.pdf;  // Cycles' Huang sampler reports pdf 1
+        out.value = value;
+        if (!(out.pdf > 0) || !std::isfinite(out.pdf)) out.label = LabelNone;
+        return out;
     }
 
 private:
-    // Adds closure c's share of an eval: weight x lobes, sample weight x pdf.
-    static void add(BsdfEval& out, const Closure& c, const BsdfEval& e) {
-        for (int p = 0; p < kLobeCount; ++p) out.lobes[p] += c.weight * e.lobes[p];
-        out.pdf += c.sample_weight() * e.pdf;
+    // Cycles' surface_shader_bsdf_eval over the closures but `skip`: `eval_one(c)` each, and
+    // where it counts (closure_counts; a transparent closure never does) `add(c, e)`; returns
+    // `pdf` plus the sample-weighted pdfs.
+    template <class EvalOne, class Add>
+    static double sum_closures(const ShadingPoint& sp, size_t skip, double pdf, EvalOne&& eval_one, Add&& add) {
+        for (size_t i = 0; i < sp.count; ++i) {
+            const PreparedClosure& c = sp.closures[i];
+            if (i == skip || c.transparent) continue;
+            const BsdfEval e = eval_one(c);
+            if (!closure_counts(e)) continue;
+            add(c, e);
+            pdf += c.sample_weight * e.pdf;
+        }
+        return pdf;
     }
-    static BsdfSample weighted(const Closure& c, BsdfSample s) {
-        s.value = c.weight * s.value;
-        s.weight = c.weight * s.weight;
+    static size_t pick(const ShadingPoint& sp, double& u) {
+        return pick_closure(sp.count, sp.total_sample_weight, [&](size_t i) { return sp.closures[i].sample_weight; }, u);
+    }
+    static void add_lobes(std::array<RGB, kLobeCount>& lobes, const RGB& weight, const BsdfEval& e) {
+        for (int p = 0; p < kLobeCount; ++p) lobes[size_t(p)] += weight * e.lobes[size_t(p)];
+    }
+    // The renderer's share of closure c: its weighted value, and its lobes where they are hair lobes.
+    static void add_pass(RGB& value, std::array<RGB, kLobeCount>& lobes, const PreparedClosure& c, const BsdfEval& e) {
+        std::array<RGB, kLobeCount> weighted_lobes;
+        for (int k = 0; k < kLobeCount; ++k) weighted_lobes[size_t(k)] = c.weight * e.lobes[size_t(k)];
+        value += sum_of_lobes(weighted_lobes);
+        for (int k = 0; k < kLobeCount; ++k) lobes[size_t(k)] += c.hair_lobes ? weighted_lobes[size_t(k)] : RGB(0.0);
+    }
+    static BsdfSample weighted(const RGB& weight, BsdfSample s) {
+        s.value = weight * s.value;
+        s.weight = weight * s.weight;
         return s;
     }
 

@@ -163,12 +163,9 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
         for (MaterialClosure& m : *kind) closures_.push_back(std::move(m));
 }
 
-const HairModel* Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness,
-                               bool lobes) {
-    count_ = 0;
+void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, bool lobes) {
     lobes_ = lobes;
-    total_sample_weight_ = 0;
-    wo_ = g.wo;
+    sum_.clear(g.wo);
     ShadingContext ctx;
     ctx.tangent = g.tangent;
     ctx.wo = g.wo;
@@ -179,15 +176,12 @@ const HairModel* Bsdf::prepare(const MaterialShader& material, const ShadingGeom
     ctx.near_field = g.near_field;
     ctx.shading_normal = g.n;
     ctx.geometric_normal = g.ng;
-    const HairModel* stochastic = nullptr;
     for (const MaterialShader::MaterialClosure& m : material.closures()) {
-        const size_t slot = size_t(count_);
-        HitClosure& c = closures_[slot];
-        c.weight = m.weight;
-        if (m.color_register >= 0)
-            c.weight = g.registers ? m.weight * register_rgb(g.registers, m.color_register) : RGB(0.0);
-        c.model = m.model.get();
-        if (!c.model) {  // Principled Hair with per-hit inputs
+        const size_t slot = sum_.count;
+        RGB weight = m.weight;
+        if (m.color_register >= 0) weight = g.registers ? m.weight * register_rgb(g.registers, m.color_register) : RGB(0.0);
+        const HairModel* model = m.model.get();
+        if (!model) {  // Principled Hair with per-hit inputs
             PrincipledHairInputs in = m.hair;
             bool random_from_curve = m.random_from_curve;
             if (g.registers) apply_links(m.links, g.registers, in, random_from_curve);
@@ -199,111 +193,26 @@ const HairModel* Bsdf::prepare(const MaterialShader& material, const ShadingGeom
             else
                 hit_models_[slot].emplace(std::in_place_type<ChiangHair>,
                                           chiang_params_from_principled(in, material.accuracy(), material.tilt()));
-            c.model = &*hit_models_[slot];
+            model = &*hit_models_[slot];
         }
-        if (blur_roughness > 0 && blur_model(*c.model, blur_roughness, hit_models_[slot])) c.model = &*hit_models_[slot];
-        prepare_model(*c.model, ctx, c.point);
-        c.transparent = model_transparent(*c.model, c.point);
-        c.hair_lobes = model_hair_lobes(*c.model);
-        c.sample_weight = std::fabs(average(c.weight));
-        if (!stochastic && model_stochastic_eval(*c.model)) stochastic = c.model;
-        total_sample_weight_ += c.sample_weight;
-        ++count_;
+        if (blur_roughness > 0 && blur_model(*model, blur_roughness, hit_models_[slot])) model = &*hit_models_[slot];
+        sum_.add_at_hit(weight, *model, ctx);
     }
-    return stochastic;
 }
 
 void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, Sampler& rng,
                bool lobes) {
-    const HairModel* stochastic = prepare(material, g, blur_roughness, lobes);
+    prepare(material, g, blur_roughness, lobes);
+    const HairModel* stochastic = sum_.stochastic_model();
     eval_state_ = stochastic ? model_eval_seed(*stochastic, rng.next()) : 0u;
-    if (!(total_sample_weight_ > 0)) count_ = 0;
+    if (sum_.empty()) sum_.count = 0;
 }
 
 void Bsdf::set_seeded(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness,
                       uint32_t eval_state, bool lobes) {
     prepare(material, g, blur_roughness, lobes);
     eval_state_ = eval_state;
-    if (!(total_sample_weight_ > 0)) count_ = 0;
-}
-
-BsdfValue Bsdf::eval_closure(int i, Vec3 wi) const {
-    const HitClosure& c = closures_[size_t(i)];
-    BsdfValue out;
-    if (c.transparent) return out;  // a delta: no value in any sampled direction
-    const BsdfEval r = eval_at_hit(*c.model, c.point, wi, eval_state_);
-    for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] = c.weight * r.lobes[size_t(k)];
-    out.value = sum_of_lobes(out.lobes);
-    out.pdf = r.pdf;
-    if (!c.hair_lobes) out.lobes = {};
-    return out;
-}
-
-bool Bsdf::has_transmission() const {
-    for (int i = 0; i < count_; ++i)
-        if (model_transmits(*closures_[size_t(i)].model)) return true;
-    return false;
-}
-
-BsdfValue Bsdf::eval(Vec3 wi) const {
-    BsdfValue out;
-    for (int i = 0; i < count_; ++i) {
-        const BsdfValue v = eval_closure(i, wi);
-        if (v.pdf != 0.0) {  // Cycles accumulates a closure only where its pdf is non-zero
-            out.value += v.value;
-            out.pdf += closures_[size_t(i)].sample_weight * v.pdf;
-            for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
-        }
-    }
-    out.pdf /= total_sample_weight_;
-    return out;
-}
-
-BsdfScatter Bsdf::sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal) const {
-    BsdfScatter out;
-    if (count_ == 0) return out;
-    // Pick a closure with u2 and rescale it (Cycles' surface_shader_bsdf_bssrdf_pick).
-    int picked = count_ - 1;
-    if (count_ > 1)
-        picked = int(pick_closure(size_t(count_), total_sample_weight_,
-                                  [&](size_t i) { return closures_[i].sample_weight; }, u2));
-    const HitClosure& c = closures_[size_t(picked)];
-    if (c.transparent) {
-        // Cycles' transparent BSDF: straight on, value = weight, pdf = the pick probability.
-        out.wi = -1.0 * wo_;
-        out.value = c.weight;
-        out.pdf = c.sample_weight / total_sample_weight_;
-        out.blur_pdf = out.pdf;
-        out.label = LabelTransparent;
-        return out;
-    }
-    const ScatterSample s = sample_at_hit(*c.model, c.point, {u0, u1, u2}, chiang_longitudinal, eval_state_, lobes_);
-    if (s.lobe < 0) return out;
-    out.wi = s.wi;
-    BsdfValue own;
-    for (int k = 0; k < kLobeCount; ++k) own.lobes[size_t(k)] = c.weight * s.lobes[size_t(k)];
-    own.value = s.value_from_lobes ? sum_of_lobes(own.lobes) : c.weight * s.value;
-    own.pdf = s.pdf;
-    if (!c.hair_lobes) own.lobes = {};
-    out.label = scatter_label(*c.model, s.lobe);
-    // Combine with the other closures at the sampled direction.
-    RGB value = own.value;
-    double pdf = c.sample_weight * own.pdf;
-    out.lobes = own.lobes;
-    for (int i = 0; i < count_; ++i) {
-        if (i == picked) continue;
-        const BsdfValue v = eval_closure(i, out.wi);
-        if (v.pdf != 0.0) {
-            value += v.value;
-            pdf += closures_[size_t(i)].sample_weight * v.pdf;
-            for (int k = 0; k < kLobeCount; ++k) out.lobes[size_t(k)] += v.lobes[size_t(k)];
-        }
-    }
-    out.pdf = pdf / total_sample_weight_;
-    out.blur_pdf = s.blur_pdf_one ? 1.0 : out.pdf;  // Cycles' Huang sampler reports pdf 1
-    out.value = value;
-    if (!(out.pdf > 0) || !std::isfinite(out.pdf)) out.label = LabelNone;
-    return out;
+    if (sum_.empty()) sum_.count = 0;
 }
 
 }  // namespace hairbsdf::render

@@ -94,3 +94,33 @@ TEST(ClosureSumAllocation, ScalarEvalIsTheModelsEval) {
             for (int c = 0; c < 3; ++c) EXPECT_EQ(e.lobes[size_t(p)][c], (w * direct.lobes[size_t(p)])[c]) << name;
     }
 }
+
+// The renderer's forms of the sum (render_eval, render_sample) over a shading point filled per
+// hit with add_at_hit, as render::Bsdf does: no allocation once the point has been used.
+TEST(ClosureSumAllocation, RendererFormsAllocateNothing) {
+    const HairModel diffuse{DiffuseBsdf{}};
+    for (const auto& [name, model] : models()) {
+        ShadingContext ctx;
+        ctx.wo = normalize(Vec3{0.3, 0.1, 0.9});
+        ctx.h = 0.3;
+        ClosureSum::ShadingPoint point;
+        auto fill = [&] {
+            point.clear(ctx.wo);
+            point.add_at_hit(RGB(0.5, 0.7, 0.9), model, ctx);
+            point.add_at_hit(RGB(0.2, 0.1, 0.3), diffuse, ctx);
+        };
+        fill();  // the first use may set up the shading points' alternatives
+        uint32_t rng_state = 1;
+        double sink = 0;
+        const long news = news_during([&] {
+            for (int i = 0; i < 40; ++i) {
+                ctx.h = -0.9 + 0.045 * i;
+                fill();
+                const Vec3 wi = normalize(Vec3{-0.4 + 0.02 * i, 0.2, 0.8});
+                sink += ClosureSum::render_eval(point, wi, rng_state).pdf;
+                sink += ClosureSum::render_sample(point, 0.3, 0.6, 0.025 * i, nullptr, rng_state, true).pdf;
+            }
+        });
+        EXPECT_EQ(news, 0) << name << " (sink " << sink << ")";
+    }
+}

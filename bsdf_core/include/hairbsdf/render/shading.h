@@ -93,27 +93,14 @@ struct ShadingGeometry {
     const float* registers = nullptr;  // the material's shading program evaluated at this hit
 };
 
-struct BsdfValue {
-    RGB value;       // sum of weight x eval (cosine included)
-    double pdf = 0;  // mixture density
-    std::array<RGB, kLobeCount> lobes{};  // the hair closures' share of value per lobe (when asked)
-};
-
-struct BsdfScatter {
-    Vec3 wi;
-    RGB value;
-    std::array<RGB, kLobeCount> lobes{};  // the hair closures' share of value per lobe (when asked)
-    double pdf = 0;
-    double blur_pdf = 0;  // the pdf Cycles' Filter Glossy sees (Huang reports 1)
-    uint8_t label = LabelNone;
-};
-
-// The BSDF at one hit: the material's closures as a weighted sum of models, prepared for the
-// hit, evaluated and sampled through the model interface of closures.h (eval_at_hit,
-// sample_at_hit, scatter_label, ...) with Cycles' one-sample mixture. Reused per thread: set()
-// does not allocate for models that do not (Huang's shading point does).
+// The BSDF at one hit: a ClosureSum shading point (closures.h) holding the material's closures,
+// each a weight and a model prepared for the hit, evaluated and sampled by the sum's renderer
+// forms (render_eval, render_sample) with Cycles' one-sample mixture. Bsdf adds only what a hit
+// needs around it: the models built or blurred for this hit and the stochastic eval's state.
+// Reused per thread: set() does not allocate for models that do not (Huang's shading point does).
 class Bsdf {
 public:
+    static_assert(size_t(kMaxBsdfClosures) <= ClosureSum::kCapacity);
     // blur_roughness > 0 applies Cycles' Filter Glossy to the models that blur. Where a closure's
     // eval is stochastic, set() draws its seed from the path's sampler `rng` (one number per
     // hit). `lobes`: fill the per-lobe values of eval and sample (costs an extra eval per sample).
@@ -122,35 +109,23 @@ public:
     // The same with the stochastic eval's state given (the test hook eval_hit_bsdf).
     void set_seeded(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
                     uint32_t eval_state, bool lobes = false);
-    bool empty() const { return count_ == 0; }
+    bool empty() const { return sum_.count == 0; }
     // Cycles' SD_BSDF_HAS_TRANSMISSION: a closure whose model transmits; the light tree then
     // ignores the side of N.
-    bool has_transmission() const;
-    BsdfValue eval(Vec3 wi) const;
+    bool has_transmission() const { return sum_.transmits(); }
+    BsdfValue eval(Vec3 wi) const { return ClosureSum::render_eval(sum_, wi, eval_state_); }
     // `chiang_longitudinal`: Cycles < 3.6's LCG numbers for Principled Hair (Chiang) closures.
-    BsdfScatter sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal = nullptr) const;
+    BsdfScatter sample(double u0, double u1, double u2, const LongitudinalNumbers* chiang_longitudinal = nullptr) const {
+        return ClosureSum::render_sample(sum_, u0, u1, u2, chiang_longitudinal, eval_state_, lobes_);
+    }
 
 private:
-    // One closure at this hit: weight x model, the model prepared for the hit.
-    struct HitClosure {
-        RGB weight;
-        double sample_weight = 0;
-        const HairModel* model = nullptr;
-        PreparedModel point;
-        bool transparent = false;  // replaced by a transparent closure here (Huang outside its ellipse)
-        bool hair_lobes = true;    // its value is a share of the hair lobe passes
-    };
-    // Prepares the closures; returns the first with a stochastic eval, or nullptr.
-    const HairModel* prepare(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness,
-                             bool lobes);
-    BsdfValue eval_closure(int i, Vec3 wi) const;
-    std::array<HitClosure, kMaxBsdfClosures> closures_;
+    // Fills the sum with the material's closures at this hit.
+    void prepare(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness, bool lobes);
+    ClosureSum::ShadingPoint sum_;
     std::array<std::optional<HairModel>, kMaxBsdfClosures> hit_models_;  // models built or blurred for this hit
     mutable uint32_t eval_state_ = 0;  // the stochastic evals' random state, advanced by each eval
-    int count_ = 0;
     bool lobes_ = false;
-    double total_sample_weight_ = 0;
-    Vec3 wo_;
 };
 
 // Reads register `reg` (3 for a colour) as an input value; non-finite values read as 0.
