@@ -33,54 +33,94 @@ ModelParamSpec flag(const char* name, bool def, const char* description) {
     return {name, ParamKind::Bool, {v, v, v}, 0, 1, {}, false, description};
 }
 
-const std::vector<ModelParamSpec>& kajiya_kay_schema() {
-    static const std::vector<ModelParamSpec> s = {
-        rgb("diffuse", {0.5, 0.5, 0.5}, 0, 1, "K_d, the diffuse albedo (diffuse + specular <= 1 per channel)"),
-        rgb("specular", {0.5, 0.5, 0.5}, 0, 1, "K_s, the specular albedo at normal view"),
-        real("exponent", 60, 0, 10000, "p, the Phong exponent of the specular cone (lobe width 1/sqrt(p))"),
+// --- one table per model -----------------------------------------------------------------------
+// A row: the parameter's schema (name, range, meaning) and the Params field it sets. A field's
+// default is its value in a default-constructed Params (the model's header), so each default is
+// written once; rows without a field (choices, derived values) are applied by the builder.
+template <class P>
+struct Field {
+    ModelParamSpec spec;
+    double P::*number = nullptr;
+    RGB P::*color = nullptr;
+    bool P::*boolean = nullptr;
+};
+template <class P>
+Field<P> number_field(const char* name, double P::*field, double lo, double hi, const char* description) {
+    return {real(name, P{}.*field, lo, hi, description), field, nullptr, nullptr};
+}
+template <class P>
+Field<P> color_field(const char* name, RGB P::*field, double lo, double hi, const char* description) {
+    const RGB d = P{}.*field;
+    return {rgb(name, {d.r, d.g, d.b}, lo, hi, description), nullptr, field, nullptr};
+}
+template <class P>
+Field<P> flag_field(const char* name, bool P::*field, const char* description) {
+    return {flag(name, P{}.*field, description), nullptr, nullptr, field};
+}
+template <class P>
+Field<P> builder_row(ModelParamSpec spec) {
+    return {std::move(spec), nullptr, nullptr, nullptr};
+}
+
+template <class P>
+std::vector<ModelParamSpec> specs_of(const std::vector<Field<P>>& fields) {
+    std::vector<ModelParamSpec> out;
+    for (const Field<P>& f : fields) out.push_back(f.spec);
+    return out;
+}
+
+const std::vector<Field<KajiyaKayHairParams>>& kajiya_kay_fields() {
+    using P = KajiyaKayHairParams;
+    static const std::vector<Field<P>> s = {
+        color_field<P>("diffuse", &P::diffuse, 0, 1, "K_d, the diffuse albedo (diffuse + specular <= 1 per channel)"),
+        color_field<P>("specular", &P::specular, 0, 1, "K_s, the specular albedo at normal view"),
+        number_field<P>("exponent", &P::exponent, 0, 10000, "p, the Phong exponent of the specular cone (lobe width 1/sqrt(p))"),
     };
     return s;
 }
 
-const std::vector<ModelParamSpec>& epic_schema() {
-    static const std::vector<ModelParamSpec> s = {
-        rgb("base_color", {0.017513, 0.005763, 0.002059}, 0, 1, "C, the fibre colour"),
-        real("specular", 0.5, 0, 1, "scales R by specular / 0.5 (0.5: R as published)"),
-        real("scatter", 0, 0, 1, "scales the multiple-scattering fake (0: single fibre only)"),
-        real("roughness", 0.35, 0, 1, "r: beta_R = r^2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R"),
-        real("shift", 0.035, -0.25, 0.25, "alpha_R = -2 shift, alpha_TT = shift, alpha_TRT = 4 shift (sin theta)"),
-        choice("variant", {"direct", "environment"}, "direct lights, or the environment-light variant"),
-        energy_choice("the notes"),
+const std::vector<Field<EpicHairParams>>& epic_fields() {
+    using P = EpicHairParams;
+    static const std::vector<Field<P>> s = {
+        color_field<P>("base_color", &P::base_color, 0, 1, "C, the fibre colour"),
+        builder_row<P>(real("specular", 0.5 * P{}.r_scale, 0, 1, "scales R by specular / 0.5 (0.5: R as published)")),
+        number_field<P>("scatter", &P::scatter, 0, 1, "scales the multiple-scattering fake (0: single fibre only)"),
+        number_field<P>("roughness", &P::roughness, 0, 1, "r: beta_R = r^2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R"),
+        number_field<P>("shift", &P::shift, -0.25, 0.25, "alpha_R = -2 shift, alpha_TT = shift, alpha_TRT = 4 shift (sin theta)"),
+        builder_row<P>(choice("variant", {"direct", "environment"}, "direct lights, or the environment-light variant")),
+        builder_row<P>(energy_choice("the notes")),
     };
     return s;
 }
 
-const std::vector<ModelParamSpec>& scheuermann_schema() {
-    static const std::vector<ModelParamSpec> s = {
-        rgb("primary_color", {0.5, 0.5, 0.5}, 0, 1, "c_1 (primary + secondary <= 1 per channel)"),
-        rgb("secondary_color", {0.5, 0.35, 0.2}, 0, 1, "c_2, the hair-coloured secondary highlight"),
-        real("primary_exponent", 240, 0, 10000, "p_1"),
-        real("secondary_exponent", 60, 0, 10000, "p_2"),
-        real("primary_shift", 0.0349208, -1, 1, "tangent shift of lobe 1 (tan 2 deg)"),
-        real("secondary_shift", -0.0699268, -1, 1, "tangent shift of lobe 2 (-tan 4 deg)"),
-        real("shift_texture", 0.5, 0, 1, "the shift texture's value (0.5: no extra shift)"),
-        real("noise", 1, 0, 1, "the noise texture's value, masks lobe 2"),
+const std::vector<Field<ScheuermannHairParams>>& scheuermann_fields() {
+    using P = ScheuermannHairParams;
+    static const std::vector<Field<P>> s = {
+        color_field<P>("primary_color", &P::primary_color, 0, 1, "c_1 (primary + secondary <= 1 per channel)"),
+        color_field<P>("secondary_color", &P::secondary_color, 0, 1, "c_2, the hair-coloured secondary highlight"),
+        number_field<P>("primary_exponent", &P::primary_exponent, 0, 10000, "p_1"),
+        number_field<P>("secondary_exponent", &P::secondary_exponent, 0, 10000, "p_2"),
+        number_field<P>("primary_shift", &P::primary_shift, -1, 1, "tangent shift of lobe 1 (tan 2 deg)"),
+        number_field<P>("secondary_shift", &P::secondary_shift, -1, 1, "tangent shift of lobe 2 (-tan 4 deg)"),
+        number_field<P>("shift_texture", &P::shift_texture, 0, 1, "the shift texture's value (0.5: no extra shift)"),
+        number_field<P>("noise", &P::noise, 0, 1, "the noise texture's value, masks lobe 2"),
     };
     return s;
 }
 
-const std::vector<ModelParamSpec>& marschner_schema() {
-    static const std::vector<ModelParamSpec> s = {
-        rgb("sigma_a", {0.245531, 0.52, 1.365}, 0, 1e4, "absorption per unit diameter"),
-        real("eta", 1.55, 1.1, 3, "index of refraction"),
-        real("eccentricity", 0.9, 0.5, 1, "a, the cross-section's axis ratio"),
-        real("alpha_r", -0.1309, -0.35, 0.35, "R shift (rad); alpha_TT = -alpha_r / 2, alpha_TRT = -3 alpha_r / 2"),
-        real("beta_r", 0.1309, 0.005, 0.7, "R width (rad); beta_TT = beta_r / 2, beta_TRT = 2 beta_r"),
-        real("glint_scale", 0.5, 0, 5, "k_G"),
-        real("caustic_width", 0.2618, 0.01, 0.7, "w_c (rad)"),
-        real("caustic_fade", 0.3, 0, 1, "Delta eta*"),
-        real("caustic_limit", 0.5, 0, 1, "Delta h_M"),
-        energy_choice("the paper"),
+const std::vector<Field<MarschnerHairParams>>& marschner_fields() {
+    using P = MarschnerHairParams;
+    static const std::vector<Field<P>> s = {
+        color_field<P>("sigma_a", &P::sigma_a, 0, 1e4, "absorption per unit diameter"),
+        number_field<P>("eta", &P::eta, 1.1, 3, "index of refraction"),
+        number_field<P>("eccentricity", &P::eccentricity, 0.5, 1, "a, the cross-section's axis ratio"),
+        number_field<P>("alpha_r", &P::alpha_r, -0.35, 0.35, "R shift (rad); alpha_TT = -alpha_r / 2, alpha_TRT = -3 alpha_r / 2"),
+        number_field<P>("beta_r", &P::beta_r, 0.005, 0.7, "R width (rad); beta_TT = beta_r / 2, beta_TRT = 2 beta_r"),
+        number_field<P>("glint_scale", &P::glint_scale, 0, 5, "k_G"),
+        number_field<P>("caustic_width", &P::caustic_width, 0.01, 0.7, "w_c (rad)"),
+        number_field<P>("caustic_fade", &P::caustic_fade, 0, 1, "Delta eta*"),
+        number_field<P>("caustic_limit", &P::caustic_limit, 0, 1, "Delta h_M"),
+        builder_row<P>(energy_choice("the paper")),
     };
     return s;
 }
@@ -95,40 +135,57 @@ RGB deon_sigma_a(double melanin, double redness, bool deon_pigments) {
     return (q * (1 - redness)) * kDeonEumelanin + (q * redness) * kDeonPheomelanin;
 }
 
-const std::vector<ModelParamSpec>& deon_schema() {
-    static const std::vector<ModelParamSpec> s = [] {
+// Melanin, its redness and the pigment constants are the factory's own inputs: they give sigma_a
+// unless sigma_a is given.
+const std::vector<Field<DeonHairParams>>& deon_fields() {
+    using P = DeonHairParams;
+    static const std::vector<Field<P>> s = [] {
         ModelParamSpec sigma = rgb("sigma_a", {0, 0, 0}, 0, 1e4, "absorption; overrides melanin when given");
         const RGB d = deon_sigma_a(0.8, 1.0, false);
         sigma.default_value = {d.r, d.g, d.b};  // what melanin's defaults give (shown, not used)
         sigma.optional = true;
-        return std::vector<ModelParamSpec>{
-            real("melanin", 0.8, 0, 1, "melanin concentration (Principled Hair's mapping)"),
-            real("melanin_redness", 1.0, 0, 1, "pheomelanin share"),
-            choice("pigments", {"cycles", "deon"}, "pigment constants: Cycles' or d'Eon's (seed 004)"),
-            sigma,
-            real("eta", 1.55, 1.1, 3, "index of refraction"),
-            real("roughness", 0.1309, 0.02, 1, "beta_R (rad); TT x1/2, TRT x2"),
-            real("tilt", 0.0349066, -0.2, 0.2, "cuticle tilt alpha (rad)"),
-            flag("tabulated", true, "tables over (|sin theta_o|, phi), or direct quadrature"),
+        return std::vector<Field<P>>{
+            builder_row<P>(real("melanin", 0.8, 0, 1, "melanin concentration (Principled Hair's mapping)")),
+            builder_row<P>(real("melanin_redness", 1.0, 0, 1, "pheomelanin share")),
+            builder_row<P>(choice("pigments", {"cycles", "deon"}, "pigment constants: Cycles' or d'Eon's (seed 004)")),
+            builder_row<P>(sigma),
+            number_field<P>("eta", &P::eta, 1.1, 3, "index of refraction"),
+            number_field<P>("roughness", &P::roughness, 0.02, 1, "beta_R (rad); TT x1/2, TRT x2"),
+            number_field<P>("tilt", &P::tilt, -0.2, 0.2, "cuticle tilt alpha (rad)"),
+            flag_field<P>("tabulated", &P::tabulated, "tables over (|sin theta_o|, phi), or direct quadrature"),
         };
     }();
     return s;
 }
 
-const std::vector<ModelParamSpec>& yan_fur_schema() {
-    static const std::vector<ModelParamSpec> s = {
-        real("medulla_ratio", 0.88, 0, 0.99, "kappa, the medulla's radius over the fibre's"),
-        rgb("cortex_absorption", {0.64, 0.64, 0.64}, 0, 1e4, "sigma_ca, cortex absorption per unit radius"),
-        real("medulla_absorption", 0.17, 0, 10, "sigma_ma, medulla absorption per unit radius"),
-        real("medulla_scattering", 1.69, 0, 10, "sigma_ms, medulla scattering per unit radius"),
-        real("medulla_g", 0, -0.9, 0.9, "Henyey-Greenstein asymmetry of the medulla (0: isotropic)"),
-        real("eta", 1.55, 1.1, 3, "index of refraction of cortex and medulla"),
-        real("alpha", 0.0956440430, -0.2, 0.2, "cuticle tilt (rad, Principled Hair's Offset convention); 5.48 deg"),
-        real("roughness", 0.2238067333, 0.01, 1, "Chiang's beta_m; default: R's longitudinal sd = 11.64 deg"),
-        real("radial_roughness", 0.2186326880, 0.01, 1, "Chiang's beta_n; default: azimuthal sd = 7.49 deg"),
+const std::vector<Field<YanFurParams>>& yan_fur_fields() {
+    using P = YanFurParams;
+    static const std::vector<Field<P>> s = {
+        number_field<P>("medulla_ratio", &P::medulla_ratio, 0, 0.99, "kappa, the medulla's radius over the fibre's"),
+        color_field<P>("cortex_absorption", &P::cortex_absorption, 0, 1e4, "sigma_ca, cortex absorption per unit radius"),
+        number_field<P>("medulla_absorption", &P::medulla_absorption, 0, 10, "sigma_ma, medulla absorption per unit radius"),
+        number_field<P>("medulla_scattering", &P::medulla_scattering, 0, 10, "sigma_ms, medulla scattering per unit radius"),
+        number_field<P>("medulla_g", &P::medulla_g, -0.9, 0.9, "Henyey-Greenstein asymmetry of the medulla (0: isotropic)"),
+        number_field<P>("eta", &P::eta, 1.1, 3, "index of refraction of cortex and medulla"),
+        number_field<P>("alpha", &P::alpha, -0.2, 0.2, "cuticle tilt (rad, Principled Hair's Offset convention); 5.48 deg"),
+        number_field<P>("roughness", &P::roughness, 0.01, 1, "Chiang's beta_m; default: R's longitudinal sd = 11.64 deg"),
+        number_field<P>("radial_roughness", &P::radial_roughness, 0.01, 1, "Chiang's beta_n; default: azimuthal sd = 7.49 deg"),
     };
     return s;
 }
+
+#define HAIRBSDF_SCHEMA_OF(model)                                                  \
+    const std::vector<ModelParamSpec>& model##_schema() {                          \
+        static const std::vector<ModelParamSpec> s = specs_of(model##_fields());   \
+        return s;                                                                  \
+    }
+HAIRBSDF_SCHEMA_OF(kajiya_kay)
+HAIRBSDF_SCHEMA_OF(epic)
+HAIRBSDF_SCHEMA_OF(scheuermann)
+HAIRBSDF_SCHEMA_OF(marschner)
+HAIRBSDF_SCHEMA_OF(deon)
+HAIRBSDF_SCHEMA_OF(yan_fur)
+#undef HAIRBSDF_SCHEMA_OF
 
 // --- values by name -----------------------------------------------------------------------------
 std::string number_text(double x, int precision = 10) {
@@ -233,6 +290,16 @@ private:
     std::vector<bool> given_;
 };
 
+// Sets every field row's Params field from the checked values.
+template <class P>
+void apply_fields(const std::vector<Field<P>>& fields, const Values& v, P& p) {
+    for (const Field<P>& f : fields) {
+        if (f.number) p.*f.number = v.number(f.spec.name);
+        if (f.color) p.*f.color = v.color(f.spec.name);
+        if (f.boolean) p.*f.boolean = v.number(f.spec.name) != 0.0;
+    }
+}
+
 std::string owner(const std::string& model) { return "model '" + model + "'"; }
 
 EnergyMode energy_mode(const Values& v) {
@@ -243,20 +310,15 @@ HairModel build_kajiya_kay(const ModelParams& given) {
     const Values v(owner("kajiya_kay"), kajiya_kay_schema(), given);
     v.check_sum_at_most_one("diffuse", "specular");
     KajiyaKayHairParams p;
-    p.diffuse = v.color("diffuse");
-    p.specular = v.color("specular");
-    p.exponent = v.number("exponent");
+    apply_fields(kajiya_kay_fields(), v, p);
     return KajiyaKayHair(p);
 }
 
 HairModel build_epic(const ModelParams& given) {
     const Values v(owner("epic"), epic_schema(), given);
     EpicHairParams p;
-    p.base_color = v.color("base_color");
+    apply_fields(epic_fields(), v, p);
     p.r_scale = v.number("specular") / 0.5;
-    p.scatter = v.number("scatter");
-    p.roughness = v.number("roughness");
-    p.shift = v.number("shift");
     p.variant = v.choice("variant") == "direct" ? EpicVariant::Direct : EpicVariant::Environment;
     p.energy = energy_mode(v);
     return EpicHair(p);
@@ -266,29 +328,14 @@ HairModel build_scheuermann(const ModelParams& given) {
     const Values v(owner("scheuermann"), scheuermann_schema(), given);
     v.check_sum_at_most_one("primary_color", "secondary_color");
     ScheuermannHairParams p;
-    p.primary_color = v.color("primary_color");
-    p.secondary_color = v.color("secondary_color");
-    p.primary_exponent = v.number("primary_exponent");
-    p.secondary_exponent = v.number("secondary_exponent");
-    p.primary_shift = v.number("primary_shift");
-    p.secondary_shift = v.number("secondary_shift");
-    p.shift_texture = v.number("shift_texture");
-    p.noise = v.number("noise");
+    apply_fields(scheuermann_fields(), v, p);
     return ScheuermannHair(p);
 }
 
 HairModel build_marschner(const ModelParams& given) {
     const Values v(owner("marschner"), marschner_schema(), given);
     MarschnerHairParams p;
-    p.sigma_a = v.color("sigma_a");
-    p.eta = v.number("eta");
-    p.eccentricity = v.number("eccentricity");
-    p.alpha_r = v.number("alpha_r");
-    p.beta_r = v.number("beta_r");
-    p.glint_scale = v.number("glint_scale");
-    p.caustic_width = v.number("caustic_width");
-    p.caustic_fade = v.number("caustic_fade");
-    p.caustic_limit = v.number("caustic_limit");
+    apply_fields(marschner_fields(), v, p);
     p.energy = energy_mode(v);
     return MarschnerHair(p);
 }
@@ -296,28 +343,17 @@ HairModel build_marschner(const ModelParams& given) {
 HairModel build_deon(const ModelParams& given) {
     const Values v(owner("deon"), deon_schema(), given);
     DeonHairParams p;
+    apply_fields(deon_fields(), v, p);
     p.sigma_a = v.given("sigma_a") ? v.color("sigma_a")
                                    : deon_sigma_a(v.number("melanin"), v.number("melanin_redness"),
                                                   v.choice("pigments") == "deon");
-    p.eta = v.number("eta");
-    p.roughness = v.number("roughness");
-    p.tilt = v.number("tilt");
-    p.tabulated = v.number("tabulated") != 0.0;
     return DeonHair(p);
 }
 
 HairModel build_yan_fur(const ModelParams& given) {
     const Values v(owner("yan_fur"), yan_fur_schema(), given);
     YanFurParams p;
-    p.medulla_ratio = v.number("medulla_ratio");
-    p.cortex_absorption = v.color("cortex_absorption");
-    p.medulla_absorption = v.number("medulla_absorption");
-    p.medulla_scattering = v.number("medulla_scattering");
-    p.medulla_g = v.number("medulla_g");
-    p.eta = v.number("eta");
-    p.alpha = v.number("alpha");
-    p.roughness = v.number("roughness");
-    p.radial_roughness = v.number("radial_roughness");
+    apply_fields(yan_fur_fields(), v, p);
     return YanFurHair(p);
 }
 
