@@ -36,6 +36,9 @@ struct Row {
     Row& only(const char* types) { return k.only_for = types, *this; }
     Row& linkable() { return k.register_link = true, *this; }
     Row& closed() { return k.closed = true, *this; }
+    Row& socket(const char* name, const char* kind, const char* models) {
+        return k.socket = name, k.socket_kind = kind, k.hair_models = models, *this;
+    }
     operator SceneKey() const { return k; }  // NOLINT(google-explicit-constructor)
 };
 
@@ -104,24 +107,41 @@ std::vector<SceneKey> make_schema() {
             .values({"COLOR", "MELANIN", "ABSORPTION"}).fallback("COLOR").only(kHairTypes),
         Row("materials[].closures[].inputs", K::Dict, "Principled Hair's socket values; missing: Blender 4.5's defaults")
             .fallback("{}").only(kHairTypes).closed(),
-        Row("materials[].closures[].inputs.color", K::Vector, "Color").columns(3).linkable(),
-        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin").linkable(),
-        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness").linkable(),
-        Row("materials[].closures[].inputs.tint", K::Vector, "Tint").columns(3).linkable(),
+        Row("materials[].closures[].inputs.color", K::Vector, "Color").columns(3).linkable()
+            .socket("Color", "color", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin").linkable()
+            .socket("Melanin", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness").linkable()
+            .socket("Melanin Redness", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.tint", K::Vector, "Tint").columns(3).linkable()
+            .socket("Tint", "color", "CHIANG HUANG"),
         Row("materials[].closures[].inputs.absorption_coefficient", K::Vector, "Absorption Coefficient").columns(3)
-            .linkable(),
-        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness").linkable(),
-        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)").linkable(),
-        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)").linkable(),
-        Row("materials[].closures[].inputs.ior", K::Real, "IOR").linkable(),
-        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians").linkable(),
-        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color").linkable(),
-        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness").linkable(),
-        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random").linkable(),
-        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)").linkable(),
-        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)").linkable(),
-        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)").linkable(),
-        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)").linkable(),
+            .linkable()
+            .socket("Absorption Coefficient", "vector", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness").linkable()
+            .socket("Roughness", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)").linkable()
+            .socket("Radial Roughness", "float", "CHIANG"),
+        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)").linkable()
+            .socket("Coat", "float", "CHIANG"),
+        Row("materials[].closures[].inputs.ior", K::Real, "IOR").linkable()
+            .socket("IOR", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians").linkable()
+            .socket("Offset", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color").linkable()
+            .socket("Random Color", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness").linkable()
+            .socket("Random Roughness", "float", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random").linkable()
+            .socket("Random", "float", ""),
+        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)").linkable()
+            .socket("Aspect Ratio", "float", "HUANG"),
+        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)").linkable()
+            .socket("Reflection", "float", "HUANG"),
+        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)").linkable()
+            .socket("Transmission", "float", "HUANG"),
+        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)").linkable()
+            .socket("Secondary Reflection", "float", "HUANG"),
         Row("materials[].closures[].component", K::Enum, "the legacy Hair BSDF's component")
             .values({"REFLECTION", "TRANSMISSION"}).fallback("REFLECTION").only("cycles_hair"),
         Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3).fallback("(0.8, 0.8, 0.8)")
@@ -726,6 +746,9 @@ py::list scene_schema_as_python() {
         d["only_for"] = k.only_for;
         d["register_link"] = k.register_link;
         d["closed"] = k.closed;
+        d["socket"] = k.socket;
+        d["socket_kind"] = k.socket_kind;
+        d["hair_models"] = k.hair_models;
         d["meaning"] = k.meaning;
         out.append(d);
     }

@@ -47,6 +47,12 @@ struct SceneKey {
     const char* only_for = "";  // space-separated values of the sibling "type": the key exists only for them
     bool register_link = false;  // may be {"register": k}: the material program's register k
     bool closed = false;         // Dict: an unknown key is an error (Principled Hair's inputs)
+    // Principled Hair inputs: the Blender node's socket, its kind for the exporter ("float",
+    // "color", "vector") and the models that read it ("CHIANG HUANG"; "" for Random, which the
+    // exporter treats apart).
+    const char* socket = "";
+    const char* socket_kind = "";
+    const char* hair_models = "";
     const char* meaning = "";
 };
 

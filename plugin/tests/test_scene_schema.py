@@ -100,6 +100,12 @@ def test_schema_rows_are_well_formed():
         if k["kind"] in ("enum", "list of enum"):
             assert k["allowed"] and (not k["default"] or k["default"] in k["allowed"] + ["[]"]), k
         assert k["meaning"], k
+    # Principled Hair's inputs: the exporter reads their sockets from these rows
+    models = next(k["allowed"] for k in rows if k["path"] == "materials[].closures[].model" and k["allowed"])
+    inputs = [k for k in rows if k["path"].startswith("materials[].closures[].inputs.")]
+    assert inputs and all(k["socket"] and k["socket_kind"] in ("float", "color", "vector") for k in inputs)
+    assert all(set(k["hair_models"].split()) <= set(models) for k in inputs)
+    assert all(k["socket_kind"] == "float" for k in inputs if k["kind"] == "float")
 
 
 def _scene():
