@@ -18,6 +18,7 @@
 #include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
 #include "model_params.h"
+#include "scene_schema.h"
 
 namespace py = pybind11;
 using namespace hairbsdf;
@@ -887,6 +888,13 @@ PYBIND11_MODULE(_core, m) {
 
     // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
+
+    // The scene format (scene_schema.h): its table and its check, without TBB.
+    m.def("scene_schema", &bindings::scene_schema_as_python,
+          "The scene format's keys (docs/scene_desc.md), one dict per key: path, kind, dtype, columns, required, "
+          "default, allowed, minimum, maximum, only_for, register_link, closed, meaning.");
+    m.def("validate_scene", &bindings::check_scene, py::arg("scene"),
+          "Checks a scene dict against scene_schema() and returns a normalised copy; errors name the key path.");
     m.def("model_schema", [](const std::string& model, const std::string& path) { return schema_list(model_schema(model, path)); },
           py::arg("model"), py::arg("path") = "");
     m.def("make_model",

@@ -23,6 +23,7 @@
 #include "hairbsdf/render/render.h"
 #include "hairbsdf/render/shading.h"
 #include "model_params.h"
+#include "scene_schema.h"
 
 namespace py = pybind11;
 using namespace hairbsdf;
@@ -119,15 +120,35 @@ std::array<double, 16> as_mat4(py::handle h, const std::string& key) {
     return m;
 }
 
-template <class E>
-E as_enum(py::handle h, const std::string& key, std::initializer_list<std::pair<const char*, E>> values) {
-    const std::string s = as_str(h, key);
-    std::string allowed;
-    for (const auto& [name, value] : values) {
-        if (s == name) return value;
-        allowed += std::string(allowed.empty() ? "" : ", ") + "'" + name + "'";
+// The schema path of a key: "['lights'][0]['type']" -> "lights[].type".
+std::string schema_path(const std::string& key) {
+    std::string path;
+    for (size_t i = 0; i < key.size();) {
+        if (key.compare(i, 2, "['") == 0) {
+            const size_t end = key.find("']", i);
+            path += (path.empty() ? "" : ".") + key.substr(i + 2, end - i - 2);
+            i = end + 2;
+        } else {
+            const size_t end = key.find(']', i);
+            path += "[]";
+            i = end + 1;
+        }
     }
-    fail(key, "'" + s + "' is not allowed; use one of " + allowed);
+    return path;
+}
+
+// A name check_scene accepted -> the C++ value at its position in the schema row's `allowed`
+// (scene_schema.cpp): `values` are in that order.
+template <class E>
+E as_enum(py::handle h, const std::string& key, std::initializer_list<E> values) {
+    const bindings::SceneKey& row = bindings::scene_key(schema_path(key));
+    if (row.allowed.size() != values.size())
+        throw std::logic_error("scene schema: " + schema_path(key) + " has " + std::to_string(row.allowed.size()) +
+                               " values, the reader maps " + std::to_string(values.size()));
+    const std::string s = as_str(h, key);
+    for (size_t i = 0; i < row.allowed.size(); ++i)
+        if (s == row.allowed[i]) return values.begin()[i];
+    fail(key, "'" + s + "' is not allowed");
 }
 
 void read_environment(py::handle h, EnvironmentDesc& env) {
@@ -141,7 +162,7 @@ void read_environment(py::handle h, EnvironmentDesc& env) {
     env.pixels.assign(px.data(), px.data() + px.size());
     env.weight = as_rgb(get(t, key, "weight"), sub(key, "weight"));
     if (auto o = get_optional(t, "interpolation"))
-        env.closest = as_enum<bool>(*o, sub(key, "interpolation"), {{"LINEAR", false}, {"CLOSEST", true}});
+        env.closest = as_enum<bool>(*o, sub(key, "interpolation"), {false, true});
     if (auto o = get_optional(t, "srgb_encoded")) env.srgb_encoded = as_bool(*o, sub(key, "srgb_encoded"));
     if (auto o = get_optional(t, "matrix")) {
         auto m = as_array<double>(*o, sub(key, "matrix"));
@@ -229,7 +250,7 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
             const py::dict ad = as_dict(ah, ak);
             CurveData::Attribute attr;
             attr.name = as_str(get(ad, ak, "name"), sub(ak, "name"));
-            attr.point_domain = as_enum<bool>(get(ad, ak, "domain"), sub(ak, "domain"), {{"POINT", true}, {"CURVE", false}});
+            attr.point_domain = as_enum<bool>(get(ad, ak, "domain"), sub(ak, "domain"), {true, false});
             auto data = array_shape<float>(get(ad, ak, "data"), sub(ak, "data"), 4);
             const size_t want = attr.point_domain ? n_points : n_curves;
             if (size_t(data.shape(0)) != want)
@@ -393,8 +414,8 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
         if (m.contains("emission_sampling") && !m["emission_sampling"].is_none()) {
             md.emission_sampling = as_enum<EmissionSampling>(
                 m["emission_sampling"], sub(key, "emission_sampling"),
-                {{"AUTO", EmissionSampling::Auto}, {"NONE", EmissionSampling::None}, {"FRONT", EmissionSampling::Front},
-                 {"BACK", EmissionSampling::Back}, {"FRONT_BACK", EmissionSampling::FrontBack}});
+                {EmissionSampling::Auto, EmissionSampling::None, EmissionSampling::Front, EmissionSampling::Back,
+                 EmissionSampling::FrontBack});
         }
         py::object closures = get(m, key, "closures");
         if (!py::isinstance<py::list>(closures) && !py::isinstance<py::tuple>(closures))
@@ -405,23 +426,20 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
             const py::dict c = as_dict(ch, ck);
             ClosureDesc cd;
             cd.type = as_enum<ClosureDesc::Type>(get(c, ck, "type"), sub(ck, "type"),
-                                                 {{"principled_hair", ClosureDesc::Type::PrincipledHair},
-                                                  {"diffuse", ClosureDesc::Type::Diffuse},
-                                                  {"emission", ClosureDesc::Type::Emission},
-                                                  {"cycles_hair", ClosureDesc::Type::CyclesHair},
-                                                  {"hair_model", ClosureDesc::Type::Model}});
+                                                 {ClosureDesc::Type::PrincipledHair, ClosureDesc::Type::Diffuse,
+                                                  ClosureDesc::Type::Emission, ClosureDesc::Type::CyclesHair,
+                                                  ClosureDesc::Type::Model});
             cd.weight = c.contains("weight") ? as_rgb(c["weight"], sub(ck, "weight")) : RGB(1.0);
             if (cd.type == ClosureDesc::Type::PrincipledHair) {
                 if (c.contains("model")) {
                     cd.hair_model = as_enum<ClosureDesc::HairModel>(
                         c["model"], sub(ck, "model"),
-                        {{"CHIANG", ClosureDesc::HairModel::Chiang}, {"HUANG", ClosureDesc::HairModel::Huang}});
+                        {ClosureDesc::HairModel::Chiang, ClosureDesc::HairModel::Huang});
                 }
                 if (c.contains("parametrization")) {
                     cd.hair.parametrization = as_enum<Parametrization>(
                         c["parametrization"], sub(ck, "parametrization"),
-                        {{"COLOR", Parametrization::Color}, {"MELANIN", Parametrization::Melanin},
-                         {"ABSORPTION", Parametrization::Absorption}});
+                        {Parametrization::Color, Parametrization::Melanin, Parametrization::Absorption});
                 }
                 const Parametrization param = cd.hair.parametrization;
                 const py::dict inputs = c.contains("inputs") ? as_dict(c["inputs"], sub(ck, "inputs")) : py::dict();
@@ -439,7 +457,7 @@ void read_materials(const py::dict& scene, SceneDesc& out) {
                 // The legacy Hair BSDF node (docs/scene_desc.md): Cycles clamps the roughnesses.
                 if (c.contains("component")) {
                     cd.transmission = as_enum<bool>(c["component"], sub(ck, "component"),
-                                                    {{"REFLECTION", false}, {"TRANSMISSION", true}});
+                                                    {false, true});
                 }
                 if (c.contains("color")) cd.color = as_rgb(c["color"], sub(ck, "color"));
                 if (c.contains("offset")) cd.offset = as_real(c["offset"], sub(ck, "offset"));
@@ -470,7 +488,7 @@ void read_camera(const py::dict& scene, SceneDesc& out) {
     const py::dict c = as_dict(get(scene, "", "camera"), key);
     CameraDesc& cam = out.camera;
     cam.type = as_enum<CameraType>(get(c, key, "type"), sub(key, "type"),
-                                   {{"PERSP", CameraType::Perspective}, {"ORTHO", CameraType::Orthographic}});
+                                   {CameraType::Perspective, CameraType::Orthographic});
     cam.matrix_world = as_mat4(get(c, key, "matrix_world"), sub(key, "matrix_world"));
     py::object res = get(c, key, "resolution");
     auto r = as_array<double>(res, sub(key, "resolution"));
@@ -483,8 +501,7 @@ void read_camera(const py::dict& scene, SceneDesc& out) {
     if (auto o = get_optional(c, "pixel_aspect")) cam.pixel_aspect = as_real(*o, sub(key, "pixel_aspect"));
     if (auto o = get_optional(c, "sensor_fit"))
         cam.sensor_fit = as_enum<SensorFit>(*o, sub(key, "sensor_fit"),
-                                            {{"AUTO", SensorFit::Auto}, {"HORIZONTAL", SensorFit::Horizontal},
-                                             {"VERTICAL", SensorFit::Vertical}});
+                                            {SensorFit::Auto, SensorFit::Horizontal, SensorFit::Vertical});
     auto real = [&](const char* name, double& dst) {
         if (auto o = get_optional(c, name)) dst = as_real(*o, sub(key, name));
     };
@@ -509,8 +526,7 @@ void read_lights(const py::dict& scene, SceneDesc& out) {
         const py::dict l = as_dict(lh, key);
         LightDesc d;
         d.type = as_enum<LightType>(get(l, key, "type"), sub(key, "type"),
-                                    {{"SUN", LightType::Sun}, {"POINT", LightType::Point},
-                                     {"SPOT", LightType::Spot}, {"AREA", LightType::Area}});
+                                    {LightType::Sun, LightType::Point, LightType::Spot, LightType::Area});
         d.strength = as_rgb(get(l, key, "strength"), sub(key, "strength"));
         auto real = [&](const char* name, double& dst) {
             if (auto o = get_optional(l, name)) dst = as_real(*o, sub(key, name));
@@ -546,8 +562,7 @@ void read_lights(const py::dict& scene, SceneDesc& out) {
                 d.matrix_world = as_mat4(get(l, key, "matrix_world"), sub(key, "matrix_world"));
                 d.has_matrix = true;
                 d.shape = as_enum<AreaShape>(get(l, key, "shape"), sub(key, "shape"),
-                                             {{"SQUARE", AreaShape::Square}, {"RECTANGLE", AreaShape::Rectangle},
-                                              {"DISK", AreaShape::Disk}, {"ELLIPSE", AreaShape::Ellipse}});
+                                             {AreaShape::Square, AreaShape::Rectangle, AreaShape::Disk, AreaShape::Ellipse});
                 d.size_x = as_real(get(l, key, "size_x"), sub(key, "size_x"));
                 d.size_y = d.size_x;
                 real("size_y", d.size_y);
@@ -579,9 +594,8 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     integer("min_light_bounces", s.min_light_bounces);
     if (auto o = get_optional(in, "filter_type"))
         s.filter = as_enum<IntegratorSettings::Filter>(*o, sub(key, "filter_type"),
-                                                       {{"BLACKMAN_HARRIS", IntegratorSettings::Filter::BlackmanHarris},
-                                                        {"GAUSSIAN", IntegratorSettings::Filter::Gaussian},
-                                                        {"BOX", IntegratorSettings::Filter::Box}});
+                                                       {IntegratorSettings::Filter::BlackmanHarris,
+                                                        IntegratorSettings::Filter::Gaussian, IntegratorSettings::Filter::Box});
     auto real = [&](const char* name, double& dst) {
         if (auto o = get_optional(in, name)) dst = as_real(*o, sub(key, name));
     };
@@ -596,40 +610,34 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     if (auto o = get_optional(in, "chiang_lcg")) s.chiang_lcg = as_bool(*o, sub(key, "chiang_lcg"));
     if (auto o = get_optional(in, "tilt"))
         s.tilt = as_enum<TiltConvention>(*o, sub(key, "tilt"),
-                                         {{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}});
+                                         {TiltConvention::Blender42, TiltConvention::Blender34});
     if (auto o = get_optional(in, "accuracy"))
-        s.accuracy = as_enum<Accuracy>(*o, sub(key, "accuracy"), {{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}});
+        s.accuracy = as_enum<Accuracy>(*o, sub(key, "accuracy"), {Accuracy::Cycles, Accuracy::Exact});
     if (auto o = get_optional(in, "huang_sampler"))
         s.huang_sampler = as_enum<HuangSampler>(*o, sub(key, "huang_sampler"),
-                                                {{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}});
+                                                {HuangSampler::Cycles, HuangSampler::Mixture});
     if (auto o = get_optional(in, "huang_glass_albedo_table"))
         s.huang_glass_albedo_table = as_enum<GlassAlbedoTable>(
-            *o, sub(key, "huang_glass_albedo_table"), {{"4.x", GlassAlbedoTable::Cycles4}, {"5.x", GlassAlbedoTable::Cycles5}});
+            *o, sub(key, "huang_glass_albedo_table"), {GlassAlbedoTable::Cycles4, GlassAlbedoTable::Cycles5});
     if (auto o = get_optional(in, "passes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             fail(sub(key, "passes"), "expected a list of pass names");
-        for (py::handle name : *o) {
-            const std::string pass = as_str(name, sub(key, "passes"));
-            if (pass == "hair_lobes") s.pass_hair_lobes = true;
-            else if (pass == "depth") s.pass_depth = true;
-            else if (pass == "normal") s.pass_normal = true;
-            else if (pass == "variance") s.pass_variance = true;
-            else fail(sub(key, "passes"), "'" + pass + "' is not allowed; use 'hair_lobes', 'depth', 'normal', 'variance'");
-        }
+        size_t i = 0;
+        for (py::handle name : *o)
+            *as_enum<bool*>(name, sub(key, "passes") + "[" + std::to_string(i++) + "]",
+                            {&s.pass_hair_lobes, &s.pass_depth, &s.pass_normal, &s.pass_variance}) = true;
     }
 }
 
-SceneDesc scene_from_dict(const py::dict& scene) {
+// The scene dict -> SceneDesc: check_scene (scene_schema.h) validates and normalises it
+// against the schema; the readers above copy the checked values.
+SceneDesc scene_from_dict(py::handle scene_dict) {
+    const py::dict scene = bindings::check_scene(scene_dict);
     SceneDesc out;
-    if (auto v = get_optional(scene, "version")) {
-        if (as_int(*v, "['version']") != 1) fail("['version']", "only version 1 is supported");
-    }
     read_curves(scene, out);
     if (auto o = get_optional(scene, "curve_shape"))
         out.curve_shape = as_enum<CurveShape>(*o, "['curve_shape']",
-                                              {{"RIBBONS", CurveShape::Ribbons},
-                                               {"THICK", CurveShape::Thick},
-                                               {"THICK_LINEAR", CurveShape::ThickLinear}});
+                                              {CurveShape::Ribbons, CurveShape::Thick, CurveShape::ThickLinear});
     if (auto o = get_optional(scene, "curve_subdivisions")) out.curve_subdivisions = int(as_int(*o, "['curve_subdivisions']"));
     if (auto o = get_optional(scene, "curve_backface_culling"))
         out.cull_curve_back_faces = as_bool(*o, "['curve_backface_culling']");
@@ -653,7 +661,7 @@ SceneDesc scene_from_dict(const py::dict& scene) {
     return out;
 }
 
-py::dict py_render(const py::dict& scene_dict, py::object progress, py::object cancel, int threads) {
+py::dict py_render(py::handle scene_dict, py::object progress, py::object cancel, int threads) {
     SceneDesc scene = scene_from_dict(scene_dict);
     if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw py::type_error("progress: expected a callable or None");
     if (!cancel.is_none() && !PyCallable_Check(cancel.ptr())) throw py::type_error("cancel: expected a callable or None");
@@ -808,7 +816,7 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
 // API), set up and evaluated by the integrator's own code (render::Bsdf). Row i seeds a stochastic
 // eval with lookup3_hash_uint2(i, seed), as Closure.cycles_estimate does; `normal` (N, 3) is the
 // hit's shading normal (diffuse, the legacy Hair BSDF's N test), wo where None.
-py::tuple py_eval_hit_bsdf(const py::dict& scene_dict, int material, py::handle wo_h, py::handle wi_h, py::handle h_h,
+py::tuple py_eval_hit_bsdf(py::handle scene_dict, int material, py::handle wo_h, py::handle wi_h, py::handle h_h,
                            py::handle normal_h, double random, uint32_t seed, double blur) {
     const SceneDesc scene = scene_from_dict(scene_dict);
     if (material < 0 || size_t(material) >= scene.materials.size()) throw py::value_error("material: no such index");

@@ -19,6 +19,7 @@ Principled Hair closures replaced by `hair_model` closures of the same weights.
 
 from __future__ import annotations
 
+import functools
 import os
 
 from ._common import luminance_weights, blender_version, find_socket, rgb
@@ -27,29 +28,19 @@ from .shading_network import AttributeTable, ShadingNetwork
 GREY = (0.8, 0.8, 0.8)
 DEFAULT_MATERIAL_NAME = "__default__"
 
-# (key in scene_desc, socket identifier, kind)
-PRINCIPLED_HAIR_INPUTS = (
-    ("color", "Color", "color"),
-    ("melanin", "Melanin", "float"),
-    ("melanin_redness", "Melanin Redness", "float"),
-    ("tint", "Tint", "color"),
-    ("absorption_coefficient", "Absorption Coefficient", "vector"),
-    ("roughness", "Roughness", "float"),
-    ("radial_roughness", "Radial Roughness", "float"),
-    ("coat", "Coat", "float"),
-    ("ior", "IOR", "float"),
-    ("offset", "Offset", "float"),
-    ("random_color", "Random Color", "float"),
-    ("random_roughness", "Random Roughness", "float"),
-)
-# Huang model only (Blender 4.0+); Radial Roughness and Coat are unused there.
-HUANG_HAIR_INPUTS = (
-    ("aspect_ratio", "Aspect Ratio", "float"),
-    ("reflection", "Reflection", "float"),
-    ("transmission", "Transmission", "float"),
-    ("secondary_reflection", "Secondary Reflection", "float"),
-)
 MAX_DEPTH = 64
+
+
+@functools.cache
+def principled_hair_inputs(model: str) -> tuple:
+    """(key in scene_desc, socket identifier, kind) of the Principled Hair inputs `model` reads
+    (Random apart): the scene schema's rows (plugin/bindings/scene_schema.cpp), so the exporter,
+    the renderer and docs/scene_desc.md share one table."""
+    from hairbsdf.render import scene_schema  # lazily, as the VM's instruction set
+
+    prefix = "materials[].closures[].inputs."
+    return tuple((k["path"][len(prefix):], k["socket"], k["socket_kind"]) for k in scene_schema()
+                 if k["path"].startswith(prefix) and model in k["hair_models"].split())
 
 
 def _mul(w, f):
@@ -256,9 +247,7 @@ class MaterialTranslator:
                       "rendered as 0.8 grey diffuse")
             return _diffuse(weight, GREY)
         inputs = {}
-        for key, ident, kind in PRINCIPLED_HAIR_INPUTS + (HUANG_HAIR_INPUTS if model == "HUANG" else ()):
-            if model == "HUANG" and key in ("radial_roughness", "coat"):
-                continue
+        for key, ident, kind in principled_hair_inputs(model):
             self.linked(node, ident, kind, inputs, key)
         sock = find_socket(node.inputs, "Random")
         src = self._link_source(sock)
