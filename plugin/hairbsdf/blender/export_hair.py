@@ -22,7 +22,8 @@ import time
 
 import numpy as np
 
-from ._common import curves_object_space, radius_scale, transform_points
+from ._common import curves_object_space, radius_scale, transform_points, working_space
+from .images import srgb_to_linear
 from .shading_network import UV_ATTRIBUTE
 
 DEFAULT_CURVES_RADIUS = 0.005
@@ -171,6 +172,12 @@ def curves_attribute_rgba(obj, data, name, report):
     raw = np.empty(size * n, np.float64 if attr.data_type in ("INT", "BOOLEAN", "INT8") else np.float32)
     if attr.data_type in ("INT", "BOOLEAN", "INT8"):
         raw = np.array([v.value for v in attr.data], np.float64) if size else raw
+    elif attr.data_type == "BYTE_COLOR" and working_space().rec709_to_scene_linear is not None:
+        # Blender's `color` is in the working space; Cycles 5.3 renders a hair byte colour as the
+        # sRGB-decoded bytes in every working space (test_working_space_matches_cycles).
+        attr.data.foreach_get("color_srgb", raw)
+        rgba = raw.reshape(size, 4)
+        rgba[:, :3] = srgb_to_linear(rgba[:, :3])
     else:
         attr.data.foreach_get(prop, raw)
     raw = np.nan_to_num(raw.reshape(size, n).astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
