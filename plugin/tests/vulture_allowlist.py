@@ -37,6 +37,7 @@ _.exr_codec  # image settings of the render output
 _.use_file_extension  # render output path
 _.rotation_mode  # Object (lab/light_tree_toggle.py aims its lights)
 _.rotation_quaternion  # Object (lab/light_tree_toggle.py aims its lights)
+_.rotation_euler  # Object (the user_scene builder turns its emitters and the glowing quad)
 
 # Used from code that runs inside Blender, passed as a string (blender_tests/test_engine_render.py).
 _.request_cancel  # hairbsdf.blender.engine: stops a running render as Esc would
