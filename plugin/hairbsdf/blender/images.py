@@ -29,8 +29,9 @@ REC709_LINEAR_SPACES = {"Linear", "Linear Rec.709"}
 
 
 def _convert_to_working(image, pixels, associated, is_byte, is_srgb, to_working):
-    """An image in a working space other than Rec.709, as Cycles' loader converts it: 8- and
-    16-bit files are stored as half floats, straight alpha is associated first; the conversion
+    """An image in a working space other than Rec.709, as Cycles' loader converts it: 8-bit files
+    are stored as half floats (Cycles does the same with 16-bit files, which stay float32 here),
+    straight alpha is associated first; the conversion
     divides by alpha, decodes sRGB, applies the Rec.709 -> working matrix and multiplies by alpha
     again (alpha ignored for alpha mode None and Channel Packed). Returns (pixels, associated)."""
     def half(x):
@@ -42,7 +43,8 @@ def _convert_to_working(image, pixels, associated, is_byte, is_srgb, to_working)
     if not associated and not ignore_alpha:
         px[:, :, :3] = half(px[:, :, :3] * alpha)
         associated = True
-    scale = ~ignore_alpha & (alpha > 0.0) & (alpha != 1.0)
+    # Alpha is divided out and multiplied back where it is neither 0 nor 1, and never when ignored.
+    scale = np.zeros(alpha.shape, bool) if ignore_alpha else (alpha > 0.0) & (alpha != 1.0)
     rgb = np.where(scale, px[:, :, :3] / np.where(scale, alpha, 1.0), px[:, :, :3])
     if is_srgb:
         rgb = srgb_to_linear(rgb)
@@ -137,7 +139,8 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
     # A working space other than Linear Rec.709 (Blender 5.x): Cycles converts sRGB and linear
     # Rec.709 images into it texel by texel on load (its sRGB shortcut holds only when the
     # working space is Rec.709), which the matrix below reproduces.
-    to_working = working_space().rec709_to_scene_linear
+    working = working_space()
+    to_working = working.rec709_to_scene_linear
     raw_values = from_file or is_byte  # Blender's float buffers are scene-linear already
     if to_working is not None and raw_values and (space in SRGB_SPACES or space in REC709_LINEAR_SPACES):
         pixels, associated = _convert_to_working(image, pixels, associated, is_byte, space in SRGB_SPACES,
@@ -150,7 +153,7 @@ def _read(image, warn, keep_srgb_bytes=False, fallback="black"):
             encoded = True
         elif raw_values:
             pixels[:, :, :3] = srgb_to_linear(pixels[:, :, :3])
-    elif space not in LINEAR_SPACES and space != working_space().name:
+    elif space not in LINEAR_SPACES and space != working.name:
         warn(f"image '{image.name}': colour space '{space}' is not supported; read as linear")
     if not np.all(np.isfinite(pixels)):
         warn(f"image '{image.name}': NaN/Inf pixels set to 0")
