@@ -169,22 +169,20 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         const bool round = linear || scene.curve_shape == CurveShape::Thick;
         const bool cull = round && scene.cull_curve_back_faces;
         const int subdivisions = std::max(0, std::min(scene.curve_subdivisions, 4));
-        // Linear segments start at the segment's second control point (the first key is
-        // duplicated for Catmull-Rom); segments of one curve stay consecutive in the index
-        // buffer, so Embree joins them, and those of different curves never do.
-        if (linear) {
-            linear_first_.reserve(segment_first_.size());
-            for (uint32_t first : segment_first_) linear_first_.push_back(first + 1);
-        }
-        const uint32_t* index_buffer = linear ? linear_first_.data() : segment_first_.data();
+        // A linear segment starts at the segment's second control point (the first key is
+        // duplicated for Catmull-Rom): its Embree vertex buffer starts one point later, so the
+        // same index buffer serves. Segments of one curve stay consecutive there, so Embree joins
+        // them, and those of different curves never do.
+        const size_t vertex_skip = linear ? 1 : 0;
         auto curve_geometry = [&](size_t first, size_t count) {
             RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
                                                       : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
                                                               : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
             if (!linear) rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
-                                       sizeof(float) * 4, control_points_.size());
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, index_buffer + first, 0,
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(),
+                                       vertex_skip * sizeof(float) * 4, sizeof(float) * 4,
+                                       control_points_.size() - vertex_skip);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data() + first, 0,
                                        sizeof(uint32_t), count);
             rtcSetGeometryUserData(g, segment_curve_.data() + first);
             rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
@@ -249,8 +247,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     rtcCommitScene(im.scene);
     check_device(im.device, "scene build");
     im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) + normals_.capacity() * sizeof(normals_[0]) +
-                   (segment_first_.capacity() + linear_first_.capacity()) * sizeof(uint32_t) +
-                   segment_curve_.capacity() * sizeof(int32_t) +
+                   segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
                    curve_object_.capacity() * sizeof(int32_t);
 }
 

@@ -118,7 +118,6 @@ private:
     bool has_curves_ = false, has_triangles_ = false;
     std::vector<std::array<float, 4>> control_points_;  // Embree's vertex buffer: per curve n + 2 points
     std::vector<uint32_t> segment_first_;               // Embree's index buffer: first control point
-    std::vector<uint32_t> linear_first_;                // ThickLinear's index buffer: segment_first_ + 1
     std::vector<int32_t> segment_curve_;                // curve of each segment
     std::vector<std::array<float, 3>> normals_;         // per control point, when the scene has normals
     std::vector<int32_t> curve_object_;                 // per curve (CurveData::object), or empty
