@@ -49,49 +49,77 @@ void LightTreeBBox::grow(const LightTreeBBox& b) {
     grow(b.max);
 }
 
+// In single precision throughout, as Cycles merges its float cones: the merged angles feed the
+// SAOH costs, where float rounding decides near ties.
 LightTreeCone merge_cones(const LightTreeCone& first, const LightTreeCone& second) {
     if (first.empty()) return second;
     if (second.empty()) return first;
     const bool swap = second.theta_o > first.theta_o;  // ties keep `first` as a
     const LightTreeCone& a = swap ? second : first;
     const LightTreeCone& b = swap ? first : second;
-    const double cos_ab = std::min(std::max(dot(a.axis, b.axis), -1.0), 1.0);
-    const double theta_d = std::acos(cos_ab);
-    const double theta_e = std::max(a.theta_e, b.theta_e);
-    if (a.theta_o + 5e-4 >= std::min(kPi, theta_d + b.theta_o)) return {a.axis, a.theta_o, theta_e};
-    const double theta_o = 0.5 * (theta_d + a.theta_o + b.theta_o);
-    if (theta_o >= kPi) return {a.axis, kPi, theta_e};
-    const double theta_r = theta_o - a.theta_o;
-    Vec3 ortho;
-    if (cos_ab < -0.9995) {
-        ortho = any_orthogonal(a.axis);
+    const float ax = float(a.axis.x), ay = float(a.axis.y), az = float(a.axis.z);
+    const float bx = float(b.axis.x), by = float(b.axis.y), bz = float(b.axis.z);
+    const float a_theta_o = float(a.theta_o), b_theta_o = float(b.theta_o);
+    const float cos_ab = ax * bx + ay * by + az * bz;
+    const float theta_d = std::acos(std::min(std::max(cos_ab, -1.0f), 1.0f));
+    const double theta_e = std::max(float(a.theta_e), float(b.theta_e));
+    const float pi = float(kPi);
+    if (a_theta_o + 5e-4f >= std::min(pi, theta_d + b_theta_o)) return {a.axis, a.theta_o, theta_e};
+    const float theta_o = (theta_d + a_theta_o + b_theta_o) * 0.5f;
+    if (theta_o >= pi) return {a.axis, double(pi), theta_e};
+    const float theta_r = theta_o - a_theta_o;
+    float ox, oy, oz;
+    if (cos_ab < -0.9995f) {
+        const Vec3 o = any_orthogonal(a.axis);
+        ox = float(o.x), oy = float(o.y), oz = float(o.z);
     } else {
-        ortho = normalize(b.axis - cos_ab * a.axis);
+        ox = bx - cos_ab * ax, oy = by - cos_ab * ay, oz = bz - cos_ab * az;
+        const float inv_len = 1.0f / std::sqrt(ox * ox + oy * oy + oz * oz);
+        ox *= inv_len, oy *= inv_len, oz *= inv_len;
     }
-    const Vec3 axis = std::cos(theta_r) * a.axis + std::sin(theta_r) * ortho;
-    return {axis, theta_o, theta_e};
+    const float c = std::cos(theta_r), s = std::sin(theta_r);
+    const Vec3 axis{double(c * ax + s * ox), double(c * ay + s * oy), double(c * az + s * oz)};
+    return {axis, double(theta_o), theta_e};
+}
+
+LightTreeMeasure to_single_precision(LightTreeMeasure m) {
+    auto f = [](double x) { return double(float(x)); };
+    if (m.bbox.valid()) {
+        m.bbox.min = {f(m.bbox.min.x), f(m.bbox.min.y), f(m.bbox.min.z)};
+        m.bbox.max = {f(m.bbox.max.x), f(m.bbox.max.y), f(m.bbox.max.z)};
+    }
+    m.cone.axis = {f(m.cone.axis.x), f(m.cone.axis.y), f(m.cone.axis.z)};
+    m.cone.theta_o = f(m.cone.theta_o);
+    m.cone.theta_e = f(m.cone.theta_e);
+    m.energy = f(m.energy);
+    return m;
 }
 
 void LightTreeMeasure::add(const LightTreeMeasure& o) {
     if (o.energy == 0) return;
-    bbox.grow(o.bbox);
+    bbox.grow(o.bbox);  // min / max of float values: exact
     cone = merge_cones(cone, o.cone);
-    energy += o.energy;
+    energy = double(float(energy) + float(o.energy));
 }
 
-double LightTreeMeasure::cost() const {
-    if (energy == 0) return 0.0;
-    double area = 0.0;
+// The SAOH measure E * A * M_omega in single precision, in Cycles' order of operations.
+float LightTreeMeasure::cost() const {
+    if (energy == 0) return 0.0f;
+    float area = 0.0f;
     if (bbox.valid()) {
-        const Vec3 s = bbox.size();
-        area = 2.0 * (s.x * s.y + s.y * s.z + s.z * s.x);
-        if (area == 0) area = length(s);
+        const float dx = float(bbox.max.x) - float(bbox.min.x), dy = float(bbox.max.y) - float(bbox.min.y),
+                    dz = float(bbox.max.z) - float(bbox.min.z);
+        area = (dx * dz + dy * dz + dx * dy) * 2.0f;
+        if (area == 0.0f) area = std::sqrt(dx * dx + dy * dy + dz * dz);
     }
-    const double to = cone.theta_o, tw = std::min(kPi, cone.theta_o + cone.theta_e);
-    const double so = std::sin(to), co = std::cos(to);
-    const double m_omega =
-        kTwoPi * (1.0 - co) + 0.5 * kPi * (2.0 * tw * so - std::cos(to - 2.0 * tw) - 2.0 * to * so + co);
-    return energy * area * m_omega;
+    float m_omega = 0.0f;
+    if (!cone.empty()) {
+        const float pi = float(kPi), to = float(cone.theta_o);
+        const float tw = std::min(pi, to + float(cone.theta_e));
+        const float so = std::sin(to), co = std::cos(to);
+        m_omega = 2.0f * pi * (1.0f - co) + 0.5f * pi * (2.0f * tw * so - std::cos(to - 2.0f * tw) - 2.0f * to * so + co);
+    }
+    return float(energy) * area * m_omega;
 }
 
 LightTreeImportance light_tree_importance(Vec3 N, bool has_transmission, Vec3 ptc, double cos_theta_u,
@@ -139,6 +167,7 @@ LightTreeImportance light_tree_importance(Vec3 N, bool has_transmission, Vec3 pt
 LightTree::LightTree(std::vector<LightTreeEmitter> emitters, const std::vector<std::pair<int, Vec3>>& object_centers)
     : emitters_(std::move(emitters)) {
     public_count_ = emitters_.size();
+    for (LightTreeEmitter& e : emitters_) e.measure = to_single_precision(e.measure);
     std::vector<int> local, distant;
     std::vector<std::pair<int, std::vector<int>>> meshes;  // object -> its triangle emitters
     for (size_t i = 0; i < public_count_; ++i) {
@@ -223,7 +252,7 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
         const int b = int(float(kBuckets) * (float(comp(e.centroid, dim)) - cmin[size_t(dim)]) * inv_extent);
         return std::min(std::max(b, 0), kBuckets - 1);
     };
-    double total_cost = 0.0, best = std::numeric_limits<double>::infinity();
+    float total_cost = 0.0f, best = FLT_MAX;
     int best_dim = -1, best_bucket = -1;
     for (int dim = 0; dim < 3; ++dim) {
         const float ext = extf[size_t(dim)];
@@ -252,7 +281,8 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
             if (total_cost == 0) break;  // quirk (c)
         }
         for (int i = 0; i < kBuckets - 1; ++i) {
-            const double c = double(max_extent / ext) * (left[size_t(i)].cost() + right[size_t(i)].cost());
+            const float regularization = max_extent * (1.0f / ext);
+            const float c = regularization * (left[size_t(i)].cost() + right[size_t(i)].cost());
             if (c < total_cost && c < best) {
                 best = c;
                 best_dim = dim;
