@@ -16,7 +16,11 @@ radius by |det M|^(1/3) for every transform and drew the "x3" strands 2x too nar
 Two mesh cases (a smooth diffuse quad facing the camera, plain and mirrored): a negative scale
 reverses the triangles' winding in world space, while Cycles keeps Ng where Blender shows the
 normal. Before the exporter reversed the winding of mirrored meshes, the engine took every
-front hit of the mirrored quad for a back face and shaded it black."""
+front hit of the mirrored quad for a back face and shaded it black.
+
+Three mesh-hair cases (Principled Hair on the quad, tilted 0.25 rad so that the sign of the fibre
+tangent shows): plain, mirrored and seen from the back. Each of the four wedges between the
+covered box's diagonals lies in one triangle and must match Cycles' mean colour too."""
 
 import numpy as np
 import pytest
@@ -40,6 +44,12 @@ CASES = {
     # Ng still points where Blender shows the normal (object_negative_scale_applied)
     "mesh": ("mesh", (1, 1, 1), (1.5708, 0, 0), None),
     "mesh mirrored, x -1": ("mesh", (-1, 1, 1), (1.5708, 0, 0), None),
+    # Principled Hair on the quad: Cycles' hair frame on a triangle is X = dPdu = v1 - v0 (reversed
+    # on back faces), so the tilt (Offset) leans along an edge of each triangle; mirrored, Cycles
+    # keeps the vertex order and the engine must keep the tangent it would have had
+    "mesh hair": ("mesh hair", (1, 1, 1), (1.5708, 0, 0.3), None),
+    "mesh hair mirrored, x -1": ("mesh hair", (-1, 1, 1), (1.5708, 0, 0.3), None),
+    "mesh hair back face": ("mesh hair", (1, 1, 1), (-1.5708, 0, 0.3), None),
 }
 
 SCENE = r'''
@@ -61,9 +71,13 @@ for name, (kind, scale, rotation, parent_scale) in ARGS["cases"].items():
         hs.add_particle_hair(obj, count=5, length=0.35, radius_scale=0.12, tip=1.0, close_tip=False, material_slot=2,
                              seed=3)
         obj.show_instancer_for_render = False
-    elif kind == "mesh":
+    elif kind in ("mesh", "mesh hair"):
         obj = hs.make_plane(size=0.5, location=(0, 0, 0.3))
-        obj.data.materials.append(hs.diffuse_material())
+        if kind == "mesh":
+            obj.data.materials.append(hs.diffuse_material())
+        else:
+            obj.data.materials.append(hs.hair_material("MeshHair", parametrization="MELANIN", melanin=0.3,
+                                                       roughness=0.2, offset=0.25))
         for poly in obj.data.polygons:
             poly.use_smooth = True
     else:
@@ -80,6 +94,17 @@ for name, (kind, scale, rotation, parent_scale) in ARGS["cases"].items():
     out[name] = {eng: {"alpha": float(v[..., 3].sum()), "mean": v[full][:, :3].mean(axis=0).tolist()}
                  for eng, v in a.items()}
     out[name]["full_pixels"] = int(full.sum())
+    # The four wedges between the diagonals of the covered pixels' box: each lies inside one
+    # triangle of the quad whichever diagonal splits it, so each sees one hair frame.
+    rows, cols = np.nonzero(full)
+    if kind.startswith("mesh") and rows.size:
+        yy, xx = np.mgrid[0:full.shape[0], 0:full.shape[1]]
+        u = (xx - cols.min()) / max(1, cols.max() - cols.min()) - 0.5
+        v = (yy - rows.min()) / max(1, rows.max() - rows.min()) - 0.5
+        wedges = {"top": (v < -np.abs(u)), "bottom": (v > np.abs(u)), "left": (u < -np.abs(v)),
+                  "right": (u > np.abs(v))}
+        out[name]["wedges"] = {w: {eng: vv[full & m][:, :3].mean(axis=0).tolist() for eng, vv in a.items()}
+                               for w, m in wedges.items()}
     out[name]["world_matrix"] = [list(r) for r in obj.matrix_world]
     for o in list(scene.objects):
         bpy.data.objects.remove(o)
@@ -99,6 +124,11 @@ def test_strands_under_object_transforms_match_cycles(run_blender, blender_kind,
             colour = np.asarray(ours["mean"]) / np.asarray(cy["mean"])
             print(f"  {name:24s} projected area ours/Cycles {area:.4f}, mean colour ratio "
                   f"{np.round(colour, 4).tolist()} over {c['full_pixels']} pixels")
+            wedge_ratios = {w: np.asarray(m["HAIRBSDF"]) / np.asarray(m["CYCLES"]) for w, m in c.get("wedges", {}).items()}
+            if wedge_ratios:
+                print("    wedges ours/Cycles " + ", ".join(f"{w} {np.round(q, 3).tolist()}" for w, q in wedge_ratios.items()))
             if abs(area - 1.0) > 0.01 or np.any(np.abs(colour - 1.0) > 0.02) or c["full_pixels"] < 300:
                 bad.append(name)
+            elif any(np.any(np.abs(q - 1.0) > 0.04) for q in wedge_ratios.values()):
+                bad.append(name + " (a wedge)")
     assert not bad, f"{r['version']}: differs from Cycles in {bad}: {r['cases']}"

@@ -330,6 +330,11 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
         if (to.shape(0) != t.shape(0)) fail(sub(key, "triangle_object"), "expected one object id per triangle");
         md.object.assign(to.data(), to.data() + to.shape(0));
     }
+    if (m.contains("triangle_reversed") && !m["triangle_reversed"].is_none()) {
+        auto r = array_shape<int32_t>(m["triangle_reversed"], sub(key, "triangle_reversed"), 0);
+        md.reversed.resize(size_t(r.shape(0)));
+        for (size_t i = 0; i < md.reversed.size(); ++i) md.reversed[i] = r.data()[i] != 0;
+    }
     if (auto o = get_optional(m, "attributes")) {
         if (!py::isinstance<py::list>(*o) && !py::isinstance<py::tuple>(*o))
             throw py::type_error("scene" + sub(key, "attributes") + ": expected a list");

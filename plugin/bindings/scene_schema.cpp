@@ -80,6 +80,8 @@ std::vector<SceneKey> make_schema() {
         Row("meshes.triangle_normals", K::Array, "corner normals for smooth shading (T); absent: flat")
             .array("float32", 9),
         Row("meshes.triangle_object", K::Array, "the object of each triangle, for the light tree (T)").array("int32", 0),
+        Row("meshes.triangle_reversed", K::Array, "1 where the corners were reversed (a mirrored object), 0 elsewhere (T)")
+            .array("int32", 0),
         Row("meshes.attributes", K::List, "the attributes programs read, at the corners; curves' names and order"),
         Row("meshes.attributes[]", K::Dict, "one attribute"),
         Row("meshes.attributes[].name", K::String, "the attribute's name (the curves' attribute at the same index)")
@@ -653,6 +655,7 @@ private:
         count(m, "triangle_material", n, key, "one value per triangle");
         count(m, "triangle_normals", n, key, "one row of 3 corner normals per triangle");
         count(m, "triangle_object", n, key, "one object id per triangle");
+        count(m, "triangle_reversed", n, key, "one flag per triangle");
         if (!m.contains("attributes")) return;
         std::vector<py::object> curve_names;
         if (root_.contains("curves")) {

@@ -117,16 +117,20 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
             const double len = length(ns);
             if (len > 0 && std::isfinite(len)) n = (1.0 / len) * ns;
         }
-        if (dot(ng, sp.g.wo) < 0) {  // back face: Cycles flips N and Ng
+        const bool back_face = dot(ng, sp.g.wo) < 0;
+        if (back_face) {  // Cycles flips N, Ng and dP/du
             ng = -1.0 * ng;
             n = -1.0 * n;
         }
         sp.g.n = n;
         sp.g.ng = ng;
         sp.ng_triangle = ng;
-        // A hair closure on a mesh: Cycles' frame from dP/du of the triangle.
-        const Vec3 x = normalize(v0 - v2);
-        sp.g.tangent = dot(x, x) > 0 ? x : Vec3{1, 0, 0};
+        // A hair closure on a mesh: Cycles' frame from dP/du = v1 - v0 of the triangle in Blender's
+        // corner order (v1 - v2 of a reversed triangle), negated on back faces as Cycles negates it.
+        const bool reversed = !md.reversed.empty() && md.reversed[size_t(hit.prim)];
+        Vec3 x = normalize(reversed ? v1 - v2 : v1 - v0);
+        if (!(dot(x, x) > 0)) x = Vec3{1, 0, 0};
+        sp.g.tangent = back_face ? -1.0 * x : x;
         const Vec3 y = normalize(cross(sp.g.tangent, sp.g.wo));
         const Vec3 z = normalize(cross(sp.g.tangent, y));
         sp.g.h = clamp(dot(cross(ng, sp.g.tangent), z), -1.0, 1.0);

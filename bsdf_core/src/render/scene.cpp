@@ -304,6 +304,7 @@ void repair_meshes(SceneDesc& s, std::vector<std::string>& warnings, DefaultSurf
             out.material.push_back(mat);
             if (t < md.normals.size()) out.normals.push_back(md.normals[t]);
             if (md.object.size() == md.triangles.size()) out.object.push_back(md.object[t]);
+            if (md.reversed.size() == md.triangles.size()) out.reversed.push_back(md.reversed[t]);
             kept.push_back(t);
         }
         for (auto& attr : md.attributes) {  // the kept triangles' rows; a wrong length reads 0

@@ -25,9 +25,10 @@ class MeshBuffer:
         self.normals: list[np.ndarray] = []
         self.attributes: list[dict] = []  # per object: {name: (T, 12) float32 RGBA per corner}
         self.objects: list[np.ndarray] = []  # per object: its index, once per triangle
+        self.reversed: list[bool] = []  # per object: corners reversed (a negative scale)
         self._nverts = 0
 
-    def add(self, verts, tris, mat, normals, attributes=None):
+    def add(self, verts, tris, mat, normals, attributes=None, reversed_corners=False):
         if tris.shape[0] == 0:
             return
         self.vertices.append(verts)
@@ -36,6 +37,7 @@ class MeshBuffer:
         self.normals.append(normals)
         self.attributes.append(attributes or {})
         self.objects.append(np.full(tris.shape[0], len(self.objects), np.int32))
+        self.reversed.append(bool(reversed_corners))
         self._nverts += verts.shape[0]
 
     def finish(self, attribute_names=()) -> dict:
@@ -49,6 +51,9 @@ class MeshBuffer:
                "triangle_material": np.concatenate(self.material).astype(np.int32),
                "triangle_normals": np.ascontiguousarray(np.concatenate(self.normals), np.float32),
                "triangle_object": np.concatenate(self.objects).astype(np.int32)}
+        if any(self.reversed):
+            out["triangle_reversed"] = np.concatenate(
+                [np.full(t.shape[0], int(r), np.int32) for t, r in zip(self.triangles, self.reversed)])
         if any(self.attributes) and attribute_names:
             out["attributes"] = [
                 {"name": name, "data": np.ascontiguousarray(np.concatenate(
@@ -150,10 +155,12 @@ def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache
     except np.linalg.LinAlgError:
         normal_matrix = np.eye(3)
     n = normals.reshape(-1, 3).astype(np.float64) @ normal_matrix.T
-    if np.linalg.det(m3) < 0:
+    mirrored = bool(np.linalg.det(m3) < 0)
+    if mirrored:
         # A negative scale reverses the winding in world space; Cycles keeps Ng where Blender shows
         # the normal (object_negative_scale_applied), which decides back faces and the emitting
-        # side that Emission Sampling samples. Corners 0 and 2 swap, with their normals and UVs.
+        # side that Emission Sampling samples. Corners 0 and 2 swap, with their normals and UVs; the
+        # engine takes a hair frame's dP/du from the original order (`triangle_reversed`).
         tris = tris[:, ::-1]
         n = n.reshape(-1, 3, 3)[:, ::-1].reshape(-1, 3)
         uvs = {name: corners.reshape(-1, 3, 4)[:, ::-1].reshape(-1, 12) for name, corners in uvs.items()}
@@ -161,7 +168,7 @@ def export_mesh_object(obj, matrix, buffer: MeshBuffer, materials, report, cache
     n = np.where(length > 0, n / np.where(length > 0, length, 1.0), 0.0)
     wanted = set(materials.attributes.names)
     buffer.add(world, tris, mat, n.reshape(-1, 9).astype(np.float32),
-               {name: corners for name, corners in uvs.items() if name in wanted})
+               {name: corners for name, corners in uvs.items() if name in wanted}, reversed_corners=mirrored)
     report.add_count("mesh_objects", 1)
     report.add_count("triangles", tris.shape[0])
     report.timings["meshes"] = report.timings.get("meshes", 0.0) + time.perf_counter() - t0

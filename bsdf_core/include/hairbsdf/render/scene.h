@@ -75,6 +75,10 @@ struct MeshData {
     // Optional: the object of each triangle (any ids; empty: one object). Cycles 4.x's light
     // tree gives each emissive object a subtree of its triangles (render/light_tree.h).
     std::vector<int32_t> object;
+    // Optional: 1 where the exporter reversed a triangle's corners (an object with a negative
+    // scale, so that Ng points where Blender shows the normal). Cycles keeps the original order,
+    // and its hair frame on a triangle, dP/du = v1 - v0 of that order, is v1 - v2 of ours there.
+    std::vector<uint8_t> reversed;
 };
 
 // One entry of a material's flat weighted closure sum.
