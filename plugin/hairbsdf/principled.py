@@ -85,16 +85,17 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     for key, value in inputs.items():
         values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
 
-    core = _core.principled_chiang(
+    arguments = (
         PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
         values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
         values["coat"], values["ior"], values["offset"], values["random_color"], values["random_roughness"],
         values["random"], ACCURACIES[accuracy], TILTS[tilt])
+    core = _core.principled_chiang(*arguments)
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     extra = "".join(f", {k}={v!r}" for k, v in (("accuracy", accuracy), ("tilt", tilt))
                     if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
     return Closure(core, f"principled_hair(model='chiang', parametrization={parametrization!r}"
-                         f"{', ' + shown if shown else ''}{extra})")
+                         f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
 def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture", tolerance=1e-3,
