@@ -68,6 +68,8 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
       glass_albedo_table="4.x" (default) or "5.x": the energy-compensation tables of Cycles 4.x
                or of Cycles 5.x (docs/blender5.md).
     eval / eval_lobes / pdf / sample take the keyword arrays normal=, pixel_coverage=, near_field=.
+    model="chiang": eval / pdf / sample take per-row node inputs, inputs={"roughness": (N,) array, ...}
+    (roughness, radial_roughness, coat, random, melanin, absorption_coefficient (N, 3); docs/simd.md).
     """
     if not isinstance(model, str):
         raise TypeError(f"model: expected a string, one of {list(MODELS)}")
