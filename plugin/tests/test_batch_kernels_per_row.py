@@ -268,3 +268,36 @@ def test_fuzz_per_row_edge_inputs_are_finite_and_match():
         # 2e-3, not 1e-3: at roughness 0 (beta 0.001) with wo and wi 1e-4 from the axis and h = -0.999999,
         # `exact` / 3.4 gives 1.3e-3 on the uniform kernels as well (same float value per row).
         assert err[worst] <= 2e-3, (parametrization, err[worst], worst)
+
+
+@pytest.mark.parametrize("accuracy,tilt", [("cycles", "4.2"), ("exact", "3.4")])
+def test_per_row_kernels_match_the_independent_reference(accuracy, tilt):
+    """The per-row kernels against plugin/tests/reference (an independent float64 implementation with
+    per-row parameters, as test_chiang_vs_reference runs it on the scalar path): every row its own
+    roughness, radial roughness, coat, random, melanin and absorption, the three parametrizations.
+    Bound, in the issue's measure: the kernels' 99.9th percentile at most the scalar double path's own
+    against this reference plus 2e-5, every element <= 1e-3. On these rows the scalar path itself is
+    1.5e-4 to 2.1e-4 (99.9th percentile) and 7.2e-4 (worst, a coat of 0.95) from the reference in `cycles`
+    mode; that gap is the scalar path's (see test_chiang_vs_reference), not the kernels'."""
+    from reference import chiang_reference as ref
+
+    n = 6000
+    wo, wi, h, _ = rows(seed=11, n=n)
+    inputs = row_inputs(n=n, seed=12)
+    for parametrization in ("color", "melanin", "absorption"):
+        closure = hair(parametrization, accuracy, tilt)
+        value = closure.eval(wo, wi, h, inputs=inputs)
+        pdf = closure.pdf(wo, wi, h, inputs=inputs)
+        per_row = [ref.principled_hair_params(parametrization=parametrization, **dict(
+            UNIFORM, **{k: (tuple(float(x) for x in v[i]) if v.ndim == 2 else float(v[i])) for k, v in inputs.items()}))
+            for i in range(n)]
+        params = {key: np.array([p[key] for p in per_row]) for key in per_row[0]}
+        rows64 = (wo.astype(np.float64), wi.astype(np.float64), h.astype(np.float64))
+        expected = ref.chiang_eval_lobes(params, *rows64, accuracy=accuracy, tilt=tilt).sum(axis=1)
+        expected_pdf = ref.chiang_pdf(params, *rows64, accuracy=accuracy, tilt=tilt)
+        inputs64 = {k: v.astype(np.float64) for k, v in inputs.items()}
+        scalar_value = closure.eval(*rows64, inputs=inputs64)
+        scalar_pdf = closure.pdf(*rows64, inputs=inputs64)
+        for what, got, scalar, want in (("eval", value, scalar_value, expected), ("pdf", pdf, scalar_pdf, expected_pdf)):
+            bound = np.quantile(relative_errors(scalar, want), 0.999) + 2e-5
+            assert_close(got, want, f"{parametrization} {what} against the reference", p999_bound=bound)
