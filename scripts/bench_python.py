@@ -21,9 +21,14 @@ def rate(fn, n, repeats=3, clock=time.perf_counter):
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("-n", type=int, default=2_000_000, help="batch size")
+    parser.add_argument("--per-row-only", action="store_true", help="only the per-row inputs' table")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     n = args.n
+    if args.per_row_only:
+        wo, wi = (rng.normal(size=(n, 3)).astype(np.float32) for _ in range(2))
+        per_row(n, rng, wo, wi, rng.uniform(-1, 1, n).astype(np.float32), rng.random((n, 3)).astype(np.float32))
+        return
     wo, wi = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
@@ -78,6 +83,40 @@ def kernels(n, rng):
     print()
     print("Per CPU-second, 1 thread (M rows): eval %.1f, eval out= %.1f, pdf %.1f, sample %.1f" %
           tuple(f / 1e6 for f in cpu))
+    per_row(n, rng, wo, wi, h, u)
+
+
+def per_row(n, rng, wo, wi, h, u):
+    """The kernels with per-row node inputs (docs/simd.md): melanin hair whose roughness, radial
+    roughness, coat, random and melanin vary per row (the per-row `prepare` runs on every row)."""
+    hair = hairbsdf.principled_hair(parametrization="melanin", random_roughness=0.3, random_color=0.2)
+    inputs = {"roughness": rng.uniform(0.1, 0.8, n).astype(np.float32),
+              "radial_roughness": rng.uniform(0.1, 0.8, n).astype(np.float32),
+              "coat": rng.uniform(0.0, 0.5, n).astype(np.float32),
+              "random": rng.random(n).astype(np.float32),
+              "melanin": rng.uniform(0.1, 0.9, n).astype(np.float32)}
+    calls = {"eval": lambda: hair.eval(wo, wi, h, inputs=inputs),
+             "pdf": lambda: hair.pdf(wo, wi, h, inputs=inputs),
+             "sample": lambda: hair.sample(wo, h, u, inputs=inputs)}
+    print()
+    print(f"Per-row inputs ({', '.join(inputs)}), melanin, N = {n}, M rows/s, best of 3")
+    print()
+    print("| threads | eval f32 | pdf f32 | sample f32 |")
+    print("|---|---|---|---|")
+    for threads in (1, 2):
+        hairbsdf.set_num_threads(threads)
+        print(f"| {threads} | " + " | ".join(f"{rate(fn, n) / 1e6:.1f}" for fn in calls.values()) + " |")
+    # Per CPU-second (see kernels()), and the same closure without inputs (the hoisted prepare) in the
+    # same run, for the ratio.
+    hairbsdf.set_num_threads(1)
+    uniform = {"eval": lambda: hair.eval(wo, wi, h), "pdf": lambda: hair.pdf(wo, wi, h),
+               "sample": lambda: hair.sample(wo, h, u)}
+    cpu = [rate(fn, n, 5, time.process_time) / 1e6 for fn in calls.values()]
+    cpu_uniform = [rate(fn, n, 5, time.process_time) / 1e6 for fn in uniform.values()]
+    print()
+    print("Per-row inputs, per CPU-second, 1 thread (M rows): eval %.1f, pdf %.1f, sample %.1f" % tuple(cpu))
+    print("The same closure without inputs, per CPU-second, 1 thread (M rows): eval %.1f, pdf %.1f, sample %.1f"
+          % tuple(cpu_uniform))
 
 
 if __name__ == "__main__":

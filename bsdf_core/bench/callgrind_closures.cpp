@@ -3,7 +3,9 @@
 // each loop's instructions under callgrind (only inside run_sum / run_direct); the ratio is
 // ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `kernel_eval`, `kernel_pdf` and
 // `kernel_sample` run the float32 batch kernels (docs/simd.md) over the same rows in one call
-// (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512).
+// (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512). `rows_eval`,
+// `rows_pdf` and `rows_sample` do the same with per-row inputs (roughness, radial roughness, coat,
+// random and melanin vary per row), so that the per-row `prepare` is counted too.
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -35,6 +37,7 @@ __attribute__((noinline)) double run_direct(const ChiangHair& model, const Input
 }
 struct KernelRows {
     std::vector<float> wo, wi, h, u;
+    std::vector<float> roughness, radial_roughness, coat, random, melanin;  // per-row inputs (rows_*)
 };
 
 __attribute__((noinline)) size_t run_kernel(const ChiangBatchConstants& c, ChiangBatchOp op, const KernelRows& in,
@@ -45,6 +48,13 @@ __attribute__((noinline)) size_t run_kernel(const ChiangBatchConstants& c, Chian
     rows.wi = in.wi.data();
     rows.h = in.h.data();
     rows.u = in.u.data();
+    if (!in.roughness.empty()) {
+        rows.inputs.roughness = in.roughness.data();
+        rows.inputs.radial_roughness = in.radial_roughness.data();
+        rows.inputs.coat = in.coat.data();
+        rows.inputs.random = in.random.data();
+        rows.inputs.melanin = in.melanin.data();
+    }
     ChiangBatchOutput out;
     out.value = value.data();
     out.weight = value.data();
@@ -56,11 +66,14 @@ __attribute__((noinline)) size_t run_kernel(const ChiangBatchConstants& c, Chian
 }  // namespace
 
 int main(int argc, char** argv) {
-    const bool kernel = argc >= 2 && std::strncmp(argv[1], "kernel_", 7) == 0;
+    const bool per_row = argc >= 2 && std::strncmp(argv[1], "rows_", 5) == 0;
+    const bool kernel = argc >= 2 && (std::strncmp(argv[1], "kernel_", 7) == 0 || per_row);
+    const char* op_name = argc >= 2 ? argv[1] + (per_row ? 5 : 7) : "";
     if (argc < 2 || (std::strcmp(argv[1], "sum") != 0 && std::strcmp(argv[1], "direct") != 0 &&
-                     std::strcmp(argv[1], "kernel_eval") != 0 && std::strcmp(argv[1], "kernel_pdf") != 0 &&
-                     std::strcmp(argv[1], "kernel_sample") != 0)) {
-        std::fprintf(stderr, "usage: %s sum|direct|kernel_eval|kernel_pdf|kernel_sample [calls]\n", argv[0]);
+                     !(kernel && (std::strcmp(op_name, "eval") == 0 || std::strcmp(op_name, "pdf") == 0 ||
+                                  std::strcmp(op_name, "sample") == 0)))) {
+        std::fprintf(stderr, "usage: %s sum|direct|kernel_eval|kernel_pdf|kernel_sample|rows_eval|rows_pdf|rows_sample [calls]\n",
+                     argv[0]);
         return 2;
     }
     const size_t calls = argc > 2 ? size_t(std::atol(argv[2])) : 10000;
@@ -87,13 +100,23 @@ int main(int argc, char** argv) {
             for (double x : {in.wi[i].x, in.wi[i].y, in.wi[i].z}) rows.wi.push_back(float(x));
             for (int k = 0; k < 3; ++k) rows.u.push_back(float(uni(rng)));
             rows.h.push_back(float(c.h));
+            if (per_row) {
+                rows.roughness.push_back(float(0.1 + 0.7 * uni(rng)));
+                rows.radial_roughness.push_back(float(0.1 + 0.7 * uni(rng)));
+                rows.coat.push_back(float(0.5 * uni(rng)));
+                rows.random.push_back(float(uni(rng)));
+                rows.melanin.push_back(float(0.1 + 0.8 * uni(rng)));
+            }
         }
         std::vector<float> value(3 * calls), pdf(calls), wi(3 * calls);
         std::vector<int32_t> lobe(calls);
-        const ChiangBatchOp op = std::strcmp(argv[1], "kernel_eval") == 0  ? ChiangBatchOp::Eval
-                                 : std::strcmp(argv[1], "kernel_pdf") == 0 ? ChiangBatchOp::Pdf
-                                                                           : ChiangBatchOp::Sample;
-        const size_t bad = run_kernel(chiang_batch_constants(model.params(), RGB(1.0)), op, rows, value, pdf, wi, lobe);
+        const ChiangBatchOp op = std::strcmp(op_name, "eval") == 0  ? ChiangBatchOp::Eval
+                                 : std::strcmp(op_name, "pdf") == 0 ? ChiangBatchOp::Pdf
+                                                                    : ChiangBatchOp::Sample;
+        const ChiangBatchConstants constants =
+            per_row ? chiang_batch_constants_principled(principled, Accuracy::Cycles, TiltConvention::Blender42, RGB(1.0))
+                    : chiang_batch_constants(model.params(), RGB(1.0));
+        const size_t bad = run_kernel(constants, op, rows, value, pdf, wi, lobe);
         double acc = 0;
         for (float p : pdf) acc += p;
         std::printf("%s %zu rows on %s, %zu bad, checksum %.9g\n", argv[1], calls, chiang_batch_isa(), bad, acc);

@@ -48,6 +48,7 @@ void parallel_for(size_t n, size_t min_chunk, Fn fn) {
 }
 
 Vec3 vec_at(const double* p, size_t i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
+RGB vec_rgb(const double* p, size_t i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 RGB rgb_from(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
 // Optional per-sample fields of the shading context (Huang model): null = the default.
@@ -243,11 +244,11 @@ py::array_t<double> batch_albedo(const ClosureSum& bsdf, const Array& wo, const 
     return out;
 }
 
-ClosureSum principled_chiang(int parametrization, std::array<double, 3> color, double melanin,
-                             double melanin_redness, std::array<double, 3> tint,
-                             std::array<double, 3> absorption_coefficient, double roughness,
-                             double radial_roughness, double coat, double ior, double offset, double random_color,
-                             double random_roughness, double random, int accuracy, int tilt) {
+PrincipledHairInputs principled_inputs(int parametrization, std::array<double, 3> color, double melanin,
+                                       double melanin_redness, std::array<double, 3> tint,
+                                       std::array<double, 3> absorption_coefficient, double roughness,
+                                       double radial_roughness, double coat, double ior, double offset,
+                                       double random_color, double random_roughness, double random) {
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
     in.color = rgb_from(color);
@@ -263,6 +264,17 @@ ClosureSum principled_chiang(int parametrization, std::array<double, 3> color, d
     in.random_color = random_color;
     in.random_roughness = random_roughness;
     in.random = random;
+    return in;
+}
+
+ClosureSum principled_chiang(int parametrization, std::array<double, 3> color, double melanin,
+                             double melanin_redness, std::array<double, 3> tint,
+                             std::array<double, 3> absorption_coefficient, double roughness,
+                             double radial_roughness, double coat, double ior, double offset, double random_color,
+                             double random_roughness, double random, int accuracy, int tilt) {
+    const PrincipledHairInputs in =
+        principled_inputs(parametrization, color, melanin, melanin_redness, tint, absorption_coefficient, roughness,
+                          radial_roughness, coat, ior, offset, random_color, random_roughness, random);
     const ChiangHairParams p = chiang_params_from_principled(in, Accuracy(accuracy), TiltConvention(tilt));
     return ClosureSum({Closure{RGB(1.0), ChiangHair(p)}});
 }
@@ -720,10 +732,27 @@ py::array output_array(const py::object& out, const char* name, std::vector<py::
 
 // Runs op on the kernels. Returns None when they do not apply (the caller then validates and
 // takes the scalar path, which also names any argument that is not allowed).
+// The per-row inputs (docs/simd.md), in the order of ChiangBatchRowInputs; absorption_coefficient is (N, 3).
+constexpr const char* kRowInputNames[6] = {"roughness", "radial_roughness", "coat", "random", "melanin",
+                                           "absorption_coefficient"};
+
+py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, py::handle wo, py::handle second,
+                       py::handle h, const py::object& out, const py::dict& inputs);
+
 py::object kernel_call(const ClosureSum& bsdf, ChiangBatchOp op, py::handle wo, py::handle second, py::handle h,
                        const py::object& out) {
     const Closure* closure = single_chiang(bsdf);
     if (!closure || !is_float_array(wo, 2) || !is_float_array(second, 2) || !is_float_array(h, 1)) return py::none();
+    return kernel_rows(chiang_batch_constants(std::get<ChiangHair>(closure->model).params(), closure->weight), op, wo,
+                       second, h, out, py::dict());
+}
+
+// Runs op on the kernels with the given constants and per-row inputs (name -> array of N rows, or
+// (N, 3) for absorption_coefficient; empty: uniform). None when they do not apply.
+py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, py::handle wo, py::handle second,
+                       py::handle h, const py::object& out, const py::dict& inputs) {
+    if (!g_kernels_on.load() || !is_float_array(wo, 2) || !is_float_array(second, 2) || !is_float_array(h, 1))
+        return py::none();
     std::array<py::array, 3> in = {py::reinterpret_borrow<py::array>(wo), py::reinterpret_borrow<py::array>(second),
                                    py::reinterpret_borrow<py::array>(h)};
     const py::ssize_t n = in[0].shape(0);
@@ -738,9 +767,30 @@ py::object kernel_call(const ClosureSum& bsdf, ChiangBatchOp op, py::handle wo, 
         else if (!(a.flags() & py::array::c_style))
             a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
     }
-    const ChiangBatchConstants constants =
-        chiang_batch_constants(std::get<ChiangHair>(closure->model).params(), closure->weight);
+    // Per-row inputs: in the rows' float type (float64 converted to float32 here, as the rows are
+    // under set_batch_kernel(float64="float32")), C-contiguous, N rows.
+    std::array<py::array, 6> row_inputs;
+    const void* row_ptrs[6] = {};
+    for (int k = 0; k < 6; ++k) {
+        if (!inputs.contains(kRowInputNames[k])) continue;
+        py::handle given = inputs[kRowInputNames[k]];
+        if (!is_float_array(given, k == 5 ? 2 : 1)) return py::none();
+        py::array& a = row_inputs[size_t(k)];
+        a = py::reinterpret_borrow<py::array>(given);
+        if (f64)
+            a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+        else
+            a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+        if (a.shape(0) != n) return py::none();
+        row_ptrs[k] = a.data();
+    }
     ChiangBatchRows rows;
+    rows.inputs.roughness = row_ptrs[0];
+    rows.inputs.radial_roughness = row_ptrs[1];
+    rows.inputs.coat = row_ptrs[2];
+    rows.inputs.random = row_ptrs[3];
+    rows.inputs.melanin = row_ptrs[4];
+    rows.inputs.absorption = row_ptrs[5];
     rows.wo = in[0].data();
     (op == ChiangBatchOp::Sample ? rows.u : rows.wi) = in[1].data();
     rows.h = in[2].data();
@@ -775,6 +825,85 @@ py::object kernel_call(const ClosureSum& bsdf, ChiangBatchOp op, py::handle wo, 
         parallel_for(size_t(n), 16384, [&](size_t b, size_t e) { bad += chiang_batch_run(constants, op, rows, o, b, e); });
     }
     return bad.load() ? py::object(py::none()) : result;
+}
+
+// The scalar double path with per-row Principled Hair inputs, the reference of the per-row kernels:
+// row i is principled_hair(inputs with row i's values) times `weight`, through ClosureSum. Arrays are
+// validated, broadcast, C-contiguous float64 (the Python layer); `second` is wi or u.
+py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, TiltConvention tilt, RGB weight,
+                       ChiangBatchOp op, const Array& wo, const Array& second, const Array& h, const py::dict& inputs) {
+    const size_t n = rows(wo);
+    check_rows(wo, n, 3, "wo");
+    check_rows(second, n, 3, op == ChiangBatchOp::Sample ? "u" : "wi");
+    check_rows(h, n, 0, "h");
+    std::vector<Array> keep(6);
+    const double* row_ptrs[6] = {};
+    for (int k = 0; k < 6; ++k) {
+        if (!inputs.contains(kRowInputNames[k])) continue;
+        keep[size_t(k)] = inputs[kRowInputNames[k]].cast<Array>();
+        check_rows(keep[size_t(k)], n, k == 5 ? 3 : 0, kRowInputNames[k]);
+        row_ptrs[k] = keep[size_t(k)].data();
+    }
+    auto value = new_array({py::ssize_t(n), 3}), pdf = new_array({py::ssize_t(n)});
+    auto wi = new_array({py::ssize_t(op == ChiangBatchOp::Sample ? n : 0), 3});
+    py::array_t<int32_t> lobe({py::ssize_t(op == ChiangBatchOp::Sample ? n : 0)});
+    double *ov = value.mutable_data(), *op_pdf = pdf.mutable_data(), *owi = wi.mutable_data();
+    int32_t* ol = lobe.mutable_data();
+    const double *pwo = wo.data(), *ps = second.data(), *ph = h.data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, 256, [&](size_t b, size_t e) {
+            ClosureSum::ShadingPoint point;
+            for (size_t i = b; i < e; ++i) {
+                PrincipledHairInputs in = base;
+                if (row_ptrs[0]) in.roughness = row_ptrs[0][i];
+                if (row_ptrs[1]) in.radial_roughness = row_ptrs[1][i];
+                if (row_ptrs[2]) in.coat = row_ptrs[2][i];
+                if (row_ptrs[3]) in.random = row_ptrs[3][i];
+                if (row_ptrs[4]) in.melanin = row_ptrs[4][i];
+                if (row_ptrs[5]) in.absorption_coefficient = vec_rgb(row_ptrs[5], i);
+                const ClosureSum bsdf({Closure{weight, ChiangHair(chiang_params_from_principled(in, accuracy, tilt))}});
+                bsdf.prepare(fibre_context(pwo, ph, i), point);
+                if (op == ChiangBatchOp::Sample) {
+                    const BsdfSample s = bsdf.sample(point, {ps[3 * i], ps[3 * i + 1], ps[3 * i + 2]});
+                    owi[3 * i] = s.wi.x;
+                    owi[3 * i + 1] = s.wi.y;
+                    owi[3 * i + 2] = s.wi.z;
+                    store(ov, i, s.weight);
+                    op_pdf[i] = s.pdf;
+                    ol[i] = s.lobe;
+                } else if (op == ChiangBatchOp::Eval) {
+                    store(ov, i, bsdf.eval(point, vec_at(ps, i)).value());
+                } else {
+                    op_pdf[i] = bsdf.pdf(point, vec_at(ps, i));
+                }
+            }
+        });
+    }
+    if (op == ChiangBatchOp::Eval) return value;
+    if (op == ChiangBatchOp::Pdf) return pdf;
+    return py::make_tuple(wi, value, pdf, lobe);
+}
+
+// principled_hair(model="chiang") with per-row inputs: `principled` is principled_chiang's arguments
+// (the uniform inputs, accuracy, tilt). The kernels, or None where they do not apply; with
+// `scalar`, the double reference path above.
+py::object chiang_rows(int op_index, const py::tuple& principled, std::array<double, 3> weight, const py::dict& inputs,
+                       py::handle wo, py::handle second, py::handle h, py::object out, bool scalar) {
+    if (principled.size() != 16) throw py::value_error("internal: principled_chiang takes 16 arguments");
+    auto d = [&](size_t k) { return principled[k].cast<double>(); };
+    auto rgb = [&](size_t k) { return principled[k].cast<std::array<double, 3>>(); };
+    const PrincipledHairInputs in =
+        principled_inputs(principled[0].cast<int>(), rgb(1), d(2), d(3), rgb(4), rgb(5), d(6), d(7), d(8), d(9), d(10),
+                          d(11), d(12), d(13));
+    const Accuracy accuracy = Accuracy(principled[14].cast<int>());
+    const TiltConvention tilt = TiltConvention(principled[15].cast<int>());
+    const ChiangBatchOp op = ChiangBatchOp(op_index);
+    if (scalar)
+        return scalar_rows(in, accuracy, tilt, rgb_from(weight), op, py::cast<Array>(wo), py::cast<Array>(second),
+                           py::cast<Array>(h), inputs);
+    return kernel_rows(chiang_batch_constants_principled(in, accuracy, tilt, rgb_from(weight)), op, wo, second, h, out,
+                       inputs);
 }
 
 template <class Fn>
@@ -904,6 +1033,11 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("model"), py::arg("params"), py::arg("path") = "");
     m.def("principled_chiang", &principled_chiang);
+    // Per-row Principled Hair inputs on a Chiang closure (docs/simd.md); op 0 eval, 1 pdf, 2 sample.
+    m.def("chiang_rows", &chiang_rows, py::arg("op"), py::arg("principled"), py::arg("weight"), py::arg("inputs"),
+          py::arg("wo"), py::arg("second"), py::arg("h"), py::arg("out"), py::arg("scalar"));
+    m.attr("CHIANG_ROW_INPUTS") = py::make_tuple(kRowInputNames[0], kRowInputNames[1], kRowInputNames[2],
+                                                 kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
     m.def("principled_huang", &principled_huang);
     m.def("huang_from_params", &huang_from_params);
     m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta, int glass_albedo_table) {

@@ -49,6 +49,10 @@ def _triples(name: str, value) -> np.ndarray:
     return arr
 
 
+per_row = _per_row  # scalar or (N,) finite float64 -> (N,)
+triples = _triples  # (N, 3) or (3,) finite float64
+
+
 def directions(name: str, value) -> np.ndarray:
     """(N,3) or (3,) -> (N,3) unit float64 vectors."""
     arr = _triples(name, value)

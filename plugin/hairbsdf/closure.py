@@ -33,9 +33,12 @@ class Closure:
     they are normalised. `h` is a scalar or (N,) in [-1, 1]. Rows broadcast.
     """
 
-    def __init__(self, core: _core.ClosureSum, description: str):
+    def __init__(self, core: _core.ClosureSum, description: str, principled: tuple | None = None):
         self._core = core
         self._description = description
+        # principled_hair(model="chiang")'s uniform inputs (principled_chiang's arguments), which
+        # per-row `inputs=` start from; None for every other closure.
+        self._principled = principled
 
     def __repr__(self) -> str:
         return self._description
@@ -60,9 +63,15 @@ class Closure:
     # runs on the float32 SIMD batch kernels (docs/simd.md): C-contiguous input is read in place,
     # the result is float32. `out=`: a preallocated result array. float64 rows and everything else
     # take the scalar double path (hairbsdf.set_batch_kernel chooses otherwise).
+    # `inputs=`: per-row node inputs of a principled_hair(model="chiang") closure (ROW_INPUTS; docs/simd.md),
+    #   a dict of (N,) arrays ((N, 3) for absorption_coefficient) that replace the closure's values row by
+    #   row, with the node's meaning (random is the Random socket). float32 rows run on the kernels.
     def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-             shadow=None, out=None) -> np.ndarray:
+             shadow=None, out=None, inputs=None) -> np.ndarray:
         """BSDF value including the cosine factor (Cycles' convention), (N, 3)."""
+        if inputs is not None:
+            _no_extras(normal, pixel_coverage, near_field, random, shadow)
+            return self._rows_call(0, wo, wi, h, inputs, out)
         if normal is None and pixel_coverage is None and near_field is None and random is None and shadow is None:
             result = self._core.kernel_eval(wo, wi, _h_rows(h, wo), out)
             if result is not None:
@@ -76,8 +85,11 @@ class Closure:
         return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow)
 
     def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-            shadow=None, out=None) -> np.ndarray:
+            shadow=None, out=None, inputs=None) -> np.ndarray:
         """The density `sample` reports for wi, per unit solid angle, (N,)."""
+        if inputs is not None:
+            _no_extras(normal, pixel_coverage, near_field, random, shadow)
+            return self._rows_call(1, wo, wi, h, inputs, out)
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         if not extra:
             result = self._core.kernel_pdf(wo, wi, _h_rows(h, wo), out)
@@ -89,8 +101,11 @@ class Closure:
         return _into(out, self._core.pdf_ex(*rows[:3], *_extra_args(extra, rows[3:])))
 
     def sample(self, wo, h, u, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-               shadow=None) -> SampleResult:
+               shadow=None, inputs=None) -> SampleResult:
         """Samples wi from 3 uniform numbers per row (docs/conventions.md for their roles)."""
+        if inputs is not None:
+            _no_extras(normal, pixel_coverage, near_field, random, shadow)
+            return SampleResult(*self._rows_call(2, wo, u, h, inputs, None))
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         if not extra:
             result = self._core.kernel_sample(wo, _h_rows(h, wo), u)
@@ -102,6 +117,27 @@ class Closure:
         else:
             wi, weight, pdf, lobe = self._core.sample_ex(*rows[:3], *_extra_args(extra, rows[3:]))
         return SampleResult(wi, weight, pdf, lobe)
+
+    def _rows_call(self, op, wo, second, h, inputs, out):
+        """eval (op 0), pdf (1) or sample (2) with per-row node inputs: the kernels for float rows,
+        else (float64 rows, bad rows, set_batch_kernel("scalar")) the double path row by row."""
+        if self._principled is None:
+            raise ValueError("inputs: per-row node inputs need a single principled_hair(model='chiang') "
+                             "closure (times a weight); this closure is " + self._description)
+        arrays = _row_inputs(inputs)
+        weight = tuple(self._core.closure_weights()[0])
+        result = _core.chiang_rows(op, self._principled, weight, arrays, wo, second, _h_rows(h, wo), out, False)
+        if result is not None:
+            return result
+        second_name, second_check = ("u", check.uniforms) if op == 2 else ("wi", check.directions)
+        named = dict(wo=check.directions("wo", wo), second=second_check(second_name, second), h=check.offsets("h", h))
+        for name, value in arrays.items():
+            named[name] = check.triples(name, value) if name == "absorption_coefficient" else check.per_row(name, value)
+        rows = dict(zip(named, self._rows(**named)))
+        row_arrays = {name: rows[name] for name in arrays}
+        result = _core.chiang_rows(op, self._principled, weight, row_arrays, rows["wo"], rows["second"], rows["h"],
+                                   None, True)
+        return result if op == 2 else _into(out, result)
 
     def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field, random=None, shadow=None):
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
@@ -158,7 +194,7 @@ class Closure:
     # --- OSL-style arithmetic ---------------------------------------------------------
     def __mul__(self, weight) -> "Closure":
         w = check.color("weight", weight)
-        return Closure(self._core.scaled(w), f"{_fmt_weight(w)} * ({self._description})")
+        return Closure(self._core.scaled(w), f"{_fmt_weight(w)} * ({self._description})", self._principled)
 
     __rmul__ = __mul__
 
@@ -207,6 +243,38 @@ def _extra_args(extra: dict, arrays: list, order=_EXTRA_ORDER) -> list:
     near_field, random, shadow) arguments, None where not given."""
     given = dict(zip(extra.keys(), arrays))
     return [given.get(k) for k in order]
+
+
+# The node inputs `inputs=` may give per row (docs/simd.md); the others stay the closure's.
+ROW_INPUTS = tuple(_core.CHIANG_ROW_INPUTS)
+
+
+def _no_extras(normal, pixel_coverage, near_field, random, shadow) -> None:
+    if not (normal is None and pixel_coverage is None and near_field is None and random is None and shadow is None):
+        raise ValueError("inputs: per-row node inputs do not combine with normal=, pixel_coverage=, near_field=, "
+                         "random= or shadow= (the Chiang model has no such fields; give random in inputs)")
+
+
+def _row_inputs(inputs) -> dict:
+    """inputs= checked: known names, float arrays ((N, 3) for absorption_coefficient, else (N,) or a
+    number), finite. Kept in their float type for the kernels."""
+    if not isinstance(inputs, dict):
+        raise TypeError(f"inputs: expected a dict of per-row arrays, got {type(inputs).__name__}")
+    out = {}
+    for name, value in inputs.items():
+        if name not in ROW_INPUTS:
+            raise ValueError(f"inputs: {name!r} cannot vary per row; allowed: {', '.join(ROW_INPUTS)}")
+        arr = value if isinstance(value, np.ndarray) and value.dtype in (np.float32, np.float64) else None
+        if arr is None:
+            arr = check.per_row(name, value) if name != "absorption_coefficient" else check.triples(name, value)
+        if name == "absorption_coefficient" and (arr.ndim != 2 or arr.shape[1] != 3) and arr.shape != (3,):
+            raise ValueError(f"inputs: absorption_coefficient: shape {arr.shape} is not allowed; pass (N, 3) or (3,)")
+        if name != "absorption_coefficient" and arr.ndim > 1:
+            raise ValueError(f"inputs: {name}: shape {arr.shape} is not allowed; pass a number or (N,)")
+        if not np.isfinite(arr).all():
+            raise ValueError(f"inputs: {name}: contains NaN or Inf; all values must be finite")
+        out[name] = arr
+    return out
 
 
 def _h_rows(h, wo):

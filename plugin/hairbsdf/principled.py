@@ -68,6 +68,8 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
       glass_albedo_table="4.x" (default) or "5.x": the energy-compensation tables of Cycles 4.x
                or of Cycles 5.x (docs/blender5.md).
     eval / eval_lobes / pdf / sample take the keyword arrays normal=, pixel_coverage=, near_field=.
+    model="chiang": eval / pdf / sample take per-row node inputs, inputs={"roughness": (N,) array, ...}
+    (roughness, radial_roughness, coat, random, melanin, absorption_coefficient (N, 3); docs/simd.md).
     """
     if not isinstance(model, str):
         raise TypeError(f"model: expected a string, one of {list(MODELS)}")
@@ -85,16 +87,17 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     for key, value in inputs.items():
         values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
 
-    core = _core.principled_chiang(
+    arguments = (
         PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
         values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
         values["coat"], values["ior"], values["offset"], values["random_color"], values["random_roughness"],
         values["random"], ACCURACIES[accuracy], TILTS[tilt])
+    core = _core.principled_chiang(*arguments)
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     extra = "".join(f", {k}={v!r}" for k, v in (("accuracy", accuracy), ("tilt", tilt))
                     if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
     return Closure(core, f"principled_hair(model='chiang', parametrization={parametrization!r}"
-                         f"{', ' + shown if shown else ''}{extra})")
+                         f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
 def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture", tolerance=1e-3,

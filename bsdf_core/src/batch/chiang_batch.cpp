@@ -1,7 +1,9 @@
 // Constants and run-time dispatch of the Chiang batch kernels (docs/simd.md).
 #include "hairbsdf/batch/chiang_batch.h"
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstring>
 
 namespace hairbsdf {
@@ -83,6 +85,33 @@ ChiangBatchConstants chiang_batch_constants(const ChiangHairParams& params, RGB 
         c.cdf_minus_pi[p] = float(logistic_cdf(-kPi, s));
         c.rot_sin[p] = float(std::sin(angles[p]));
         c.rot_cos[p] = float(std::cos(angles[p]));
+    }
+    return c;
+}
+
+ChiangBatchConstants chiang_batch_constants_principled(const PrincipledHairInputs& in, Accuracy accuracy,
+                                                       TiltConvention tilt, RGB weight) {
+    ChiangBatchConstants c = chiang_batch_constants(chiang_params_from_principled(in, accuracy, tilt), weight);
+    ChiangBatchConstants::Node& n = c.node;
+    n.parametrization = int(in.parametrization);
+    n.roughness = float(in.roughness);
+    n.radial_roughness = float(in.radial_roughness);
+    n.coat = float(in.coat);
+    n.random = float(in.random);
+    n.random_roughness = float(in.random_roughness);
+    n.random_color = float(in.random_color);
+    n.melanin = float(in.melanin);
+    const double redness = in.melanin_redness;
+    const RGB melanin = (1.0 - redness) * kEumelaninAbsorption + redness * kPheomelaninAbsorption;
+    const double absorption[3] = {in.absorption_coefficient.r, in.absorption_coefficient.g, in.absorption_coefficient.b};
+    const double color[3] = {in.color.r, in.color.g, in.color.b};
+    const double tint[3] = {in.tint.r, in.tint.g, in.tint.b};
+    const double mel[3] = {melanin.r, melanin.g, melanin.b};
+    for (int k = 0; k < 3; ++k) {
+        n.absorption[k] = float(absorption[k]);
+        n.color_log[k] = float(std::log(std::max(color[k], 0.0)));
+        n.tint_log[k] = float(std::log(std::max(tint[k], 0.0)));
+        n.melanin_absorption[k] = float(mel[k]);
     }
     return c;
 }

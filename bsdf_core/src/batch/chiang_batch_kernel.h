@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "hairbsdf/batch/chiang_batch.h"
 
@@ -33,6 +34,94 @@ struct ChiangKernel {
 
     const ChiangBatchConstants& c;
 
+    // The parameters' numbers per lane, read through one interface: Uniform broadcasts the hoisted
+    // ChiangBatchConstants (the compiler keeps them as memory operands), Row holds the ones mapped
+    // and prepared per row (row_params). R, TT and TRT share s on the per-row path (Principled Hair).
+    struct Uniform {
+        const ChiangBatchConstants& c;
+        HAIRBSDF_BATCH_INLINE B sigma_a(int k) const { return B(c.sigma_a[k]); }
+        HAIRBSDF_BATCH_INLINE B inv_v(int p) const { return B(c.inv_v[p]); }
+        HAIRBSDF_BATCH_INLINE B lnorm(int p) const { return B(c.log_norm_plus_inv_v[p]); }
+        HAIRBSDF_BATCH_INLINE bool direct(int p) const { return !c.log_branch[p]; }
+        HAIRBSDF_BATCH_INLINE B norm(int p) const { return B(c.norm[p]); }
+        HAIRBSDF_BATCH_INLINE B s(int p) const { return B(c.s[p]); }
+        HAIRBSDF_BATCH_INLINE B logistic_norm(int p) const { return B(c.logistic_norm[p]); }
+        HAIRBSDF_BATCH_INLINE B cdf_minus_pi(int p) const { return B(c.cdf_minus_pi[p]); }
+        HAIRBSDF_BATCH_INLINE B v_sample(int p) const { return B(c.v_sample[p]); }
+        HAIRBSDF_BATCH_INLINE B e2v(int p) const { return B(c.exp_minus_2_over_v[p]); }
+    };
+    struct Row {
+        B sigma[3], inv[4], ln[4], vs[4], e2[4];
+        B scale, lnorm_logistic, cdf;
+        HAIRBSDF_BATCH_INLINE B sigma_a(int k) const { return sigma[k]; }
+        HAIRBSDF_BATCH_INLINE B inv_v(int p) const { return inv[p]; }
+        HAIRBSDF_BATCH_INLINE B lnorm(int p) const { return ln[p]; }
+        HAIRBSDF_BATCH_INLINE bool direct(int) const { return false; }  // Cycles' direct form as a log form
+        HAIRBSDF_BATCH_INLINE B norm(int) const { return B(0.0f); }
+        HAIRBSDF_BATCH_INLINE B s(int) const { return scale; }
+        HAIRBSDF_BATCH_INLINE B logistic_norm(int) const { return lnorm_logistic; }
+        HAIRBSDF_BATCH_INLINE B cdf_minus_pi(int) const { return cdf; }
+        HAIRBSDF_BATCH_INLINE B v_sample(int p) const { return vs[p]; }
+        HAIRBSDF_BATCH_INLINE B e2v(int p) const { return e2[p]; }
+    };
+
+    // The per-row `prepare`: chiang_params_from_principled's mapping (Random Roughness, the clamps,
+    // coat, the roughness polynomials of models/chiang.h, the three parametrizations) and then what
+    // chiang_batch_constants computes from the mapped numbers, on every lane. Cycles' direct form of
+    // M_p's normalisation (v > 0.1), 1 / (2 v sinh(1/v)), is taken in the log form, where it is the
+    // exact normalisation: log_norm + 1/v = -log v - log(1 - e^(-2/v)); with a <= 1/v < 12 M_p then
+    // takes I0(a) e^(...) as the direct form does.
+    HAIRBSDF_BATCH_INLINE Row row_params(B roughness, B radial, B coat, B random, B melanin,
+                                         const B absorption[3]) const {
+        const ChiangBatchConstants::Node& n = c.node;
+        Row q;
+        const B factor = B(1.0f) + B(2.0f) * (random - B(0.5f)) * B(n.random_roughness);
+        roughness = roughness * factor;
+        radial = radial * factor;
+        const B beta_m = clampb(roughness, 0.001f, 1.0f), beta_n = clampb(radial, 0.001f, 1.0f);
+        const B beta_coat = clampb((B(1.0f) - clampb(coat, 0.0f, 1.0f)) * beta_m, 0.001f, 1.0f);
+        const B v = longitudinal_variance_of(beta_m);
+        q.scale = B(float(kSqrtPiOver8)) * azimuthal_scale_raw_of(beta_n);
+        if (n.parametrization == int(Parametrization::Absorption)) {
+            for (int k = 0; k < 3; ++k) q.sigma[k] = absorption[k];
+        } else {
+            // Color: (log C / P(radial))^2; Melanin: its pigments plus the tint's Color term.
+            const bool color = n.parametrization == int(Parametrization::Color);
+            const B inv_p = B(1.0f) / albedo_roughness_scale_of(radial);
+            for (int k = 0; k < 3; ++k) {
+                const B l = B(color ? n.color_log[k] : n.tint_log[k]) * inv_p;
+                q.sigma[k] = l * l;
+            }
+            if (!color) {
+                const B color_factor =
+                    B(1.0f) + B(2.0f) * (random - B(0.5f)) * B(std::min(std::max(n.random_color, 0.0f), 1.0f));
+                const B quantity = -xsimd::log(xsimd::max(B(1.0f) - melanin * color_factor, B(1e-4f)));
+                for (int k = 0; k < 3; ++k) q.sigma[k] = xsimd::fma(quantity, B(n.melanin_absorption[k]), q.sigma[k]);
+            }
+        }
+        const B vs[3] = {longitudinal_variance_of(beta_coat), B(0.25f) * v, B(4.0f) * v};
+        constexpr float kCyclesLogOffset = float(0.6931 - 0.69314718055994531);  // 0.6931 + log(1/2)
+        for (int p = 0; p < 3; ++p) {
+            const B inv = B(1.0f) / vs[p];
+            const B log_v = xsimd::log(vs[p]);
+            const B exact = -log_v - xsimd::log(-xsimd::expm1(B(-2.0f) * inv));
+            q.inv[p] = inv;
+            q.ln[p] = c.exact ? exact : xsimd::select(vs[p] <= B(0.1f), B(kCyclesLogOffset) - log_v, exact);
+        }
+        q.inv[3] = q.inv[2];
+        q.ln[3] = q.ln[2];
+        q.vs[0] = v;
+        for (int p = 1; p < 4; ++p) q.vs[p] = vs[std::min(p, 2)];
+        for (int p = 0; p < 3; ++p) q.e2[p] = xsimd::exp(B(-2.0f) / q.vs[p]);
+        q.e2[3] = q.e2[2];
+        // The trimmed logistic on [-pi, pi]: with e = exp(-pi / s), cdf(-pi) = e / (1 + e) and
+        // 1 / (cdf(pi) - cdf(-pi)) = (1 + e) / (1 - e).
+        const B e = xsimd::exp(B(-kPiF) / q.scale);
+        q.cdf = e / (B(1.0f) + e);
+        q.lnorm_logistic = (B(1.0f) + e) / (B(1.0f) - e);
+        return q;
+    }
+
     HAIRBSDF_BATCH_INLINE static B clampb(B x, float lo, float hi) { return xsimd::min(xsimd::max(x, B(lo)), B(hi)); }
     HAIRBSDF_BATCH_INLINE static B cos_from_sin(B s) { return xsimd::sqrt(xsimd::max(B(1.0f) - s * s, B(0.0f))); }
     HAIRBSDF_BATCH_INLINE static M finite(B x) { return xsimd::isfinite(x); }
@@ -47,7 +136,8 @@ struct ChiangKernel {
     };
 
     // Fibre frame and view terms (ChiangHair::view_terms) for unit wo and h in [-1, 1].
-    HAIRBSDF_BATCH_INLINE View view(B wox, B woy, B woz, B h) const {
+    template <class Q>
+    HAIRBSDF_BATCH_INLINE View view(B wox, B woy, B woz, B h, const Q& q) const {
         View v;
         const B len2 = woy * woy + woz * woz;
         const M degenerate = len2 <= B(1e-24f);
@@ -73,7 +163,7 @@ struct ChiangKernel {
 
         const B path = B(-2.0f) * cos_gamma_t / cos_t;
         B T[3];
-        for (int k = 0; k < 3; ++k) T[k] = xsimd::exp(path * B(c.sigma_a[k]));
+        for (int k = 0; k < 3; ++k) T[k] = xsimd::exp(path * q.sigma_a(k));
         const B f = fresnel(v.cos_o * cos_gamma_o, eta);
         const B one_minus_f = B(1.0f) - f;
         B total(0.0f);
@@ -154,11 +244,12 @@ struct ChiangKernel {
     }
 
     // M_p (LongitudinalLobe::eval) for lobe p.
-    HAIRBSDF_BATCH_INLINE B mp(int p, B sin_i, B cos_i, B sin_o, B cos_o) const {
-        const B inv_v(c.inv_v[p]);
+    template <class Q>
+    HAIRBSDF_BATCH_INLINE B mp(int p, B sin_i, B cos_i, B sin_o, B cos_o, const Q& q) const {
+        const B inv_v = q.inv_v(p);
         const B cprod = cos_i * cos_o, sprod = sin_i * sin_o;
         const B a = cprod * inv_v;
-        const B lnorm(c.log_norm_plus_inv_v[p]);
+        const B lnorm = q.lnorm(p);
         // a - b + log_norm = lnorm - (1 - cos(theta_i + theta_o)) / v and log_norm - b = that - a,
         // without cancelling terms of size 1/v: near the lobe's peak 1 - cos is taken from the sine
         // of the sum, sin^2 / (1 + cos), which float keeps to full relative precision.
@@ -174,7 +265,7 @@ struct ChiangKernel {
             const B large = exact_i0_scaled_large(x_large) / xsimd::sqrt(x_large) * xsimd::exp(far);
             return xsimd::select(small, exact_i0_small(a) * xsimd::exp(near), large);
         }
-        if (!c.log_branch[p]) return xsimd::exp(-sprod * inv_v) * cycles_i0(a) * B(c.norm[p]);
+        if (q.direct(p)) return xsimd::exp(-sprod * inv_v) * cycles_i0(a) * q.norm(p);
         const M small = a <= B(12.0f);
         const B x_large = xsimd::select(small, B(12.0f), a);
         const B large = xsimd::exp(far + B(1.0f / 16.0f) / x_large) / xsimd::sqrt(B(kTwoPiF) * x_large);
@@ -187,27 +278,28 @@ struct ChiangKernel {
     }
 
     // ChiangHair::eval_local: the value (without the closure weight) and the pdf; 0 where invalid.
-    HAIRBSDF_BATCH_INLINE void eval_local(const View& v, B sin_i, B cos_i, B phi, B value[3], B& pdf) const {
+    template <class Q>
+    HAIRBSDF_BATCH_INLINE void eval_local(const View& v, B sin_i, B cos_i, B phi, B value[3], B& pdf, const Q& q) const {
         for (int k = 0; k < 3; ++k) value[k] = B(0.0f);
         pdf = B(0.0f);
         for (int p = 0; p < 3; ++p) {
             B m;
             if (c.blender34) {
                 const B sa(c.rot_sin[p]), ca(c.rot_cos[p]);
-                m = mp(p, sin_i * ca + cos_i * sa, xsimd::abs(cos_i * ca - sin_i * sa), v.sin_o, v.cos_o);
+                m = mp(p, sin_i * ca + cos_i * sa, xsimd::abs(cos_i * ca - sin_i * sa), v.sin_o, v.cos_o, q);
             } else {
-                m = mp(p, sin_i, cos_i, v.tsin[p], v.tcos[p]);
+                m = mp(p, sin_i, cos_i, v.tsin[p], v.tcos[p], q);
             }
-            const B s(c.s[p]);
+            const B s = q.s(p);
             const B x = wrap(phi - center(p, v));
             const B e = xsimd::exp(-xsimd::abs(x) / s);
             const B one_plus_e = B(1.0f) + e;
-            const B np = e / (s * one_plus_e * one_plus_e) * B(c.logistic_norm[p]);
+            const B np = e / (s * one_plus_e * one_plus_e) * q.logistic_norm(p);
             const B mn = m * np;
             for (int k = 0; k < 3; ++k) value[k] = xsimd::fma(mn, v.att[p][k], value[k]);
             pdf = xsimd::fma(v.w[p], mn, pdf);
         }
-        const B m3 = mp(3, sin_i, cos_i, v.sin_o, v.cos_o) * B(float(kInvTwoPi));
+        const B m3 = mp(3, sin_i, cos_i, v.sin_o, v.cos_o, q) * B(float(kInvTwoPi));
         for (int k = 0; k < 3; ++k) value[k] = xsimd::fma(m3, v.att[3][k], value[k]);
         pdf = xsimd::fma(v.w[3], m3, pdf);
         const M ok = v.valid & finite(pdf) & finite(value[0]) & finite(value[1]) & finite(value[2]);
@@ -247,7 +339,9 @@ inline void put(void* p, size_t i, float v) {
     static_cast<Out*>(p)[i] = Out(v);
 }
 
-template <class Arch, class In, class Out>
+// PerRow: the rows carry Principled Hair inputs (ChiangBatchRowInputs), mapped and prepared per
+// row; else the hoisted constants serve every row.
+template <class Arch, class In, class Out, bool PerRow>
 size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
                  const ChiangBatchOutput& out, size_t begin, size_t end) {
     using K = ChiangKernel<Arch>;
@@ -256,7 +350,12 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
     constexpr size_t W = K::W;
     const K kernel{c};
     const bool sample = op == ChiangBatchOp::Sample;
-    alignas(64) float a[7][kBlock];   // wo xyz, wi xyz or u 012, h
+    // wo xyz, wi xyz or u 012, h; per row: roughness, radial roughness, coat, random, melanin,
+    // absorption rgb.
+    alignas(64) float a[PerRow ? 15 : 7][kBlock];
+    constexpr int kInputs = PerRow ? 15 : 7;
+    const ChiangBatchRowInputs& in = rows.inputs;
+    const void* const scalar_inputs[5] = {in.roughness, in.radial_roughness, in.coat, in.random, in.melanin};
     alignas(64) float r[8][kBlock];   // value rgb / weight rgb, pdf, wi xyz, lobe
     size_t bad_rows = 0;
     for (size_t b0 = begin; b0 < end; b0 += kBlock) {
@@ -270,9 +369,17 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             }
             a[6][i] = get<In>(rows.h, row);
         }
+        if constexpr (PerRow) {
+            for (int slot = 0; slot < 5; ++slot)
+                if (scalar_inputs[slot])
+                    for (size_t i = 0; i < n; ++i) a[7 + slot][i] = get<In>(scalar_inputs[slot], b0 + i);
+            if (in.absorption)
+                for (size_t i = 0; i < n; ++i)
+                    for (int k = 0; k < 3; ++k) a[12 + k][i] = get<In>(in.absorption, 3 * (b0 + i) + k);
+        }
         const size_t padded = (n + W - 1) / W * W;
         for (size_t i = n; i < padded; ++i) {
-            for (int k = 0; k < 7; ++k) a[k][i] = 0.5f;
+            for (int k = 0; k < kInputs; ++k) a[k][i] = 0.5f;
         }
         for (size_t j = 0; j < padded; j += W) {
             B wox = B::load_aligned(a[0] + j), woy = B::load_aligned(a[1] + j), woz = B::load_aligned(a[2] + j);
@@ -298,7 +405,24 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             if (!xsimd::all(ok))
                 for (size_t l = 0; l < lanes; ++l) bad_rows += ok.get(l) ? 0 : 1;
 
-            typename K::View v = kernel.view(wox, woy, woz, h);
+            using Q = std::conditional_t<PerRow, typename K::Row, typename K::Uniform>;
+            const Q q = [&]() -> Q {
+                if constexpr (PerRow) {
+                    const ChiangBatchConstants::Node& node = c.node;
+                    auto input = [&](int slot, float uniform) {
+                        return scalar_inputs[slot] ? B::load_aligned(a[7 + slot] + j) : B(uniform);
+                    };
+                    B absorption[3];
+                    for (int k = 0; k < 3; ++k)
+                        absorption[k] = in.absorption ? B::load_aligned(a[12 + k] + j) : B(node.absorption[k]);
+                    return kernel.row_params(input(0, node.roughness), input(1, node.radial_roughness),
+                                             input(2, node.coat), input(3, node.random), input(4, node.melanin),
+                                             absorption);
+                } else {
+                    return Q{c};
+                }
+            }();
+            typename K::View v = kernel.view(wox, woy, woz, h, q);
             v.valid = v.valid & ok;
             if (c.zero) v.valid = M(false);
             B value[3], pdf;
@@ -309,7 +433,7 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
                 // atan2(0, 0) is 0 as in libm (xsimd's gives NaN): wi along the fibre.
                 const M on_axis = (dy == B(0.0f)) & (dz == B(0.0f));
                 const B phi = xsimd::atan2(dz, xsimd::select(on_axis, B(1.0f), dy)) + B(0.5f * K::kPiF);
-                kernel.eval_local(v, sin_i, cos_i, phi, value, pdf);
+                kernel.eval_local(v, sin_i, cos_i, phi, value, pdf, q);
                 for (int k = 0; k < 3; ++k) (value[k] * B(c.weight[k])).store_aligned(r[k] + j);
                 pdf.store_aligned(r[3] + j);
                 continue;
@@ -332,9 +456,8 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
                 o_sin = xsimd::select(lobe3, v.sin_o, K::pick(p, v.tsin[0], v.tsin[1], v.tsin[2], v.sin_o));
                 o_cos = xsimd::select(lobe3, v.cos_o, K::pick(p, v.tcos[0], v.tcos[1], v.tcos[2], v.cos_o));
             }
-            const B var = K::pick(p, c.v_sample[0], c.v_sample[1], c.v_sample[2], c.v_sample[3]);
-            const B e2v = K::pick(p, c.exp_minus_2_over_v[0], c.exp_minus_2_over_v[1], c.exp_minus_2_over_v[2],
-                                  c.exp_minus_2_over_v[3]);
+            const B var = K::pick(p, q.v_sample(0), q.v_sample(1), q.v_sample(2), q.v_sample(3));
+            const B e2v = K::pick(p, q.e2v(0), q.e2v(1), q.e2v(2), q.e2v(3));
             // fac = 1 - g with g >= 0; sqrt(1 - fac^2) as sqrt(g (2 - g)), exact where fac is near 1.
             const B ut = K::clampb(u_lobe, 1e-5f, 1.0f);
             const B g = -var * xsimd::log(ut + (B(1.0f) - ut) * e2v);
@@ -343,8 +466,8 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             B sin_i = K::clampb(-fac * o_sin + sin_fac * xsimd::cos(B(K::kTwoPiF) * s1) * o_cos, -1.0f, 1.0f);
             B cos_i = K::cos_from_sin(sin_i);
             // Azimuth: the trimmed logistic about the lobe's centre, uniform for TRRT+.
-            const B s = K::pick(p, c.s[0], c.s[1], c.s[2], 1.0f);
-            const B cdf = K::pick(p, c.cdf_minus_pi[0], c.cdf_minus_pi[1], c.cdf_minus_pi[2], 0.0f);
+            const B s = K::pick(p, q.s(0), q.s(1), q.s(2), B(1.0f));
+            const B cdf = K::pick(p, q.cdf_minus_pi(0), q.cdf_minus_pi(1), q.cdf_minus_pi(2), B(0.0f));
             const B centre = K::pick(p, K::center(0, v), K::center(1, v), K::center(2, v), B(0.0f));
             // The inverse CDF -s log(1 / y - 1), y = u (1 - 2 cdf) + cdf, with 1 - y written out so
             // that u near 1 keeps its precision.
@@ -365,7 +488,7 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
             const B wi_x = sin_i;
             const B wi_y = cos_i * (sc.first * v.yy - sc.second * v.zy);
             const B wi_z = cos_i * (sc.first * v.yz - sc.second * v.zz);
-            kernel.eval_local(v, sin_i, cos_i, phi, value, pdf);
+            kernel.eval_local(v, sin_i, cos_i, phi, value, pdf, q);
             const B inv_pdf = B(1.0f) / xsimd::select(pdf > B(0.0f), pdf, B(1.0f));
             M good = v.valid & (pdf > B(0.0f)) & K::finite(pdf) & K::finite(wi_y) & K::finite(wi_z);
             B weight[3];
@@ -403,15 +526,22 @@ size_t run_typed(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBa
     return bad_rows;
 }
 
+template <class Arch, bool PerRow>
+size_t run_rows(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
+                const ChiangBatchOutput& out, size_t begin, size_t end) {
+    if (rows.f64) {
+        return out.f64 ? run_typed<Arch, double, double, PerRow>(c, op, rows, out, begin, end)
+                       : run_typed<Arch, double, float, PerRow>(c, op, rows, out, begin, end);
+    }
+    return out.f64 ? run_typed<Arch, float, double, PerRow>(c, op, rows, out, begin, end)
+                   : run_typed<Arch, float, float, PerRow>(c, op, rows, out, begin, end);
+}
+
 template <class Arch>
 size_t run(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
            const ChiangBatchOutput& out, size_t begin, size_t end) {
-    if (rows.f64) {
-        return out.f64 ? run_typed<Arch, double, double>(c, op, rows, out, begin, end)
-                       : run_typed<Arch, double, float>(c, op, rows, out, begin, end);
-    }
-    return out.f64 ? run_typed<Arch, float, double>(c, op, rows, out, begin, end)
-                   : run_typed<Arch, float, float>(c, op, rows, out, begin, end);
+    return rows.inputs.any() ? run_rows<Arch, true>(c, op, rows, out, begin, end)
+                             : run_rows<Arch, false>(c, op, rows, out, begin, end);
 }
 
 }  // namespace HAIRBSDF_BATCH_NS

@@ -1,6 +1,7 @@
 // Float32 SIMD batch kernels for one Chiang closure (docs/simd.md): eval, pdf and sample over
 // rows of fibre-frame directions (tangent = +x), with the closure's parameters uniform across the
-// rows and everything that depends only on them computed once (ChiangBatchConstants).
+// rows and everything that depends only on them computed once (ChiangBatchConstants), or with
+// per-row Principled Hair inputs mapped and prepared per row, vectorised (ChiangBatchRowInputs).
 // The kernels run on the best instruction set the CPU has (AVX-512, AVX2 + FMA, else SSE2),
 // chosen once at run time. The scalar double path (ChiangHair) stays the reference.
 #pragma once
@@ -10,6 +11,7 @@
 
 #include "hairbsdf/math.h"
 #include "hairbsdf/models/chiang.h"
+#include "hairbsdf/params/principled_hair.h"
 
 namespace hairbsdf {
 
@@ -33,8 +35,34 @@ struct ChiangBatchConstants {
     float logistic_norm[3];
     float cdf_minus_pi[3];       // logistic_cdf(-pi, s), for the trimmed sampler
     float rot_sin[3], rot_cos[3];  // tilt rotation per lobe (R, TT, TRT)
+
+    // Per-row Principled Hair inputs (ChiangBatchRowInputs): the uniform node inputs the per-row
+    // `prepare` starts from. Set by chiang_batch_constants_principled().
+    struct Node {
+        int parametrization = 0;     // Parametrization
+        float roughness, radial_roughness, coat, random, random_roughness, random_color, melanin;
+        float absorption[3];         // absorption_coefficient (Absorption)
+        float color_log[3];          // log(max(color, 0)) (Color), -inf for a black channel
+        float tint_log[3];           // log(max(tint, 0)) (Melanin's tint term)
+        float melanin_absorption[3];  // (1 - redness) eumelanin + redness pheomelanin, per unit quantity
+    } node{};
 };
 ChiangBatchConstants chiang_batch_constants(const ChiangHairParams& params, RGB weight);
+// The same for principled_hair(model="chiang") inputs, with the node inputs the per-row path needs.
+ChiangBatchConstants chiang_batch_constants_principled(const PrincipledHairInputs& in, Accuracy accuracy,
+                                                       TiltConvention tilt, RGB weight);
+
+// Per-row Principled Hair node inputs (docs/simd.md): null = the closure's uniform value. Same float
+// type as the rows. The kernels map them per row as chiang_params_from_principled() does.
+struct ChiangBatchRowInputs {
+    const void* roughness = nullptr;         // (n,)
+    const void* radial_roughness = nullptr;  // (n,)
+    const void* coat = nullptr;              // (n,)
+    const void* random = nullptr;            // (n,) the node's Random socket
+    const void* melanin = nullptr;           // (n,) used by the Melanin parametrization
+    const void* absorption = nullptr;        // (n, 3) absorption_coefficient, Absorption parametrization
+    bool any() const { return roughness || radial_roughness || coat || random || melanin || absorption; }
+};
 
 // Rows of one batch call: AoS arrays, float32 or float64 (converted while loaded).
 // wo, wi, u: (n, 3); h: (n,). Directions need not be unit length.
@@ -44,6 +72,7 @@ struct ChiangBatchRows {
     const void* h = nullptr;
     const void* u = nullptr;   // sample
     bool f64 = false;          // inputs are double
+    ChiangBatchRowInputs inputs;  // per-row parameters (none: uniform, prepare hoisted)
 };
 // Outputs, float32 or float64 (out_f64). Unused ones may be null.
 struct ChiangBatchOutput {

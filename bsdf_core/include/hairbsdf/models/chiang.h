@@ -8,25 +8,34 @@
 namespace hairbsdf {
 
 // Chiang's roughness mapping, from the user's roughnesses to the model's numbers.
+// The mappings below are written once, over any number type T (double here, SIMD float batches in
+// the per-row batch kernels, docs/simd.md); the double functions are these templates.
 // Chiang 2016 eq. 7: longitudinal roughness -> variance of M_p.
-inline double longitudinal_variance(double beta_m) {
-    const double b2 = beta_m * beta_m, b4 = b2 * b2, b20 = b4 * b4 * b4 * b4 * b4;
-    return sqr(0.726 * beta_m + 0.812 * b2 + 3.7 * b20);
+template <class T>
+inline T longitudinal_variance_of(T beta_m) {
+    const T b2 = beta_m * beta_m, b4 = b2 * b2, b20 = b4 * b4 * b4 * b4 * b4;
+    const T r = T(0.726) * beta_m + T(0.812) * b2 + T(3.7) * b20;
+    return r * r;
 }
+inline double longitudinal_variance(double beta_m) { return longitudinal_variance_of(beta_m); }
 
 // Chiang 2016 eq. 8: azimuthal roughness -> logistic scale, without sqrt(pi/8).
-inline double azimuthal_scale_raw(double beta_n) {
-    const double b2 = beta_n * beta_n, b4 = b2 * b2, b8 = b4 * b4, b16 = b8 * b8;
-    return 0.265 * beta_n + 1.194 * b2 + 5.372 * b16 * b4 * b2;
+template <class T>
+inline T azimuthal_scale_raw_of(T beta_n) {
+    const T b2 = beta_n * beta_n, b4 = b2 * b2, b8 = b4 * b4, b16 = b8 * b8;
+    return T(0.265) * beta_n + T(1.194) * b2 + T(5.372) * b16 * b4 * b2;
 }
+inline double azimuthal_scale_raw(double beta_n) { return azimuthal_scale_raw_of(beta_n); }
 // ... and with sqrt(pi/8), the scale N_p uses (Cycles folds it in at setup).
 inline double azimuthal_scale(double beta_n) { return kSqrtPiOver8 * azimuthal_scale_raw(beta_n); }
 
 // Chiang 2016 eq. 9 denominator; Cycles' bsdf_principled_hair_albedo_roughness_scale.
-inline double albedo_roughness_scale(double beta_n) {
-    const double x = beta_n, x2 = x * x, x3 = x2 * x, x4 = x2 * x2, x5 = x4 * x;
-    return 5.969 - 0.215 * x + 2.532 * x2 - 10.73 * x3 + 5.574 * x4 + 0.245 * x5;
+template <class T>
+inline T albedo_roughness_scale_of(T beta_n) {
+    const T x = beta_n, x2 = x * x, x3 = x2 * x, x4 = x2 * x2, x5 = x4 * x;
+    return T(5.969) - T(0.215) * x + T(2.532) * x2 - T(10.73) * x3 + T(5.574) * x4 + T(0.245) * x5;
 }
+inline double albedo_roughness_scale(double beta_n) { return albedo_roughness_scale_of(beta_n); }
 
 // `cycles`: Cycles' truncated Bessel series and log branch (the default).
 // `exact`: accurate special functions, so that every M_p integrates to 1.
