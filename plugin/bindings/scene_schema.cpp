@@ -239,11 +239,11 @@ std::vector<SceneKey> make_schema() {
         Row("materials[].closures[].inputs.color", K::Vector, "Color").columns(3).linkable(In::Color)
             .socket("Color", "color", "CHIANG HUANG")
             .field(&PrincipledHairInputs::color),
-        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin").linkable(In::Melanin)
-            .socket("Melanin", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin")
+            .linkable(In::Melanin).socket("Melanin", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::melanin),
-        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness").linkable(In::MelaninRedness)
-            .socket("Melanin Redness", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness")
+            .linkable(In::MelaninRedness).socket("Melanin Redness", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::melanin_redness),
         Row("materials[].closures[].inputs.tint", K::Vector, "Tint").columns(3).linkable(In::Tint)
             .socket("Tint", "color", "CHIANG HUANG")
@@ -252,41 +252,42 @@ std::vector<SceneKey> make_schema() {
             .linkable(In::AbsorptionCoefficient)
             .socket("Absorption Coefficient", "vector", "CHIANG HUANG")
             .field(&PrincipledHairInputs::absorption_coefficient),
-        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness").linkable(In::Roughness)
-            .socket("Roughness", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness")
+            .linkable(In::Roughness).socket("Roughness", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::roughness),
-        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)").linkable(In::RadialRoughness)
-            .socket("Radial Roughness", "float", "CHIANG")
+        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)")
+            .linkable(In::RadialRoughness).socket("Radial Roughness", "float", "CHIANG")
             .field(&PrincipledHairInputs::radial_roughness),
-        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)").linkable(In::Coat)
-            .socket("Coat", "float", "CHIANG")
+        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)")
+            .linkable(In::Coat).socket("Coat", "float", "CHIANG")
             .field(&PrincipledHairInputs::coat),
-        Row("materials[].closures[].inputs.ior", K::Real, "IOR").linkable(In::Ior)
-            .socket("IOR", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.ior", K::Real, "IOR")
+            .linkable(In::Ior).socket("IOR", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::ior),
-        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians").linkable(In::Offset)
-            .socket("Offset", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians")
+            .linkable(In::Offset).socket("Offset", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::offset),
-        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color").linkable(In::RandomColor)
-            .socket("Random Color", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color")
+            .linkable(In::RandomColor).socket("Random Color", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::random_color),
-        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness").linkable(In::RandomRoughness)
-            .socket("Random Roughness", "float", "CHIANG HUANG")
+        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness")
+            .linkable(In::RandomRoughness).socket("Random Roughness", "float", "CHIANG HUANG")
             .field(&PrincipledHairInputs::random_roughness),
-        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random").fallback("curve_random").linkable(In::Random)
-            .socket("Random", "float", "")
+        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random")
+            .fallback("curve_random")
+            .linkable(In::Random).socket("Random", "float", "")
             .field(&PrincipledHairInputs::random),
-        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)").linkable(In::AspectRatio)
-            .socket("Aspect Ratio", "float", "HUANG")
+        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)")
+            .linkable(In::AspectRatio).socket("Aspect Ratio", "float", "HUANG")
             .field(&PrincipledHairInputs::aspect_ratio),
-        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)").linkable(In::Reflection)
-            .socket("Reflection", "float", "HUANG")
+        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)")
+            .linkable(In::Reflection).socket("Reflection", "float", "HUANG")
             .field(&PrincipledHairInputs::reflection),
-        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)").linkable(In::Transmission)
-            .socket("Transmission", "float", "HUANG")
+        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)")
+            .linkable(In::Transmission).socket("Transmission", "float", "HUANG")
             .field(&PrincipledHairInputs::transmission),
-        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)").linkable(In::SecondaryReflection)
-            .socket("Secondary Reflection", "float", "HUANG")
+        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)")
+            .linkable(In::SecondaryReflection).socket("Secondary Reflection", "float", "HUANG")
             .field(&PrincipledHairInputs::secondary_reflection),
         Row("materials[].closures[].component", K::Enum, "the legacy Hair BSDF's component")
             .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
