@@ -8,8 +8,10 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/render/scene.h"
 
 namespace py = pybind11;
 
@@ -18,6 +20,81 @@ namespace hairbsdf::bindings {
 namespace {
 
 using K = SceneKeyKind;
+namespace R = hairbsdf::render;
+using In = R::ClosureDesc::Input;
+
+std::string format_number(double x) {
+    if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+    std::ostringstream s;
+    s << x;
+    return s.str();
+}
+
+// ----- a bound field: its value from a checked Python value, its initial value as text -----
+
+// The index of `name` in a bound Enum's allowed names -> its C++ value (its index where the
+// row lists no values).
+long enum_value(const SceneKey& k, const std::string& name) {
+    for (size_t i = 0; i < k.allowed.size(); ++i)
+        if (name == k.allowed[i]) return k.allowed_values.empty() ? long(i) : k.allowed_values[i];
+    throw std::logic_error("scene schema: " + std::string(k.path) + " has no value " + name);
+}
+
+std::string enum_name(const SceneKey& k, long value) {
+    for (size_t i = 0; i < k.allowed.size(); ++i)
+        if ((k.allowed_values.empty() ? long(i) : k.allowed_values[i]) == value) return k.allowed[i];
+    throw std::logic_error("scene schema: " + std::string(k.path) + " names no value " + std::to_string(value));
+}
+
+void assign(const SceneKey&, double& dst, py::handle v) { dst = v.cast<double>(); }
+void assign(const SceneKey&, int& dst, py::handle v) {
+    const long long x = v.cast<long long>();
+    dst = int(std::clamp<long long>(x, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+}
+void assign(const SceneKey&, uint32_t& dst, py::handle v) { dst = v.cast<uint32_t>(); }  // the walker took it mod 2^32
+void assign(const SceneKey& k, bool& dst, py::handle v) {
+    dst = k.kind == K::Enum ? enum_value(k, py::str(v)) != 0 : v.cast<bool>();
+}
+void assign(const SceneKey&, std::string& dst, py::handle v) { dst = v.cast<std::string>(); }
+void assign(const SceneKey&, RGB& dst, py::handle v) {
+    const py::tuple t = py::reinterpret_borrow<py::tuple>(v);  // Vector: the walker's tuple of 3 floats
+    dst = RGB{t[0].cast<double>(), t[1].cast<double>(), t[2].cast<double>()};
+}
+template <size_t N>
+void assign(const SceneKey& k, std::array<double, N>& dst, py::handle v) {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(v);
+    if (!a || size_t(a.size()) != N)
+        throw std::logic_error("scene schema: " + std::string(k.path) + " does not hold " + std::to_string(N) + " numbers");
+    std::copy(a.data(), a.data() + N, dst.begin());
+}
+template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+void assign(const SceneKey& k, E& dst, py::handle v) {
+    dst = E(enum_value(k, py::str(v)));
+}
+
+std::string text_of(const SceneKey&, double x) { return std::fabs(x - kPi) < 1e-12 ? "pi" : format_number(x); }
+std::string text_of(const SceneKey&, int x) { return std::to_string(x); }
+std::string text_of(const SceneKey&, uint32_t x) { return std::to_string(x); }
+std::string text_of(const SceneKey& k, bool b) {
+    return k.kind == K::Enum ? enum_name(k, long(b)) : (b ? "True" : "False");
+}
+std::string text_of(const SceneKey&, const std::string& s) { return "'" + s + "'"; }
+std::string text_of(const SceneKey&, const RGB& c) {
+    return "(" + format_number(c.r) + ", " + format_number(c.g) + ", " + format_number(c.b) + ")";
+}
+template <size_t N>
+std::string text_of(const SceneKey&, const std::array<double, N>& m) {
+    bool identity = N % 4 == 0;
+    for (size_t i = 0; i < N; ++i) identity = identity && m[i] == (i % 4 == i / 4 ? 1.0 : 0.0);
+    if (identity) return "identity";
+    std::string s = "(";
+    for (size_t i = 0; i < N; ++i) s += (i ? ", " : "") + format_number(m[i]);
+    return s + ")";
+}
+template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+std::string text_of(const SceneKey& k, E value) {
+    return enum_name(k, long(value));
+}
 
 // Fluent rows for the table below.
 struct Row {
@@ -28,22 +105,54 @@ struct Row {
         k.meaning = meaning;
     }
     Row& required() { return k.required = true, *this; }
+    // A default that is not a bound field's value: a rule ("size_x") or a key read by hand.
     Row& fallback(const char* value) { return k.default_value = value, *this; }
     Row& values(std::vector<const char*> v) { return k.allowed = std::move(v), *this; }
+    // A bound Enum's names with the C++ value each one reads as.
+    template <class E>
+    Row& choices(std::initializer_list<std::pair<const char*, E>> named) {
+        for (const auto& [name, value] : named) {
+            k.allowed.push_back(name);
+            k.allowed_values.push_back(long(value));
+        }
+        return *this;
+    }
     Row& range(double lo, double hi) { return k.minimum = lo, k.maximum = hi, k.bounded = true, *this; }
     Row& array(const char* dtype, int columns) { return k.dtype = dtype, k.columns = columns, *this; }
     Row& columns(int n) { return k.columns = n, *this; }
     Row& only(const char* types) { return k.only_for = types, *this; }
-    Row& linkable() { return k.register_link = true, *this; }
+    Row& linkable(In input) { return k.register_link = true, k.link_input = int(input), *this; }
     Row& closed() { return k.closed = true, *this; }
     Row& socket(const char* name, const char* kind, const char* models) {
         return k.socket = name, k.socket_kind = kind, k.hair_models = models, *this;
+    }
+    // Binds the row to S's field that get(S&) returns: read_fields copies the key into it, and
+    // the key's default is the field's initial value in S{}.
+    template <class S, class Get>
+    Row& bind(Get get) {
+        k.field.owner = typeid(S);
+        k.field.assign = [get](const SceneKey& row, void* owner, py::handle v) {
+            assign(row, get(*static_cast<S*>(owner)), v);
+        };
+        k.field.default_text = [get](const SceneKey& row) {
+            S initial{};
+            return text_of(row, get(initial));
+        };
+        return *this;
+    }
+    template <class S, class T>
+    Row& field(T S::*member) {
+        return bind<S>([member](S& s) -> T& { return s.*member; });
     }
     operator SceneKey() const { return k; }  // NOLINT(google-explicit-constructor)
 };
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 constexpr const char* kHairTypes = "principled_hair";
+using Closure = R::ClosureDesc;
+using Camera = R::CameraDesc;
+using Light = R::LightDesc;
+using Settings = R::IntegratorSettings;
 
 std::vector<SceneKey> make_schema() {
     return {
@@ -60,18 +169,24 @@ std::vector<SceneKey> make_schema() {
         Row("curves.point_intercept", K::Array, "Hair Info > Intercept per key (P)").array("float32", 0),
         Row("curves.attributes", K::List, "the named curve attributes programs read"),
         Row("curves.attributes[]", K::Dict, "one attribute"),
-        Row("curves.attributes[].name", K::String, "the attribute's name").required(),
-        Row("curves.attributes[].domain", K::Enum, "one row per point or per curve").values({"POINT", "CURVE"})
-            .required(),
+        Row("curves.attributes[].name", K::String, "the attribute's name").required()
+            .field(&R::CurveData::Attribute::name),
+        Row("curves.attributes[].domain", K::Enum, "one row per point or per curve")
+            .choices<bool>({{"POINT", true}, {"CURVE", false}}).required().field(&R::CurveData::Attribute::point_domain),
         Row("curves.attributes[].data", K::Array, "RGBA rows (P or C)").array("float32", 4).required(),
         Row("curves.curve_object", K::Array, "-1: world space; k: the points are in object k's space (C)")
             .array("int32", 0),
         Row("curves.object_transforms", K::Array, "world from object k, row-major 3 x 4 (K); required with curve_object")
             .array("float64", 12),
         Row("curves.normals", K::Array, "curve normals per point: Huang's major axis (P)").array("float32", 3),
-        Row("curve_shape", K::Enum, "scene.cycles_curves.shape").values({"RIBBONS", "THICK", "THICK_LINEAR"}).fallback("THICK"),
-        Row("curve_subdivisions", K::Int, "scene.cycles_curves.subdivisions").range(0, kUnbounded).fallback("2"),
-        Row("curve_backface_culling", K::Bool, "cull back faces of THICK curves (Cycles 3.x)").fallback("False"),
+        Row("curve_shape", K::Enum, "scene.cycles_curves.shape")
+            .choices<R::CurveShape>({{"RIBBONS", R::CurveShape::Ribbons}, {"THICK", R::CurveShape::Thick},
+                                     {"THICK_LINEAR", R::CurveShape::ThickLinear}})
+            .field(&R::SceneDesc::curve_shape),
+        Row("curve_subdivisions", K::Int, "scene.cycles_curves.subdivisions").range(0, kUnbounded)
+            .field(&R::SceneDesc::curve_subdivisions),
+        Row("curve_backface_culling", K::Bool, "cull back faces of THICK curves (Cycles 3.x)")
+            .field(&R::SceneDesc::cull_curve_back_faces),
 
         Row("meshes", K::Dict, "all triangle meshes, concatenated"),
         Row("meshes.vertices", K::Array, "vertex positions (V)").array("float32", 3).required(),
@@ -85,77 +200,112 @@ std::vector<SceneKey> make_schema() {
         Row("meshes.attributes", K::List, "the attributes programs read, at the corners; curves' names and order"),
         Row("meshes.attributes[]", K::Dict, "one attribute"),
         Row("meshes.attributes[].name", K::String, "the attribute's name (the curves' attribute at the same index)")
-            .required(),
+            .required().field(&R::MeshData::CornerAttribute::name),
         Row("meshes.attributes[].data", K::Array, "RGBA of corners 0, 1, 2 (T)").array("float32", 12).required(),
 
         Row("materials", K::List, "one per Blender material slot used"),
         Row("materials[]", K::Dict, "one material"),
-        Row("materials[].name", K::String, "the material's name (\"__default__\": no material)").fallback("''"),
+        Row("materials[].name", K::String, "the material's name (\"__default__\": no material)")
+            .field(&R::MaterialDesc::name),
         Row("materials[].program", K::Dict, "the node networks on closure inputs (docs/shading_vm.md)"),
         Row("materials[].program.code", K::Array, "instructions: opcode, then its arguments").array("int32", 0)
             .required(),
         Row("materials[].program.constants", K::Array, "registers 0..K-1 (read-only)").array("float32", 0).required(),
-        Row("materials[].program.registers", K::Int, "R >= K float slots").range(0, 1 << 20).required(),
+        Row("materials[].program.registers", K::Int, "R >= K float slots").range(0, 1 << 20).required()
+            .field(&R::ShadingProgram::register_count),
         Row("materials[].emission_sampling", K::Enum, "which sides of its emissive triangles NEE samples")
-            .values({"AUTO", "NONE", "FRONT", "BACK", "FRONT_BACK"}).fallback("AUTO"),
+            .choices<R::EmissionSampling>({{"AUTO", R::EmissionSampling::Auto}, {"NONE", R::EmissionSampling::None},
+                                           {"FRONT", R::EmissionSampling::Front}, {"BACK", R::EmissionSampling::Back},
+                                           {"FRONT_BACK", R::EmissionSampling::FrontBack}})
+            .field(&R::MaterialDesc::emission_sampling),
         Row("materials[].closures", K::List, "a flat weighted sum of closures").required(),
         Row("materials[].closures[]", K::Dict, "one closure; its keys depend on its type"),
         Row("materials[].closures[].type", K::Enum, "the closure")
-            .values({"principled_hair", "diffuse", "emission", "cycles_hair", "hair_model"}).required(),
-        Row("materials[].closures[].weight", K::Vector, "RGB weight").columns(3).fallback("(1, 1, 1)"),
-        Row("materials[].closures[].model", K::Enum, "Principled Hair's model").values({"CHIANG", "HUANG"})
-            .fallback("CHIANG").only(kHairTypes),
+            .choices<Closure::Type>({{"principled_hair", Closure::Type::PrincipledHair},
+                                     {"diffuse", Closure::Type::Diffuse},
+                                     {"emission", Closure::Type::Emission},
+                                     {"cycles_hair", Closure::Type::CyclesHair},
+                                     {"hair_model", Closure::Type::Model}})
+            .required().field(&Closure::type),
+        Row("materials[].closures[].weight", K::Vector, "RGB weight").columns(3).field(&Closure::weight),
+        Row("materials[].closures[].model", K::Enum, "Principled Hair's model")
+            .choices<Closure::HairModel>({{"CHIANG", Closure::HairModel::Chiang}, {"HUANG", Closure::HairModel::Huang}})
+            .only(kHairTypes).field(&Closure::hair_model),
         Row("materials[].closures[].parametrization", K::Enum, "Principled Hair's parametrization")
-            .values({"COLOR", "MELANIN", "ABSORPTION"}).fallback("COLOR").only(kHairTypes),
+            .choices<Parametrization>({{"COLOR", Parametrization::Color}, {"MELANIN", Parametrization::Melanin},
+                                       {"ABSORPTION", Parametrization::Absorption}})
+            .only(kHairTypes)
+            .bind<Closure>([](Closure& c) -> Parametrization& { return c.hair.parametrization; }),
         Row("materials[].closures[].inputs", K::Dict, "Principled Hair's socket values; missing: Blender 4.5's defaults")
             .fallback("{}").only(kHairTypes).closed(),
-        Row("materials[].closures[].inputs.color", K::Vector, "Color").columns(3).linkable()
-            .socket("Color", "color", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin").linkable()
-            .socket("Melanin", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness").linkable()
-            .socket("Melanin Redness", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.tint", K::Vector, "Tint").columns(3).linkable()
-            .socket("Tint", "color", "CHIANG HUANG"),
+        Row("materials[].closures[].inputs.color", K::Vector, "Color").columns(3).linkable(In::Color)
+            .socket("Color", "color", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::color),
+        Row("materials[].closures[].inputs.melanin", K::Real, "Melanin")
+            .linkable(In::Melanin).socket("Melanin", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::melanin),
+        Row("materials[].closures[].inputs.melanin_redness", K::Real, "Melanin Redness")
+            .linkable(In::MelaninRedness).socket("Melanin Redness", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::melanin_redness),
+        Row("materials[].closures[].inputs.tint", K::Vector, "Tint").columns(3).linkable(In::Tint)
+            .socket("Tint", "color", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::tint),
         Row("materials[].closures[].inputs.absorption_coefficient", K::Vector, "Absorption Coefficient").columns(3)
-            .linkable()
-            .socket("Absorption Coefficient", "vector", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness").linkable()
-            .socket("Roughness", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)").linkable()
-            .socket("Radial Roughness", "float", "CHIANG"),
-        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)").linkable()
-            .socket("Coat", "float", "CHIANG"),
-        Row("materials[].closures[].inputs.ior", K::Real, "IOR").linkable()
-            .socket("IOR", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians").linkable()
-            .socket("Offset", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color").linkable()
-            .socket("Random Color", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness").linkable()
-            .socket("Random Roughness", "float", "CHIANG HUANG"),
-        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random").linkable()
-            .socket("Random", "float", ""),
-        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)").linkable()
-            .socket("Aspect Ratio", "float", "HUANG"),
-        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)").linkable()
-            .socket("Reflection", "float", "HUANG"),
-        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)").linkable()
-            .socket("Transmission", "float", "HUANG"),
-        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)").linkable()
-            .socket("Secondary Reflection", "float", "HUANG"),
+            .linkable(In::AbsorptionCoefficient)
+            .socket("Absorption Coefficient", "vector", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::absorption_coefficient),
+        Row("materials[].closures[].inputs.roughness", K::Real, "Roughness")
+            .linkable(In::Roughness).socket("Roughness", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::roughness),
+        Row("materials[].closures[].inputs.radial_roughness", K::Real, "Radial Roughness (Chiang)")
+            .linkable(In::RadialRoughness).socket("Radial Roughness", "float", "CHIANG")
+            .field(&PrincipledHairInputs::radial_roughness),
+        Row("materials[].closures[].inputs.coat", K::Real, "Coat (Chiang)")
+            .linkable(In::Coat).socket("Coat", "float", "CHIANG")
+            .field(&PrincipledHairInputs::coat),
+        Row("materials[].closures[].inputs.ior", K::Real, "IOR")
+            .linkable(In::Ior).socket("IOR", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::ior),
+        Row("materials[].closures[].inputs.offset", K::Real, "Offset, radians")
+            .linkable(In::Offset).socket("Offset", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::offset),
+        Row("materials[].closures[].inputs.random_color", K::Real, "Random Color")
+            .linkable(In::RandomColor).socket("Random Color", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::random_color),
+        Row("materials[].closures[].inputs.random_roughness", K::Real, "Random Roughness")
+            .linkable(In::RandomRoughness).socket("Random Roughness", "float", "CHIANG HUANG")
+            .field(&PrincipledHairInputs::random_roughness),
+        Row("materials[].closures[].inputs.random", K::Real, "Random; None: the curve's curve_random")
+            .fallback("curve_random")
+            .linkable(In::Random).socket("Random", "float", "")
+            .field(&PrincipledHairInputs::random),
+        Row("materials[].closures[].inputs.aspect_ratio", K::Real, "Aspect Ratio (Huang)")
+            .linkable(In::AspectRatio).socket("Aspect Ratio", "float", "HUANG")
+            .field(&PrincipledHairInputs::aspect_ratio),
+        Row("materials[].closures[].inputs.reflection", K::Real, "Reflection (Huang)")
+            .linkable(In::Reflection).socket("Reflection", "float", "HUANG")
+            .field(&PrincipledHairInputs::reflection),
+        Row("materials[].closures[].inputs.transmission", K::Real, "Transmission (Huang)")
+            .linkable(In::Transmission).socket("Transmission", "float", "HUANG")
+            .field(&PrincipledHairInputs::transmission),
+        Row("materials[].closures[].inputs.secondary_reflection", K::Real, "Secondary Reflection (Huang)")
+            .linkable(In::SecondaryReflection).socket("Secondary Reflection", "float", "HUANG")
+            .field(&PrincipledHairInputs::secondary_reflection),
         Row("materials[].closures[].component", K::Enum, "the legacy Hair BSDF's component")
-            .values({"REFLECTION", "TRANSMISSION"}).fallback("REFLECTION").only("cycles_hair"),
-        Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3).fallback("(0.8, 0.8, 0.8)")
-            .only("cycles_hair"),
-        Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians").fallback("0")
-            .only("cycles_hair"),
-        Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").fallback("0.1").only("cycles_hair"),
-        Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").fallback("1").only("cycles_hair"),
+            .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
+            .only("cycles_hair").field(&Closure::transmission),
+        Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3)
+            .only("cycles_hair").field(&Closure::color),
+        Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians")
+            .only("cycles_hair").field(&Closure::offset),
+        Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
+            .field(&Closure::roughness_u),
+        Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
+            .field(&Closure::roughness_v),
         Row("materials[].closures[].color", K::Vector, "the diffuse / emission colour").columns(3)
-            .fallback("(0.8, 0.8, 0.8)").only("diffuse emission").linkable(),
-        Row("materials[].closures[].strength", K::Real, "the emission strength").fallback("1").only("emission")
-            .linkable(),
+            .only("diffuse emission").linkable(In::Color).field(&Closure::color),
+        Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
+            .linkable(In::Strength).field(&Closure::strength),
         Row("materials[].closures[].model", K::ModelName, "a zoo model's name or plugin (the model factory)")
             .required().only("hair_model"),
         Row("materials[].closures[].path", K::String, "the plugin library (docs/plugins.md); required for plugin")
@@ -164,94 +314,124 @@ std::vector<SceneKey> make_schema() {
             .fallback("{}").only("hair_model"),
 
         Row("camera", K::Dict, "the render camera").required(),
-        Row("camera.type", K::Enum, "perspective or orthographic").values({"PERSP", "ORTHO"}).required(),
+        Row("camera.type", K::Enum, "perspective or orthographic")
+            .choices<R::CameraType>({{"PERSP", R::CameraType::Perspective}, {"ORTHO", R::CameraType::Orthographic}})
+            .required().field(&Camera::type),
         Row("camera.matrix_world", K::Matrix, "world from camera (looks down -Z, +Y up), scale removed").columns(4)
-            .required(),
+            .required().field(&Camera::matrix_world),
         Row("camera.resolution", K::IntPair, "(width, height) in pixels").range(1, 65536).required(),
-        Row("camera.pixel_aspect", K::Real, "pixel_aspect_y / pixel_aspect_x").fallback("1"),
-        Row("camera.sensor_fit", K::Enum, "the sensor fit").values({"AUTO", "HORIZONTAL", "VERTICAL"}).fallback("AUTO"),
-        Row("camera.sensor_width", K::Real, "mm").fallback("36"),
-        Row("camera.sensor_height", K::Real, "mm").fallback("24"),
-        Row("camera.lens", K::Real, "focal length, mm (PERSP)").fallback("50"),
-        Row("camera.ortho_scale", K::Real, "ORTHO").fallback("1"),
-        Row("camera.shift_x", K::Real, "fractions of the larger image side").fallback("0"),
-        Row("camera.shift_y", K::Real, "fractions of the larger image side").fallback("0"),
-        Row("camera.clip_start", K::Real, "near clip").fallback("0.1"),
-        Row("camera.clip_end", K::Real, "far clip").fallback("100"),
+        Row("camera.pixel_aspect", K::Real, "pixel_aspect_y / pixel_aspect_x").field(&Camera::pixel_aspect),
+        Row("camera.sensor_fit", K::Enum, "the sensor fit")
+            .choices<R::SensorFit>({{"AUTO", R::SensorFit::Auto}, {"HORIZONTAL", R::SensorFit::Horizontal},
+                                    {"VERTICAL", R::SensorFit::Vertical}})
+            .field(&Camera::sensor_fit),
+        Row("camera.sensor_width", K::Real, "mm").field(&Camera::sensor_width),
+        Row("camera.sensor_height", K::Real, "mm").field(&Camera::sensor_height),
+        Row("camera.lens", K::Real, "focal length, mm (PERSP)").field(&Camera::lens),
+        Row("camera.ortho_scale", K::Real, "ORTHO").field(&Camera::ortho_scale),
+        Row("camera.shift_x", K::Real, "fractions of the larger image side").field(&Camera::shift_x),
+        Row("camera.shift_y", K::Real, "fractions of the larger image side").field(&Camera::shift_y),
+        Row("camera.clip_start", K::Real, "near clip").field(&Camera::clip_start),
+        Row("camera.clip_end", K::Real, "far clip").field(&Camera::clip_end),
 
         Row("lights", K::List, "Blender's raw light values"),
         Row("lights[]", K::Dict, "one light; its keys depend on its type"),
-        Row("lights[].type", K::Enum, "the light").values({"SUN", "POINT", "SPOT", "AREA"}).required(),
-        Row("lights[].strength", K::Vector, "colour x energy (W; SUN: irradiance)").columns(3).required(),
-        Row("lights[].normalize", K::Bool, "Light.normalize (4.x)").fallback("True"),
-        Row("lights[].use_mis", K::Bool, "multiple importance sampling").fallback("True"),
-        Row("lights[].visible_camera", K::Bool, "Object > Visibility > Camera").fallback("True"),
+        Row("lights[].type", K::Enum, "the light")
+            .choices<R::LightType>({{"SUN", R::LightType::Sun}, {"POINT", R::LightType::Point},
+                                    {"SPOT", R::LightType::Spot}, {"AREA", R::LightType::Area}})
+            .required().field(&Light::type),
+        Row("lights[].strength", K::Vector, "colour x energy (W; SUN: irradiance)").columns(3).required()
+            .field(&Light::strength),
+        Row("lights[].normalize", K::Bool, "Light.normalize (4.x)").field(&Light::normalize),
+        Row("lights[].use_mis", K::Bool, "multiple importance sampling").field(&Light::use_mis),
+        Row("lights[].visible_camera", K::Bool, "Object > Visibility > Camera").field(&Light::visible_camera),
         Row("lights[].direction", K::Vector, "SUN: towards the light; SPOT: the spot axis").columns(3).required()
-            .only("SUN SPOT"),
-        Row("lights[].angle", K::Real, "the sun's angular diameter, radians").fallback("0").only("SUN"),
-        Row("lights[].position", K::Vector, "the light's position").columns(3).required().only("POINT SPOT"),
-        Row("lights[].radius", K::Real, "the light's radius").fallback("0").only("POINT SPOT"),
-        Row("lights[].soft_falloff", K::Bool, "Light.use_soft_falloff (4.x)").fallback("True").only("POINT SPOT"),
-        Row("lights[].spot_size", K::Real, "the cone's angle, radians").required().only("SPOT"),
-        Row("lights[].spot_blend", K::Real, "the cone's smoothstep blend").required().only("SPOT"),
+            .only("SUN SPOT").field(&Light::direction),
+        Row("lights[].angle", K::Real, "the sun's angular diameter, radians").only("SUN").field(&Light::angle),
+        Row("lights[].position", K::Vector, "the light's position").columns(3).required().only("POINT SPOT")
+            .field(&Light::position),
+        Row("lights[].radius", K::Real, "the light's radius").only("POINT SPOT").field(&Light::radius),
+        Row("lights[].soft_falloff", K::Bool, "Light.use_soft_falloff (4.x)").only("POINT SPOT")
+            .field(&Light::soft_falloff),
+        Row("lights[].spot_size", K::Real, "the cone's angle, radians").required().only("SPOT")
+            .field(&Light::spot_size),
+        Row("lights[].spot_blend", K::Real, "the cone's smoothstep blend").required().only("SPOT")
+            .field(&Light::spot_blend),
         Row("lights[].matrix_world", K::Matrix, "the spot's matrix (scale shapes the cone)").columns(4).only("SPOT"),
-        Row("lights[].spot_cosine", K::Bool, "Cycles 3.x cone attenuation").fallback("False").only("SPOT"),
+        Row("lights[].spot_cosine", K::Bool, "Cycles 3.x cone attenuation").only("SPOT").field(&Light::spot_cosine),
         Row("lights[].matrix_world", K::Matrix, "world from light (emits along local -Z)").columns(4).required()
             .only("AREA"),
-        Row("lights[].shape", K::Enum, "the area's shape").values({"SQUARE", "RECTANGLE", "DISK", "ELLIPSE"}).required()
-            .only("AREA"),
-        Row("lights[].size_x", K::Real, "the area's size along local x").required().only("AREA"),
+        Row("lights[].shape", K::Enum, "the area's shape")
+            .choices<R::AreaShape>({{"SQUARE", R::AreaShape::Square}, {"RECTANGLE", R::AreaShape::Rectangle},
+                                    {"DISK", R::AreaShape::Disk}, {"ELLIPSE", R::AreaShape::Ellipse}})
+            .required().only("AREA").field(&Light::shape),
+        Row("lights[].size_x", K::Real, "the area's size along local x").required().only("AREA").field(&Light::size_x),
         Row("lights[].size_y", K::Real, "the area's size along local y").fallback("size_x").only("AREA"),
-        Row("lights[].spread", K::Real, "the area's spread, radians").fallback("pi").only("AREA"),
+        Row("lights[].spread", K::Real, "the area's spread, radians").only("AREA").field(&Light::spread),
 
         Row("world", K::Dict, "the background; absent: black"),
         Row("world.color", K::Vector, "uniform background radiance (colour x strength)").columns(3)
-            .fallback("(0, 0, 0)"),
-        Row("world.mis", K::Bool, "World > Settings > Sampling").fallback("True"),
+            .field(&R::SceneDesc::world),
+        Row("world.mis", K::Bool, "World > Settings > Sampling").field(&R::SceneDesc::world_mis),
         Row("world.map_resolution", K::Int, "the light tree's importance map, res x res/2; 0: automatic")
-            .range(0, 65536).fallback("0"),
+            .range(0, 65536).field(&R::SceneDesc::world_map_resolution),
         Row("world.texture", K::Dict, "one equirectangular Environment Texture, added to the colour"),
         Row("world.texture.pixels", K::Image, "scene-linear RGB, row 0 the zenith").array("float32", 3).required(),
-        Row("world.texture.weight", K::Vector, "Background strength x Mix / Add weights").columns(3).required(),
-        Row("world.texture.interpolation", K::Enum, "the lookup").values({"LINEAR", "CLOSEST"}).fallback("LINEAR"),
+        Row("world.texture.weight", K::Vector, "Background strength x Mix / Add weights").columns(3).required()
+            .field(&R::EnvironmentDesc::weight),
+        Row("world.texture.interpolation", K::Enum, "the lookup").choices<bool>({{"LINEAR", false}, {"CLOSEST", true}})
+            .field(&R::EnvironmentDesc::closest),
         Row("world.texture.srgb_encoded", K::Bool, "pixels are sRGB-encoded, decoded after the lookup")
-            .fallback("False"),
+            .field(&R::EnvironmentDesc::srgb_encoded),
         Row("world.texture.matrix", K::Matrix, "lookup vector = M (direction, 1): a Mapping node").columns(3)
-            .fallback("identity"),
+            .field(&R::EnvironmentDesc::matrix),
 
         Row("images", K::List, "the images the programs' Image Texture nodes sample"),
         Row("images[]", K::Dict, "one image; index = the ImageTexture op's image index"),
-        Row("images[].name", K::String, "the image's name").fallback("''"),
+        Row("images[].name", K::String, "the image's name").field(&R::ImageDesc::name),
         Row("images[].pixels", K::Image, "RGBA, row 0 the image's top row").array("float32", 4).required(),
 
         Row("integrator", K::Dict, "the render settings").required(),
-        Row("integrator.samples", K::Int, "samples per pixel").range(0, kUnbounded).required(),
-        Row("integrator.seed", K::Int, "the seed (taken modulo 2^32)").fallback("0"),
-        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kUnbounded).fallback("12"),
-        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kUnbounded).fallback("4"),
-        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kUnbounded).fallback("4"),
-        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kUnbounded).fallback("12"),
-        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kUnbounded).fallback("8"),
+        Row("integrator.samples", K::Int, "samples per pixel").range(0, kUnbounded).required()
+            .field(&Settings::samples),
+        Row("integrator.seed", K::Int, "the seed (taken modulo 2^32)").field(&Settings::seed),
+        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kUnbounded).field(&Settings::max_bounces),
+        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+            .field(&Settings::diffuse_bounces),
+        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+            .field(&Settings::glossy_bounces),
+        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+            .field(&Settings::transmission_bounces),
+        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+            .field(&Settings::transparent_bounces),
         Row("integrator.min_light_bounces", K::Int, "bounces before Russian roulette").range(0, kUnbounded)
-            .fallback("0"),
-        Row("integrator.filter_type", K::Enum, "the pixel filter").values({"BLACKMAN_HARRIS", "GAUSSIAN", "BOX"})
-            .fallback("BLACKMAN_HARRIS"),
-        Row("integrator.filter_width", K::Real, "pixels").fallback("1.5"),
-        Row("integrator.exposure", K::Real, "film exposure multiplier").fallback("1"),
-        Row("integrator.film_transparent", K::Bool, "transparent film").fallback("False"),
-        Row("integrator.light_sampling_threshold", K::Real, "ignored (Cycles' roulette is unbiased)").fallback("0"),
-        Row("integrator.light_tree", K::Bool, "Cycles' light tree for NEE (4.x)").fallback("False"),
-        Row("integrator.chiang_lcg", K::Bool, "Cycles < 3.6: Chiang's per-hit LCG").fallback("False"),
-        Row("integrator.tilt", K::Enum, "Principled Hair tilt convention").values({"4.2", "3.4"}).fallback("4.2"),
-        Row("integrator.filter_glossy", K::Real, "scene.cycles.blur_glossy").fallback("0"),
-        Row("integrator.clamp_direct", K::Real, "sample clamp, 0: off").fallback("0"),
-        Row("integrator.clamp_indirect", K::Real, "sample clamp, 0: off").fallback("0"),
+            .field(&Settings::min_light_bounces),
+        Row("integrator.filter_type", K::Enum, "the pixel filter")
+            .choices<Settings::Filter>({{"BLACKMAN_HARRIS", Settings::Filter::BlackmanHarris},
+                                        {"GAUSSIAN", Settings::Filter::Gaussian}, {"BOX", Settings::Filter::Box}})
+            .field(&Settings::filter),
+        Row("integrator.filter_width", K::Real, "pixels").field(&Settings::filter_width),
+        Row("integrator.exposure", K::Real, "film exposure multiplier").field(&Settings::exposure),
+        Row("integrator.film_transparent", K::Bool, "transparent film").field(&Settings::film_transparent),
+        Row("integrator.light_sampling_threshold", K::Real, "ignored (Cycles' roulette is unbiased)")
+            .field(&Settings::light_sampling_threshold),
+        Row("integrator.light_tree", K::Bool, "Cycles' light tree for NEE (4.x)").field(&Settings::light_tree),
+        Row("integrator.chiang_lcg", K::Bool, "Cycles < 3.6: Chiang's per-hit LCG").field(&Settings::chiang_lcg),
+        Row("integrator.tilt", K::Enum, "Principled Hair tilt convention")
+            .choices<TiltConvention>({{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}})
+            .field(&Settings::tilt),
+        Row("integrator.filter_glossy", K::Real, "scene.cycles.blur_glossy").field(&Settings::filter_glossy),
+        Row("integrator.clamp_direct", K::Real, "sample clamp, 0: off").field(&Settings::clamp_direct),
+        Row("integrator.clamp_indirect", K::Real, "sample clamp, 0: off").field(&Settings::clamp_indirect),
         Row("integrator.accuracy", K::Enum, "Cycles' truncated Bessel series or exact functions")
-            .values({"cycles", "exact"}).fallback("cycles"),
-        Row("integrator.huang_sampler", K::Enum, "Huang's BSDF sampler (docs/huang.md)").values({"cycles", "mixture"})
-            .fallback("cycles"),
+            .choices<Accuracy>({{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}})
+            .field(&Settings::accuracy),
+        Row("integrator.huang_sampler", K::Enum, "Huang's BSDF sampler (docs/huang.md)")
+            .choices<HuangSampler>({{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}})
+            .field(&Settings::huang_sampler),
         Row("integrator.huang_glass_albedo_table", K::Enum, "Huang's energy-compensation tables")
-            .values({"4.x", "5.x"}).fallback("4.x"),
+            .choices<GlassAlbedoTable>({{"4.x", GlassAlbedoTable::Cycles4}, {"5.x", GlassAlbedoTable::Cycles5}})
+            .field(&Settings::huang_glass_albedo_table),
         Row("integrator.passes", K::EnumList, "extra images in the result (docs/engine.md)")
             .values({"hair_lobes", "depth", "normal", "variance"}).fallback("[]"),
 
@@ -297,11 +477,12 @@ bool contains(const char* space_separated, const std::string& word) {
     return false;
 }
 
-std::string format_number(double x) {
-    if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-    std::ostringstream s;
-    s << x;
-    return s.str();
+// Row k is a key of the dict at `path` whose "type" is `type` ("" where it has none yet).
+bool is_key_of(const SceneKey& k, const std::string& path, const std::string& type) {
+    const std::string p = k.path;
+    if (parent(p) != path || p.back() == ']') return false;
+    if (path.empty() && p.find('[') != std::string::npos) return false;
+    return !*k.only_for || contains(k.only_for, type);
 }
 
 class Walker {
@@ -312,6 +493,11 @@ public:
         root_ = py::dict();
         walk_dict("", v, "scene", root_);
         return root_;
+    }
+
+    py::object value(const std::string& path, py::handle v, const std::string& key) {
+        root_ = py::dict();
+        return convert(row(path), v, key);
     }
 
 private:
@@ -350,11 +536,8 @@ private:
         std::string type;
         std::vector<std::string> names;
         for (const SceneKey& k : rows_) {
-            const std::string p = k.path;
-            if (parent(p) != path || p.back() == ']') continue;
-            if (path.empty() && p.find('[') != std::string::npos) continue;
-            const std::string name = leaf(p);
-            if (*k.only_for && !contains(k.only_for, type)) continue;
+            if (!is_key_of(k, path, type)) continue;
+            const std::string name = leaf(k.path);
             names.push_back(name);
             if (k.kind == K::Informational) continue;
             const std::string child_key = key + "['" + name + "']";
@@ -716,8 +899,43 @@ const char* kind_name(K kind) {
 }  // namespace
 
 const std::vector<SceneKey>& scene_schema() {
-    static const std::vector<SceneKey> rows = make_schema();
+    static const std::vector<SceneKey> rows = [] {
+        std::vector<SceneKey> table = make_schema();
+        for (SceneKey& k : table)
+            if (k.field && !k.required && k.default_value.empty()) k.default_value = k.field.default_text(k);
+        return table;
+    }();
     return rows;
+}
+
+std::vector<const SceneKey*> rows_under(const std::string& path, const std::string& type) {
+    std::vector<const SceneKey*> out;
+    for (const SceneKey& k : scene_schema())
+        if (is_key_of(k, path, type)) out.push_back(&k);
+    return out;
+}
+
+void read_fields(const std::string& path, const py::dict& checked, std::type_index owner, void* target,
+                 const std::function<void(int input, int reg)>& link) {
+    const std::string type = checked.contains("type") ? std::string(py::str(checked["type"])) : std::string();
+    for (const SceneKey* k : rows_under(path, type)) {
+        if (!k->field) continue;
+        if (k->field.owner != owner)
+            throw std::logic_error("scene schema: " + std::string(k->path) + " is bound to a field of another struct");
+        const std::string name = leaf(k->path);
+        if (!checked.contains(name.c_str())) continue;  // check_scene dropped None
+        const py::object v = checked[name.c_str()];
+        if (k->register_link && py::isinstance<py::dict>(v)) {
+            if (!link) throw std::logic_error("scene schema: " + std::string(k->path) + " read without its links");
+            link(k->link_input, int32_t(v[py::str("register")].cast<long long>()));
+        } else {
+            k->field.assign(*k, target, v);
+        }
+    }
+}
+
+py::object check_value(const std::string& path, py::handle value, const std::string& key) {
+    return Walker().value(path, value, key);
 }
 
 const SceneKey& scene_key(const std::string& path) {

@@ -2,18 +2,35 @@
 // check_scene() in both Python modules (_core.validate_scene without TBB; _render before it
 // reads the dict) and exported as _core.scene_schema() for the docs test.
 //
-// Adding a key: add its row to the table in scene_schema.cpp (path, kind, shape, required or
-// default, allowed values or range, one-line meaning), read it in render.cpp's read_*, and
-// document it in docs/scene_desc.md (plugin/tests/test_scene_schema.py fails until the doc's
-// generated table matches: run `python scripts/scene_schema_doc.py --write`).
+// Adding a key: add its row to the table in scene_schema.cpp (path, kind, shape, required,
+// allowed values or range, one-line meaning). A key that is a plain value of a SceneDesc
+// struct (hairbsdf/render/scene.h) binds its field with .field(&Struct::member): render.cpp's
+// read_fields copies it, and its default is the field's initial value, written there only.
+// Arrays and keys with rules of their own are read by hand in render.cpp. Then document it in
+// docs/scene_desc.md (plugin/tests/test_scene_schema.py fails until the doc's key table
+// matches and prints the rows it expects).
 #pragma once
 
 #include <pybind11/pybind11.h>
 
+#include <functional>
 #include <string>
+#include <typeindex>
 #include <vector>
 
 namespace hairbsdf::bindings {
+
+struct SceneKey;
+
+// A row bound to the C++ field the renderer reads it into (scene_schema.cpp's .field()).
+struct SceneField {
+    std::type_index owner = typeid(void);  // the struct that holds the field
+    // Copies a value check_scene accepted into the field of *owner (an S*).
+    std::function<void(const SceneKey&, void* owner, pybind11::handle value)> assign;
+    // The field's initial value in a default-constructed S, as the docs write it.
+    std::function<std::string(const SceneKey&)> default_text;
+    explicit operator bool() const { return bool(assign); }
+};
 
 enum class SceneKeyKind {
     Dict,         // a dict of the rows below it
@@ -40,12 +57,16 @@ struct SceneKey {
     const char* dtype = "";  // Array / Image: "float32", "int32" or "float64"
     int columns = 0;         // Array: 0 for (N,), else (N, columns); Vector: its length; Image: channels
     bool required = false;
-    const char* default_value = "";  // the default the renderer uses when the key is absent (for the docs)
+    // The default the renderer uses when the key is absent, for the docs: the bound field's
+    // initial value, or a rule where the default is not a value ("size_x").
+    std::string default_value = "";
     std::vector<const char*> allowed = {};  // Enum / EnumList
+    std::vector<long> allowed_values = {};  // a bound Enum: the C++ value of each allowed name
     double minimum = 0, maximum = 0;        // Int / IntPair when minimum < maximum or `bounded`
     bool bounded = false;
     const char* only_for = "";  // space-separated values of the sibling "type": the key exists only for them
     bool register_link = false;  // may be {"register": k}: the material program's register k
+    int link_input = -1;         // then the ClosureDesc::Input that register drives
     bool closed = false;         // Dict: an unknown key is an error (Principled Hair's inputs)
     // Principled Hair inputs: the Blender node's socket, its kind for the exporter ("float",
     // "color", "vector") and the models that read it ("CHIANG HUANG"; "" for Random, which the
@@ -54,6 +75,7 @@ struct SceneKey {
     const char* socket_kind = "";
     const char* hair_models = "";
     const char* meaning = "";
+    SceneField field = {};
 };
 
 // The table, in the docs' order.
@@ -68,6 +90,27 @@ const SceneKey& scene_key(const std::string& path);
 // copy: declared keys only, arrays contiguous in their dtype. Errors name the key path,
 // e.g. "scene['lights'][0]['strength']: expected 3 numbers" (TypeError / ValueError).
 pybind11::dict check_scene(pybind11::handle scene);
+
+// The same walk for one value at a schema path ("materials[].program" for eval_program);
+// errors start with `key`.
+pybind11::object check_value(const std::string& path, pybind11::handle value, const std::string& key);
+
+// The rows of the keys of the dict at `path` ("" for the scene, "lights[]" for a light) that
+// apply to a dict of this "type" ("" where it has none), in the table's order.
+std::vector<const SceneKey*> rows_under(const std::string& path, const std::string& type);
+
+// Copies the bound keys of `checked` (the dict at `path` in check_scene's output) into the
+// fields of `target`, an `owner`; a key given as {"register": k} calls link(row.link_input, k)
+// instead. Keys absent keep the field's initial value. A row under `path` bound to a field of
+// another struct is a std::logic_error (the table and the reader disagree).
+void read_fields(const std::string& path, const pybind11::dict& checked, std::type_index owner, void* target,
+                 const std::function<void(int input, int reg)>& link = {});
+
+template <class S>
+void read_fields(const std::string& path, const pybind11::dict& checked, S& target,
+                 const std::function<void(int input, int reg)>& link = {}) {
+    read_fields(path, checked, typeid(S), &target, link);
+}
 
 // The table as Python data: a list of dicts, one per row (keys as SceneKey's fields).
 pybind11::list scene_schema_as_python();

@@ -108,6 +108,17 @@ def test_schema_rows_are_well_formed():
     assert all(k["socket_kind"] == "float" for k in inputs if k["kind"] == "float")
 
 
+def test_optional_plain_keys_have_their_default_from_the_scene_struct():
+    """An optional plain value (number, bool, name, RGB) is bound to its field in the C++ scene
+    (render/scene.h), and its default is that field's initial value: a row left unbound has no
+    default to show. The SPOT matrix and a plugin's path mean "absent" when left out."""
+    plain = ("float", "int", "bool", "enum", "vector")
+    absent_means_none = {"lights[].matrix_world", "materials[].closures[].path"}
+    unbound = [k["path"] for k in scene_schema()
+               if k["kind"] in plain and not k["required"] and not k["default"] and k["path"] not in absent_means_none]
+    assert unbound == []
+
+
 def _scene():
     return {"camera": {"type": "PERSP", "matrix_world": np.eye(4), "resolution": (4, 2)},
             "integrator": {"samples": 1},
