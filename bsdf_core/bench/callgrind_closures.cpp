@@ -1,7 +1,8 @@
 // The cost of going through ClosureSum: `sum` runs the scalar eval of a one-closure Chiang sum,
 // `direct` the model's own prepare + eval at the same inputs. scripts/bench --callgrind counts
 // each loop's instructions under callgrind (only inside run_sum / run_direct); the ratio is
-// ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `kernel_eval`, `kernel_pdf` and
+// ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `sample` runs the model's own
+// prepare + sample (run_sample). `kernel_eval`, `kernel_pdf` and
 // `kernel_sample` run the float32 batch kernels (docs/simd.md) over the same rows in one call
 // (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512). `rows_eval`,
 // `rows_pdf` and `rows_sample` do the same with per-row inputs (roughness, radial roughness, coat,
@@ -22,6 +23,7 @@ namespace {
 struct Inputs {
     std::vector<ShadingContext> ctx;
     std::vector<Vec3> wi;
+    std::vector<std::array<double, 3>> u;
 };
 
 __attribute__((noinline)) double run_sum(const ClosureSum& sum, const Inputs& in) {
@@ -33,6 +35,11 @@ __attribute__((noinline)) double run_sum(const ClosureSum& sum, const Inputs& in
 __attribute__((noinline)) double run_direct(const ChiangHair& model, const Inputs& in) {
     double acc = 0;
     for (size_t i = 0; i < in.ctx.size(); ++i) acc += model.eval(model.prepare(in.ctx[i]), in.wi[i]).pdf;
+    return acc;
+}
+__attribute__((noinline)) double run_sample(const ChiangHair& model, const Inputs& in) {
+    double acc = 0;
+    for (size_t i = 0; i < in.ctx.size(); ++i) acc += model.sample(model.prepare(in.ctx[i]), in.u[i]).pdf;
     return acc;
 }
 struct KernelRows {
@@ -70,9 +77,13 @@ int main(int argc, char** argv) {
     const bool kernel = argc >= 2 && (std::strncmp(argv[1], "kernel_", 7) == 0 || per_row);
     const char* op_name = argc >= 2 ? argv[1] + (per_row ? 5 : 7) : "";
     if (argc < 2 || (std::strcmp(argv[1], "sum") != 0 && std::strcmp(argv[1], "direct") != 0 &&
+                     std::strcmp(argv[1], "sample") != 0 &&
                      !(kernel && (std::strcmp(op_name, "eval") == 0 || std::strcmp(op_name, "pdf") == 0 ||
                                   std::strcmp(op_name, "sample") == 0)))) {
-        std::fprintf(stderr, "usage: %s sum|direct|kernel_eval|kernel_pdf|kernel_sample|rows_eval|rows_pdf|rows_sample [calls]\n",
+        std::fprintf(stderr,
+                     "usage: %s sum|direct|sample|kernel_eval|kernel_pdf|kernel_sample|rows_eval|rows_pdf|rows_sample "
+                     "[calls]
+",
                      argv[0]);
         return 2;
     }
@@ -88,6 +99,9 @@ int main(int argc, char** argv) {
         in.ctx.push_back(c);
         in.wi.push_back(normalize(Vec3{g(rng), g(rng), g(rng)}));
     }
+    // The sampler's numbers from their own generator, so that the other modes' rows stay as they were.
+    std::mt19937_64 rng_u(2);
+    for (size_t i = 0; i < calls; ++i) in.u.push_back({uni(rng_u), uni(rng_u), uni(rng_u)});
     PrincipledHairInputs principled;
     principled.parametrization = Parametrization::Melanin;
     principled.roughness = 0.3;
@@ -123,7 +137,9 @@ int main(int argc, char** argv) {
         return 0;
     }
     const ClosureSum sum({Closure{RGB(1.0), model}});
-    const double acc = std::strcmp(argv[1], "sum") == 0 ? run_sum(sum, in) : run_direct(model, in);
+    const double acc = std::strcmp(argv[1], "sum") == 0      ? run_sum(sum, in)
+                       : std::strcmp(argv[1], "sample") == 0 ? run_sample(model, in)
+                                                             : run_direct(model, in);
     std::printf("%s %zu calls, checksum %.17g\n", argv[1], calls, acc);
     return 0;
 }

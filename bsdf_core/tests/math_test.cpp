@@ -74,3 +74,34 @@ TEST(WrapAngle, MapsIntoMinusPiToPi) {
         EXPECT_NEAR(std::remainder(w - a, kTwoPi), 0.0, 1e-12);
     }
 }
+
+// The float-accuracy transcendentals of Accuracy::Cycles' scalar path (math.h) against glibc's
+// double functions: relative error within 1e-8 over their ranges, and the edge values.
+TEST(FloatAccuracyMaths, ExpAsinAtan2WithinTheirBounds) {
+    double worst_exp = 0, worst_asin = 0, worst_atan2 = 0;
+    for (double x = -707.0; x < 708.0; x += 0.0137) {
+        worst_exp = std::max(worst_exp, std::fabs(exp_float_accuracy(x) / std::exp(x) - 1.0));
+    }
+    for (double x = -1.0; x <= 1.0; x += 1.0 / 65536.0) {
+        if (x != 0.0) worst_asin = std::max(worst_asin, std::fabs(asin_float_accuracy(x) / std::asin(x) - 1.0));
+    }
+    for (int i = 0; i < 4096; ++i) {
+        const double angle = -kPi + kTwoPi * (i + 0.5) / 4096.0;
+        for (double r : {1e-6, 1.0, 3e5}) {
+            const double y = r * std::sin(angle), x = r * std::cos(angle);
+            worst_atan2 = std::max(worst_atan2, std::fabs(atan2_float_accuracy(y, x) / std::atan2(y, x) - 1.0));
+        }
+    }
+    EXPECT_LT(worst_exp, 1e-8);
+    EXPECT_LT(worst_asin, 1e-8);
+    EXPECT_LT(worst_atan2, 1e-8);
+    EXPECT_EQ(exp_float_accuracy(-800.0), 0.0);
+    EXPECT_EQ(exp_float_accuracy(800.0), HUGE_VAL);
+    EXPECT_TRUE(std::isnan(exp_float_accuracy(NAN)));
+    EXPECT_EQ(asin_float_accuracy(1.0), 0.5 * kPi);
+    EXPECT_EQ(asin_float_accuracy(-1.0), -0.5 * kPi);
+    EXPECT_EQ(atan2_float_accuracy(0.0, -1.0), kPi);
+    EXPECT_EQ(atan2_float_accuracy(-0.0, -1.0), -kPi);
+    EXPECT_EQ(atan2_float_accuracy(0.0, 0.0), 0.0);
+    EXPECT_NEAR(atan2_float_accuracy(1.0, 0.0), 0.5 * kPi, 1e-15);
+}

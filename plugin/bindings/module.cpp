@@ -1153,4 +1153,10 @@ PYBIND11_MODULE(_core, m) {
         return g_kernels_on.load() ? std::string(isa) : std::string("scalar");
     });
     m.def("get_batch_kernel", []() { return g_kernels_on.load() ? std::string(chiang_batch_isa()) : std::string("scalar"); });
+    // Chiang's scalar Cycles-accuracy transcendentals: float accuracy (true) or the double reference.
+    m.def("set_scalar_maths", [](bool in_float) {
+        set_cycles_float_maths(in_float);
+        return std::string(cycles_float_maths() ? "float" : "double");
+    });
+    m.def("get_scalar_maths", []() { return std::string(cycles_float_maths() ? "float" : "double"); });
 }

@@ -76,10 +76,27 @@ def get_batch_kernel() -> str:
     return _core.get_batch_kernel()
 
 
+SCALAR_MATHS = ("float", "double")
+
+
+def set_scalar_maths(precision: str = "float") -> str:
+    """exp, asin and atan2 of Chiang's scalar path at accuracy "cycles": inlined to float accuracy or
+    better ("float", the default; Cycles' kernel computes in float) or glibc's double functions
+    ("double", the reference the float32 SIMD kernels are tested against). Accuracy "exact" is
+    always double. Process-wide; returns the one now in use."""
+    return _core.set_scalar_maths(_validate.choice("precision", precision, SCALAR_MATHS) == "float")
+
+
+def get_scalar_maths() -> str:
+    """exp, asin and atan2 of the scalar path at accuracy "cycles": "float" or "double"."""
+    return _core.get_scalar_maths()
+
+
 __all__ = [
     "Closure", "SampleResult", "LOBES", "principled_hair", "absorption_from_color", "absorption_from_melanin",
     "cycles_curve_random", "chiang_hair_bsdf", "simple_hair_base", "materialx", "set_num_threads",
-    "get_num_threads", "set_batch_kernel", "get_batch_kernel", "BATCH_KERNELS", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
+    "get_num_threads", "set_batch_kernel", "get_batch_kernel", "BATCH_KERNELS", "set_scalar_maths", "get_scalar_maths",
+    "SCALAR_MATHS", "PRINCIPLED_HAIR_DEFAULTS", "huang_fallback_normal", "load_plugin", "test_plugin",
     "python_bsdf", "PluginConstructor", "PluginError", "PythonBSDF", "ParamSpec", "PLUGIN_ABI_VERSION",
     "zoo", "kajiya_kay_hair", "epic_hair", "scheuermann_hair", "marschner_hair", "deon_hair", "yan_fur", "cycles_hair_bsdf",
     "make_model", "model_schema", "zoo_model_names", "get_include", "get_cmake_dir", "__version__",

@@ -398,10 +398,21 @@ public:
         out.pdf /= sp.total_sample_weight;
         return out;
     }
-    // The scalar form: each closure's shading point lives on the stack for this one call.
+    // The scalar form: each closure's shading point lives on the stack for this one call. One
+    // closure (the common case) is weighted in place, without the sum's accumulator; the same
+    // values as the loop (0 + x is x).
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
         BsdfEval out;
         if (!(total_sample_weight_ > 0)) return out;
+        if (closures_.size() == 1) {
+            const Closure& c = closures_[0];
+            const ChiangHair* chiang = std::get_if<ChiangHair>(&c.model);  // devirtualised for Chiang
+            out = chiang ? chiang->eval(chiang->prepare(ctx), wi) : eval_model(c.model, ctx, wi);
+            if (!closure_counts(out)) return {};
+            for (RGB& lobe : out.lobes) lobe = c.weight * lobe;
+            out.pdf = c.sample_weight() * out.pdf / total_sample_weight_;
+            return out;
+        }
         for (const Closure& c : closures_) {
             const BsdfEval e = eval_model(c.model, ctx, wi);
             if (!closure_counts(e)) continue;

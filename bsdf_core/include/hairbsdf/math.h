@@ -3,11 +3,18 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "hairbsdf/math_quadrature.h"
+
+// Inlined at every call site, whatever the compiler's own estimate: for the small per-call helpers of
+// the scalar models, which GCC otherwise keeps out of line once a translation unit has a second caller
+// (ClosureSum's visitor beside a direct call), paying a call and its spills each time.
+#define HAIRBSDF_ALWAYS_INLINE inline __attribute__((always_inline))
 
 namespace hairbsdf {
 
@@ -102,8 +109,97 @@ inline double cos_from_sin(double s) { return safe_sqrt(1.0 - s * s); }
 // Wraps an angle into [-pi, pi].
 inline double wrap_angle(double a) {
     if (a >= -kPi && a <= kPi) return a;
+    // One turn off (the common case) without floor, as the general form below computes it.
+    if (a > kPi && a < 3.0 * kPi) return a - kTwoPi;
+    if (a < -kPi && a >= -3.0 * kPi) return a + kTwoPi;
     return a - kTwoPi * std::floor((a + kPi) / kTwoPi);
 }
+
+// Cycles' kernel computes its transcendentals in float. The scalar path of Chiang's
+// Accuracy::Cycles computes its exp, asin and atan2 to float accuracy or better too, through the *_in
+// helpers below (inlined, good to 1e-8 relative or better), far cheaper than glibc's double
+// functions; the rest of its arithmetic (and the sampler's log, sin and cos) stays double. The double reference of
+// the same formulas stays available process-wide (set_cycles_float_maths(false), Python's
+// hairbsdf.set_scalar_maths("double")): the tests of the float32 SIMD kernels compare against it.
+// Accuracy::Exact is always double.
+inline std::atomic<bool> g_cycles_float_maths{true};
+inline bool cycles_float_maths() { return g_cycles_float_maths.load(std::memory_order_relaxed); }
+inline void set_cycles_float_maths(bool on) { g_cycles_float_maths.store(on, std::memory_order_relaxed); }
+// exp to about 1e-8 relative (better than float), inlined: exp(x) = 2^k exp(r) with k the integer
+// nearest x / ln 2 and |r| <= ln(2) / 2, exp(r) from its Taylor series to r^7 (error <= r^8 / 8!).
+// 0 below -708, +inf above 709; NaN stays NaN.
+inline double exp_float_accuracy(double x) {
+    if (!(x > -708.0 && x < 709.0)) return x != x ? x : (x > 0.0 ? HUGE_VAL : 0.0);
+    constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
+    const double k = (x * 1.4426950408889634 + kRound) - kRound;  // x / ln 2, rounded
+    const double r = (x - k * 0.6931471803691238) - k * 1.9082149292705877e-10;  // ln 2 = hi + lo
+    double p = 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    const int64_t bits = (int64_t(k) + 1023) << 52;  // 2^k, k in [-1022, 1023]
+    double scale;
+    std::memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
+}
+// asin on [-1, 1] to about 1e-9 relative, inlined: odd polynomial on |x| <= 1/2 (least-squares fit
+// of asin(x) / x in x^2, our own), beyond it asin(x) = pi/2 - 2 asin(sqrt((1 - x) / 2)).
+inline double asin_float_accuracy(double x) {
+    const double ax = std::fabs(x);
+    const bool outer = ax > 0.5;
+    const double t = outer ? std::sqrt(0.5 * (1.0 - ax)) : ax;
+    const double z = t * t;
+    double p = 0.033805387066399885;
+    p = p * z + 0.01707810772821376;
+    p = p * z + 0.03111609434873313;
+    p = p * z + 0.044598039020755036;
+    p = p * z + 0.07500098732409591;
+    p = p * z + 0.1666666631714249;
+    double a = t + t * z * p;
+    if (outer) a = 0.5 * kPi - 2.0 * a;
+    return std::copysign(a, x);
+}
+// atan2 to about 3e-12 relative (sample's directions must give back their own pdf in eval), inlined: the ratio of the smaller to the larger |component| in
+// [0, 1], above tan(pi/8) mapped by (t - 1) / (t + 1) to [-tan(pi/8), 0] plus pi/4, then an odd
+// polynomial (least-squares fit of atan(t) / t in t^2, our own); quadrants as std::atan2.
+inline double atan2_float_accuracy(double y, double x) {
+    const double ax = std::fabs(x), ay = std::fabs(y);
+    const bool swap = ay > ax;
+    const double num = swap ? ax : ay, den = swap ? ay : ax;
+    if (!(den > 0.0)) return std::atan2(y, x);  // both zero, or NaN
+    double t = num / den, base = 0.0;
+    if (t > 0.41421356237309503) {  // tan(pi/8)
+        t = (t - 1.0) / (t + 1.0);
+        base = 0.25 * kPi;
+    }
+    const double z = t * t;
+    double p = -0.04050278985429021;
+    p = p * z + 0.07139050976280181;
+    p = p * z + -0.09029728811783594;
+    p = p * z + 0.1110756504568841;
+    p = p * z + -0.14285615579336844;
+    p = p * z + 0.1999999897105977;
+    p = p * z + -0.3333333333167031;
+    double a = base + (t + t * z * p);
+    if (swap) a = 0.5 * kPi - a;
+    if (x < 0.0) a = kPi - a;
+    return std::signbit(y) ? -a : a;
+}
+// exp, asin (clamped to [-1, 1]) and atan2 to float accuracy or better where `in_float` (the inlined
+// forms above), else glibc's double functions.
+inline double exp_in(bool in_float, double x) { return in_float ? exp_float_accuracy(x) : std::exp(x); }
+inline double asin_in(bool in_float, double x) {
+    x = std::min(std::max(x, -1.0), 1.0);
+    return in_float ? asin_float_accuracy(x) : std::asin(x);
+}
+inline double atan2_in(bool in_float, double y, double x) {
+    return in_float ? atan2_float_accuracy(y, x) : std::atan2(y, x);
+}
+
 
 // Exact unpolarised Fresnel reflectance of a dielectric interface, for the cosine of
 // the incident angle `cos_i` and relative IOR `eta`. Returns 1 under total internal reflection.

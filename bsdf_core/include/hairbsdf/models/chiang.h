@@ -93,18 +93,20 @@ public:
         }
     }
     // M_p(theta_i, theta_o); both cosines are non-negative. exp(log I0(a) + y) is
-    // computed as I0(a) exp(y) where I0 comes from a series, which saves a log.
-    double eval(double sin_theta_i, double cos_theta_i, double sin_theta_o, double cos_theta_o) const {
+    // computed as I0(a) exp(y) where I0 comes from a series, which saves a log. `in_float`: the
+    // Cycles branches take the float-accuracy exp (math.h, cycles_float_maths).
+    HAIRBSDF_ALWAYS_INLINE double eval(double sin_theta_i, double cos_theta_i, double sin_theta_o,
+                                       double cos_theta_o, bool in_float = false) const {
         const double a = cos_theta_i * cos_theta_o * inv_v_;
         const double b = sin_theta_i * sin_theta_o * inv_v_;
         if (accuracy_ == Accuracy::Exact) {
             if (a < kBesselSeriesLimit) return bessel_i0_series(a) * std::exp(log_norm_ - b);
             return std::exp(log_bessel_i0_asymptotic(a) - b + log_norm_);
         }
-        if (!log_branch_) return std::exp(-b) * cycles_bessel_i0(a) * norm_;
-        if (a <= 12.0) return cycles_bessel_i0(a) * std::exp(log_norm_ - b);
+        if (!log_branch_) return exp_in(in_float, -b) * cycles_bessel_i0(a) * norm_;
+        if (a <= 12.0) return cycles_bessel_i0(a) * exp_in(in_float, log_norm_ - b);
         // Cycles' asymptote: log I0(a) = a + (1/(8a) - ln(2 pi) - ln a) / 2.
-        return std::exp(a + 1.0 / (16.0 * a) - b + log_norm_) / std::sqrt(kTwoPi * a);
+        return exp_in(in_float, a + 1.0 / (16.0 * a) - b + log_norm_) / std::sqrt(kTwoPi * a);
     }
     double variance() const { return v_; }
 
@@ -164,8 +166,10 @@ public:
             mp_[p] = LongitudinalLobe(params.v[p], params.accuracy);
             exp_minus_2_over_v_[p] = std::exp(-2.0 / params.v_sample[p]);
         }
+        for (const RGB& t : params.tint) tinted_ = tinted_ || t.r != 1.0 || t.g != 1.0 || t.b != 1.0;
         for (int p = 0; p < 3; ++p) {
-            logistic_norm_[p] = 1.0 / (logistic_cdf(kPi, params.s[p]) - logistic_cdf(-kPi, params.s[p]));
+            logistic_cdf_minus_pi_[p] = logistic_cdf(-kPi, params.s[p]);
+            logistic_norm_[p] = 1.0 / (logistic_cdf(kPi, params.s[p]) - logistic_cdf_minus_pi_[p]);
         }
         // Per-lobe tilt of M_p's angle: R by +2 tilt, TT by -tilt, TRT by -4 tilt.
         const double t = params.tilt;
@@ -205,6 +209,7 @@ public:
         std::array<RGB, 4> attenuation{};    // A_p with tints
         std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
         std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
+        std::array<double, 3> azimuth_center{};  // centre of N_p in phi - phi_o: R, TT, TRT
         bool valid = false;
     };
 
@@ -219,8 +224,10 @@ public:
 
     // The view terms with Chiang's pass transmittance exp(-sigma_a 2 cos gamma_t / cos theta_t).
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
-        return view_terms(frame, ctx, [this](const ChiangPassGeometry& g) {
-            return exp((-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a);
+        const bool in_float = float_maths();
+        return view_terms(frame, ctx, [this, in_float](const ChiangPassGeometry& g) {
+            const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
+            return RGB(exp_in(in_float, x.r), exp_in(in_float, x.g), exp_in(in_float, x.b));
         });
     }
     // The same with another transmittance per internal pass (yan_fur's medulla): a callable
@@ -229,6 +236,7 @@ public:
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
                          const PassTransmittance& pass_transmittance) const {
         ViewTerms vt;
+        const bool in_float = float_maths();
         const double eta = params_.eta;
         vt.sin_theta_o = frame.sin_theta(ctx.wo);
         vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
@@ -238,11 +246,11 @@ public:
         const double cos_theta_t = cos_from_sin(sin_theta_t);
         const double h = ctx.h;
         const double cos_gamma_o = cos_from_sin(h);
-        vt.gamma_o = safe_asin(h);
+        vt.gamma_o = asin_in(in_float, h);
         // NaN for eta < 1 at grazing angles, as in Cycles; caught below and returned as 0.
         const double sin_gamma_t = h * vt.cos_theta_o / std::sqrt(eta * eta - sqr(vt.sin_theta_o));
         const double cos_gamma_t = cos_from_sin(sin_gamma_t);
-        vt.gamma_t = safe_asin(sin_gamma_t);
+        vt.gamma_t = asin_in(in_float, sin_gamma_t);
 
         const RGB T = pass_transmittance(ChiangPassGeometry{sin_gamma_t, cos_gamma_t, cos_theta_t});
         const double f = fresnel_dielectric(vt.cos_theta_o * cos_gamma_o, eta);
@@ -250,7 +258,7 @@ public:
 
         double total = 0;
         for (int p = 0; p < 4; ++p) {
-            vt.attenuation[p] = vt.attenuation[p] * params_.tint[p];
+            if (tinted_) vt.attenuation[p] = vt.attenuation[p] * params_.tint[p];
             vt.lobe_weight[p] = luminance(vt.attenuation[p]);
             total += vt.lobe_weight[p];
         }
@@ -259,6 +267,7 @@ public:
 
         for (int p = 0; p < 3; ++p) {
             vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
+            vt.azimuth_center[p] = 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
         }
         vt.valid = true;
         return vt;
@@ -267,7 +276,9 @@ public:
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
-        return eval_local(sp.view, sin_theta_i, cos_from_sin(sin_theta_i), sp.frame.phi(wi) - sp.view.phi_o);
+        const bool in_float = float_maths();
+        const double phi = atan2_in(in_float, dot(wi, sp.frame.z), dot(wi, sp.frame.y));  // frame.phi(wi)
+        return eval_local(sp.view, sin_theta_i, cos_from_sin(sin_theta_i), phi - sp.view.phi_o, in_float);
     }
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const { return eval(prepare(ctx), wi); }
     double pdf(const ShadingContext& ctx, Vec3 wi) const { return eval(ctx, wi).pdf; }
@@ -298,7 +309,7 @@ public:
                                     : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         return sample_from_eval(frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi),
-                                eval_local(vt, sin_theta_i, cos_theta_i, phi), p);
+                                eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths()), p);
     }
 
     // A direction from lobe p's sampling density (M_p about the lobe's tilted cone, N_p's trimmed
@@ -324,7 +335,10 @@ public:
 
         double phi;
         if (p < 3) {
-            phi = azimuth_center(p, vt) + sample_trimmed_logistic(u0, params_.s[p]);
+            // The trimmed logistic's inverse CDF (sample_trimmed_logistic) with its CDF at -pi hoisted.
+            const double s = params_.s[p], cdf_minus_pi = logistic_cdf_minus_pi_[p];
+            const double x = -s * std::log(1.0 / (u0 * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0);
+            phi = vt.azimuth_center[p] + clamp(x, -kPi, kPi);
         } else {
             phi = kTwoPi * u0;
         }
@@ -342,22 +356,28 @@ public:
 
     // Per-lobe values and pdf for theta_i and the azimuth difference phi = phi_i - phi_o (pdf: the
     // density of sample(), the lobe mixture by lobe_weight).
+    // `in_float`: float_maths(), read once by the caller.
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
+        return eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths());
+    }
+    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
         BsdfEval out;
         for (int p = 0; p < 3; ++p) {
             double mp;
             if (params_.tilt_convention == TiltConvention::Blender42) {
-                mp = mp_[p].eval(sin_theta_i, cos_theta_i, vt.tilted[p].sin, vt.tilted[p].cos);
+                mp = mp_[p].eval(sin_theta_i, cos_theta_i, vt.tilted[p].sin, vt.tilted[p].cos, in_float);
             } else {
                 const SinCos ti = rotate_angle(sin_theta_i, cos_theta_i, rotations_[p].sin, rotations_[p].cos);
-                mp = mp_[p].eval(ti.sin, ti.cos, vt.sin_theta_o, vt.cos_theta_o);
+                mp = mp_[p].eval(ti.sin, ti.cos, vt.sin_theta_o, vt.cos_theta_o, in_float);
             }
-            const double x = wrap_angle(phi - azimuth_center(p, vt));
-            const double np = logistic(x, params_.s[p]) * logistic_norm_[p];
+            const double x = wrap_angle(phi - vt.azimuth_center[p]);
+            // logistic(x, s) times its trimming's normalisation
+            const double s = params_.s[p], e = exp_in(in_float, -std::fabs(x) / s);
+            const double np = e / (s * sqr(1.0 + e)) * logistic_norm_[p];
             out.lobes[p] = (mp * np) * vt.attenuation[p];
             out.pdf += vt.lobe_weight[p] * mp * np;
         }
-        const double m3 = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o) * kInvTwoPi;
+        const double m3 = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
         out.lobes[3] = m3 * vt.attenuation[3];
         out.pdf += vt.lobe_weight[3] * m3;
         if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
@@ -365,15 +385,16 @@ public:
     }
 
 private:
-    static double azimuth_center(int p, const ViewTerms& vt) {
-        return 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
-    }
+    // Cycles accuracy takes float-accuracy exp, asin and atan2 unless the double reference is selected.
+    bool float_maths() const { return params_.accuracy == Accuracy::Cycles && cycles_float_maths(); }
 
     ChiangHairParams params_;
     std::array<LongitudinalLobe, 4> mp_;
     std::array<double, 3> logistic_norm_{};
+    std::array<double, 3> logistic_cdf_minus_pi_{};  // logistic_cdf(-pi, s), sample_trimmed_logistic's
     std::array<double, 4> exp_minus_2_over_v_{};
     std::array<SinCos, 3> rotations_{};  // tilt rotation per lobe (R, TT, TRT)
+    bool tinted_ = false;                // a tint other than 1 (MaterialX's per-lobe tints)
 };
 
 }  // namespace hairbsdf
