@@ -82,8 +82,7 @@ int main(int argc, char** argv) {
                                   std::strcmp(op_name, "sample") == 0)))) {
         std::fprintf(stderr,
                      "usage: %s sum|direct|sample|kernel_eval|kernel_pdf|kernel_sample|rows_eval|rows_pdf|rows_sample "
-                     "[calls]
-",
+                     "[calls]\n",
                      argv[0]);
         return 2;
     }
