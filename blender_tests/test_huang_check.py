@@ -23,7 +23,7 @@ any one row, so a TRT or TRRT+ 10 % off fails (test_the_gate_fails_on_a_planted_
 one 3 % off would. The same comparison with accuracy="converged" (HUANG_CHECK_FULL=1) shows
 where Cycles' Simpson rule differs from the converged integral.
 
-CI size: one seed, trt_points 16384 (our default), both sets in 4.5 and the far set in 5.3 (near 256 spp,
+CI size: one seed, trt_points 16384 (set here, not the API default), both sets in 4.5 and the far set in 5.3 (near 256 spp,
 far 4096 spp in huang_cases.py): 268 s of CPU for 4.5's two sets, renders and our eval included, about 2.5 min of
 wall time on 2 idle cores, plus about 40 s for 5.3's far set (docs/huang.md section 8 has the measured scales,
 docs/blender5.md the 5.3 ones).

@@ -36,7 +36,73 @@ std::array<double, 2> closure_scales(const ClosureSum& bsdf) {
 }
 }  // namespace
 
+bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, double tolerance, long max_samples,
+                           RGB& albedo) {
+    const HuangHairParams& p = model.params();
+    if (p.quadrature != HuangQuadrature::Cycles || p.mixture_detail == HuangHairParams::MixtureDetail::None)
+        return false;
+    albedo = RGB(0.0);
+    const HuangHair::ShadingPoint sp = model.prepare(ctx);
+    if (sp.transparent || !sp.valid) return true;
+    constexpr int kReplicates = 4;
+    const Sobol& so = sobol();
+    uint32_t shift[kReplicates][3];
+    uint32_t seed = 0x6C8E9CF5u;
+    for (auto& row : shift)
+        for (uint32_t& sh : row) sh = seed = lookup3_hash_uint2(seed, 0x9E3779B9u);
+    std::array<RGB, kReplicates> sums{};
+    uint32_t points = 0;  // per replicate
+    auto add = [&](uint32_t from, uint32_t to) {
+        for (int r = 0; r < kReplicates; ++r) {
+            for (uint32_t i = from; i < to; ++i) {
+                const std::array<double, 3> u{double(so.point(i, 0) ^ shift[r][0]) * 0x1p-32,
+                                              double(so.point(i, 1) ^ shift[r][1]) * 0x1p-32,
+                                              double(so.point(i, 2) ^ shift[r][2]) * 0x1p-32};
+                Vec3 O;
+                if (model.sample_direction(sp, u, O) < 0) continue;
+                const double pdf = model.pdf_local(sp, O);
+                if (!(pdf > 0.0)) continue;
+                uint32_t rng = lookup3_hash_uint2(i, uint32_t(r) + 0x85EBCA6Bu);
+                const auto lobes = model.eval_cycles_stochastic(sp, O, rng);
+                RGB f = lobes[0] + lobes[1] + lobes[2] + lobes[3];
+                f = (1.0 / pdf) * f;
+                if (isfinite(f)) sums[size_t(r)] += f;
+            }
+        }
+        points = to;
+    };
+    const uint32_t cap = uint32_t(std::max(256L, max_samples / kReplicates));
+    add(0, 256);
+    for (;;) {
+        double mean = 0.0, var = 0.0, lum[kReplicates];
+        for (int r = 0; r < kReplicates; ++r) mean += (lum[r] = luminance(sums[size_t(r)]) / points) / kReplicates;
+        for (double l : lum) var += (l - mean) * (l - mean);
+        const double standard_error = std::sqrt(var / ((kReplicates - 1) * kReplicates));
+        if (!(standard_error > 0.5 * tolerance * std::fabs(mean)) || 2 * points > cap) break;
+        add(points, 2 * points);
+    }
+    for (const RGB& s : sums) albedo += (1.0 / (double(points) * kReplicates)) * s;
+    return true;
+}
+
 RGB directional_albedo(const ClosureSum& bsdf, const ShadingContext& ctx, const QuadratureOptions& options) {
+    if (options.huang_tolerance != 0.0) {
+        // Huang closures by their estimator, the rest by the quadrature below (the albedo is linear).
+        std::vector<Closure> rest;
+        RGB sum;
+        for (const Closure& c : bsdf.closures()) {
+            RGB a;
+            const HuangHair* huang = std::get_if<HuangHair>(&c.model);
+            const double tolerance = options.huang_tolerance > 0.0 || !huang ? options.huang_tolerance : huang->params().tolerance;
+            if (huang && huang_albedo_estimate(*huang, ctx, tolerance, options.max_nodes, a))
+                sum += c.weight * a;
+            else
+                rest.push_back(c);
+        }
+        if (rest.size() == bsdf.closures().size()) return directional_albedo(bsdf, ctx, QuadratureOptions{options.panels_per_scale, options.max_nodes, 0.0});
+        if (!rest.empty()) sum += directional_albedo(ClosureSum(rest), ctx, QuadratureOptions{options.panels_per_scale, options.max_nodes, 0.0});
+        return sum;
+    }
     const auto scales = closure_scales(bsdf);
     long n_theta = long(std::ceil(kPi / scales[0] * options.panels_per_scale));
     long n_phi = long(std::ceil(kTwoPi / scales[1] * options.panels_per_scale));

@@ -225,7 +225,7 @@ py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, 
 }
 
 py::array_t<double> batch_albedo(const ClosureSum& bsdf, const Array& wo, const Array& h, double panels_per_scale,
-                                 long max_nodes) {
+                                 long max_nodes, double huang_tolerance) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(h, n, 0, "h");
@@ -235,6 +235,7 @@ py::array_t<double> batch_albedo(const ClosureSum& bsdf, const Array& wo, const 
     QuadratureOptions options;
     options.panels_per_scale = panels_per_scale;
     options.max_nodes = max_nodes;
+    options.huang_tolerance = huang_tolerance;
     {
         py::gil_scoped_release release;
         parallel_for(n, 1, [&](size_t b, size_t e) {
@@ -969,6 +970,19 @@ PYBIND11_MODULE(_core, m) {
              py::arg("wo"), py::arg("h"), py::arg("u"), py::arg("normal"), py::arg("pixel_coverage"),
              py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
         .def("albedo", &batch_albedo)
+        .def("with_huang_tolerance",
+             [](const ClosureSum& c, double tolerance) {
+                 // The same sum with every Huang closure's tolerance replaced (eval's tolerance= keyword).
+                 std::vector<Closure> cs = c.closures();
+                 for (Closure& k : cs) {
+                     if (const HuangHair* m = std::get_if<HuangHair>(&k.model)) {
+                         HuangHairParams p = m->params();
+                         p.tolerance = tolerance;
+                         k.model = HuangHair(p);
+                     }
+                 }
+                 return ClosureSum(cs);
+             })
         .def("scaled",
              [](const ClosureSum& c, std::array<double, 3> w) {
                  std::vector<Closure> cs = c.closures();

@@ -182,6 +182,16 @@ def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False, h
     return v
 
 
+# Huang's `tolerance` (relative error target of its eval and albedo, docs/huang.md §4): the range
+# its constructor and the per-call keyword accept.
+HUANG_TOLERANCE_RANGE = (1e-6, 0.5)
+
+
+def huang_tolerance(value) -> float:
+    """Huang's `tolerance`: a number in HUANG_TOLERANCE_RANGE; the error names the range."""
+    return in_range("tolerance", value, *HUANG_TOLERANCE_RANGE)
+
+
 def color_in_range(name: str, value, lo: float, hi: float) -> tuple[float, float, float]:
     """An RGB triple (or a number for grey) with every channel in [lo, hi]."""
     c = color(name, value)

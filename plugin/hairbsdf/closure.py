@@ -66,27 +66,34 @@ class Closure:
     # `inputs=`: per-row node inputs of a principled_hair(model="chiang") closure (ROW_INPUTS; docs/simd.md),
     #   a dict of (N,) arrays ((N, 3) for absorption_coefficient) that replace the closure's values row by
     #   row, with the node's meaning (random is the Random socket). float32 rows run on the kernels.
+    #   tolerance:      Huang's error target relative to each row's total, in [1e-6, 0.5]
+    #                   (docs/huang.md §4); None: the closure's own (principled_hair's `tolerance`).
+    #                   Other models ignore it; pdf accepts it for symmetry (the mixture pdf is exact).
     def eval(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-             shadow=None, out=None, inputs=None) -> np.ndarray:
+             shadow=None, out=None, inputs=None, tolerance=None) -> np.ndarray:
         """BSDF value including the cosine factor (Cycles' convention), (N, 3)."""
         if inputs is not None:
             _no_extras(normal, pixel_coverage, near_field, random, shadow)
             return self._rows_call(0, wo, wi, h, inputs, out)
+        core = self._core_for(tolerance)
         if normal is None and pixel_coverage is None and near_field is None and random is None and shadow is None:
-            result = self._core.kernel_eval(wo, wi, _h_rows(h, wo), out)
+            result = core.kernel_eval(wo, wi, _h_rows(h, wo), out)
             if result is not None:
                 return result
-        return _into(out, self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random, shadow))
+        return _into(out, self._eval(wo, wi, h, False, normal, pixel_coverage, near_field, random, shadow, core))
 
     def eval_lobes(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-                   shadow=None) -> np.ndarray:
+                   shadow=None, tolerance=None) -> np.ndarray:
         """Per-lobe values (N, 4, 3) in the order R, TT, TRT, TRRT+; they sum to eval. With a
         yan_fur closure in the sum: (N, 6, 3), adding its medulla-scattered TTs and TRTs."""
-        return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow)
+        return self._eval(wo, wi, h, True, normal, pixel_coverage, near_field, random, shadow,
+                          self._core_for(tolerance))
 
     def pdf(self, wo, wi, h, *, normal=None, pixel_coverage=None, near_field=None, random=None,
-            shadow=None, out=None, inputs=None) -> np.ndarray:
+            shadow=None, out=None, inputs=None, tolerance=None) -> np.ndarray:
         """The density `sample` reports for wi, per unit solid angle, (N,)."""
+        if tolerance is not None:
+            check.huang_tolerance(tolerance)
         if inputs is not None:
             _no_extras(normal, pixel_coverage, near_field, random, shadow)
             return self._rows_call(1, wo, wi, h, inputs, out)
@@ -139,12 +146,19 @@ class Closure:
                                    None, True)
         return result if op == 2 else _into(out, result)
 
-    def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field, random=None, shadow=None):
+    def _eval(self, wo, wi, h, lobes, normal, pixel_coverage, near_field, random=None, shadow=None, core=None):
+        core = self._core if core is None else core
         extra = _extras(normal, pixel_coverage, near_field, random, shadow)
         rows = self._rows(wo=check.directions("wo", wo), wi=check.directions("wi", wi), h=check.offsets("h", h), **extra)
         if not extra:
-            return self._core.eval_lobes(*rows) if lobes else self._core.eval(*rows)
-        return self._core.eval_ex(*rows[:3], lobes, *_extra_args(extra, rows[3:]))
+            return core.eval_lobes(*rows) if lobes else core.eval(*rows)
+        return core.eval_ex(*rows[:3], lobes, *_extra_args(extra, rows[3:]))
+
+    def _core_for(self, tolerance):
+        """The core sum, with every Huang closure's tolerance replaced when one is given."""
+        if tolerance is None:
+            return self._core
+        return self._core.with_huang_tolerance(check.huang_tolerance(tolerance))
 
     # --- Huang model helpers ----------------------------------------------------------
     def huang_details(self, wo, h, wi=None, *, normal=None, pixel_coverage=None, near_field=None) -> dict:
@@ -180,16 +194,26 @@ class Closure:
         return self._core.huang_cycles_estimate(*rows[:3], *_extra_args(extra, rows[3:], _HUANG_ORDER), samples,
                                                  int(seed) & 0xFFFFFFFF)
 
-    def albedo(self, wo, h, *, panels_per_scale: float = 1.0, max_nodes: int = 4_000_000) -> np.ndarray:
+    def albedo(self, wo, h, *, panels_per_scale: float = 1.0, max_nodes: int = 4_000_000,
+               tolerance=None, huang_quadrature: bool = False) -> np.ndarray:
         """Directional albedo, the integral of eval over all wi, by deterministic
-        composite Gauss-Legendre quadrature sized from the narrowest lobe, (N, 3)."""
+        composite Gauss-Legendre quadrature sized from the narrowest lobe, (N, 3).
+        Huang closures (accuracy "cycles") instead average Cycles' stochastic eval over the
+        mixture pdf at mixture-sampled directions (the sampled weight, unbiased for the eval's
+        integral) until its standard error is below half of `tolerance` (default: the closure's)
+        times the albedo, at most max_nodes samples (docs/huang.md §6); huang_quadrature=True
+        keeps the quadrature for them too (slow: minutes a row)."""
         wo, h = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h))
         panels = check.real("panels_per_scale", panels_per_scale)
         if panels <= 0:
             raise ValueError("panels_per_scale: must be > 0")
         if not isinstance(max_nodes, int) or max_nodes < 1000:
             raise ValueError("max_nodes: must be an integer >= 1000")
-        return self._core.albedo(wo, h, panels, max_nodes)
+        if not isinstance(huang_quadrature, bool):
+            raise TypeError("huang_quadrature: expected True or False")
+        # The core's Huang tolerance: 0 keeps the quadrature, < 0 each closure's own tolerance.
+        huang_tolerance = 0.0 if huang_quadrature else -1.0 if tolerance is None else check.huang_tolerance(tolerance)
+        return self._core.albedo(wo, h, panels, max_nodes, huang_tolerance)
 
     # --- OSL-style arithmetic ---------------------------------------------------------
     def __mul__(self, weight) -> "Closure":

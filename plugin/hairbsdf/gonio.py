@@ -38,17 +38,17 @@ def depends_on_h(name: str, kwargs: dict) -> bool:
     return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() != "huang"
 
 
-def far_field_lobes(closure, wo, wi, h_count: int, h_dependent: bool) -> np.ndarray:
+def far_field_lobes(closure, wo, wi, h_count: int, h_dependent: bool, **eval_kw) -> np.ndarray:
     """Per-lobe values (N, 4, 3) ((N, 6, 3) for yan_fur) averaged over h (Gauss-Legendre, h_count
-    nodes) when the model depends on h, else at h = 0."""
+    nodes) when the model depends on h, else at h = 0; eval_kw (e.g. Huang's tolerance=) go to eval_lobes."""
     wo = np.asarray(wo, float).reshape(-1, 3)
     wi = np.asarray(wi, float).reshape(-1, 3)
     if not h_dependent:
-        return closure.eval_lobes(wo, wi, 0.0)
+        return closure.eval_lobes(wo, wi, 0.0, **eval_kw)
     nodes, weights = h_nodes(h_count)
     total = 0.0
     for h, w in zip(nodes, weights):
-        total = total + w * closure.eval_lobes(wo, wi, float(h))
+        total = total + w * closure.eval_lobes(wo, wi, float(h), **eval_kw)
     return total
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import gonio
 from ._deps import require
+from ._validate import HUANG_TOLERANCE_RANGE
 from .gonio import H_NODES
 from .closure import YAN_FUR_LOBES
 from .spec import SpecError, build, format_spec, parse_spec
@@ -21,6 +22,13 @@ RGB_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
 LOBE_COLOURS = {"R": "#1f77b4", "TT": "#d62728", "TRT": "#2ca02c", "TRRT+": "#9467bd", "TTs": "#ff7f0e",
                 "TRTs": "#8c564b", "total": "black"}
 DEFAULT_THETA_O = (0.0, 30.0, 60.0)
+DEFAULT_RESOLUTION = 96
+# Huang (principled_hair(model="huang")) costs about a millisecond a row where Chiang costs
+# microseconds: its plots use a coarser heat map, fewer polar points and a looser tolerance
+# (docs/huang.md §4), unless --resolution / --tolerance say otherwise.
+HUANG_RESOLUTION = 32
+HUANG_SLICE_POINTS = 181
+HUANG_PLOT_TOLERANCE = 0.1
 
 
 def pyplot():
@@ -34,22 +42,22 @@ def pyplot():
 # --- Slices -----------------------------------------------------------------------------------------
 # phi_o = 0 throughout: wo = (sin theta_o, cos theta_o, 0).
 
-def longitudinal_slice(closure, theta_o, count=361, h_count=H_NODES, h_dependent=False):
+def longitudinal_slice(closure, theta_o, count=361, h_count=H_NODES, h_dependent=False, **eval_kw):
     """Directions in the plane of the fibre axis and the view: wi = (cos t, sin t, 0), t in
     [0, 2 pi] (t = 0 the tip, 90 deg towards the viewer's side: delta_phi = 0, 270 deg the far
     side: delta_phi = pi). Returns t and the lobes (count, 4, 3)."""
     t = np.linspace(0.0, 2 * np.pi, count)
     wi = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)
     wo = gonio.direction(theta_o, 0.0)
-    return t, gonio.far_field_lobes(closure, np.broadcast_to(wo, wi.shape), wi, h_count, h_dependent)
+    return t, gonio.far_field_lobes(closure, np.broadcast_to(wo, wi.shape), wi, h_count, h_dependent, **eval_kw)
 
 
-def azimuthal_slice(closure, theta_o, count=361, h_count=H_NODES, h_dependent=False):
+def azimuthal_slice(closure, theta_o, count=361, h_count=H_NODES, h_dependent=False, **eval_kw):
     """Directions on the specular cone theta_i = -theta_o against delta_phi in [-pi, pi]."""
     phi = np.linspace(-np.pi, np.pi, count)
     wi = gonio.direction(-theta_o, phi)
     wo = gonio.direction(theta_o, 0.0)
-    return phi, gonio.far_field_lobes(closure, np.broadcast_to(wo, wi.shape), wi, h_count, h_dependent)
+    return phi, gonio.far_field_lobes(closure, np.broadcast_to(wo, wi.shape), wi, h_count, h_dependent, **eval_kw)
 
 
 def luminance(rgb):
@@ -61,6 +69,12 @@ def luminance(rgb):
 def _spec_closure(text):
     name, kwargs = parse_spec(text)
     return build(text), gonio.depends_on_h(name, kwargs), format_spec(name, kwargs)
+
+
+def is_huang(spec: str) -> bool:
+    """Whether a spec is principled_hair(model="huang") (the expensive model: coarser plot defaults)."""
+    name, kwargs = parse_spec(spec)
+    return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() == "huang"
 
 
 def _polar_axes(plt, rows, title):
@@ -116,8 +130,9 @@ def fit_comparison_figure(target: str, fitted: str, path, *, h_count=H_NODES, th
     return _save(fig, plt, path)
 
 
-def lobe_polar_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THETA_O):
-    """Per-lobe polar plots (luminance) and the total, longitudinal plane and specular cone."""
+def lobe_polar_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THETA_O, count=361, **eval_kw):
+    """Per-lobe polar plots (luminance) and the total, longitudinal plane and specular cone;
+    `count` directions per slice, eval_kw (e.g. tolerance=) passed to eval_lobes."""
     plt = pyplot()
     closure, h_dep, text = _spec_closure(spec)
     fig, axes = _polar_axes(plt, len(theta_o_deg), f"{text}\nper-lobe luminance (Rec. 709), h-averaged" if h_dep
@@ -126,7 +141,7 @@ def lobe_polar_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_T
         to = np.radians(deg)
         for col, slicer in enumerate((longitudinal_slice, azimuthal_slice)):
             ax = axes[row, col]
-            x, lobes = slicer(closure, to, h_count=h_count, h_dependent=h_dep)
+            x, lobes = slicer(closure, to, count=count, h_count=h_count, h_dependent=h_dep, **eval_kw)
             lum = luminance(lobes)  # (n, 4), (n, 6) for yan_fur
             for p, lobe in enumerate(YAN_FUR_LOBES[:lum.shape[1]]):
                 if np.any(lum[:, p] > 0):
@@ -139,7 +154,8 @@ def lobe_polar_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_T
     return _save(fig, plt, path)
 
 
-def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THETA_O, resolution=96):
+def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THETA_O, resolution=DEFAULT_RESOLUTION,
+                   **eval_kw):
     """(theta_i, delta_phi) maps of each lobe's luminance and the total (rows) for each theta_o
     (columns), log colour scale over 4 decades below each row's maximum."""
     plt = pyplot()
@@ -152,7 +168,7 @@ def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THET
     maps = []
     for deg in theta_o_deg:
         wo = np.broadcast_to(gonio.direction(np.radians(deg), 0.0), wi.shape)
-        lum = luminance(gonio.far_field_lobes(closure, wo, wi, h_count, h_dep))
+        lum = luminance(gonio.far_field_lobes(closure, wo, wi, h_count, h_dep, **eval_kw))
         maps.append(np.concatenate([lum, lum.sum(axis=1, keepdims=True)], axis=1).reshape(*TI.shape, lum.shape[1] + 1))
     names = (*YAN_FUR_LOBES[:maps[0].shape[-1] - 1], "total")
     fig, axes = plt.subplots(len(names), len(theta_o_deg), figsize=(3.2 * len(theta_o_deg) + 1.2, 2.2 * len(names)),
@@ -184,7 +200,7 @@ def heatmap_figure(spec: str, path, *, h_count=H_NODES, theta_o_deg=DEFAULT_THET
     return _save(fig, plt, path)
 
 
-def albedo_figure(spec: str, path, *, h_count=8, count=25):
+def albedo_figure(spec: str, path, *, h_count=8, count=25, **eval_kw):
     """Directional albedo (RGB, the integral of eval over wi) against theta_o, h-averaged where the
     model depends on h (the albedo is smooth in h: 8 nodes suffice). Quadrature at half the default
     density (panels_per_scale=0.5: within 1e-3 of the default on Principled Hair and Epic)."""
@@ -194,9 +210,9 @@ def albedo_figure(spec: str, path, *, h_count=8, count=25):
     wo = gonio.direction(theta, 0.0)
     if h_dep:
         nodes, weights = gonio.h_nodes(h_count)
-        albedo = sum(w * closure.albedo(wo, float(h), panels_per_scale=0.5) for h, w in zip(nodes, weights))
+        albedo = sum(w * closure.albedo(wo, float(h), panels_per_scale=0.5, **eval_kw) for h, w in zip(nodes, weights))
     else:
-        albedo = closure.albedo(wo, 0.0, panels_per_scale=0.5)
+        albedo = closure.albedo(wo, 0.0, panels_per_scale=0.5, **eval_kw)
     fig, ax = plt.subplots(figsize=(6, 3.6), constrained_layout=True)
     for c, (colour, name) in enumerate(zip(RGB_COLOURS, "RGB")):
         ax.plot(np.degrees(theta), albedo[:, c], color=colour, marker=".", lw=1, label=name)
@@ -236,7 +252,13 @@ def build_parser(prog: str = "hairbsdf plot") -> argparse.ArgumentParser:
     ap.add_argument("--h-nodes", type=int, default=H_NODES, metavar="K",
                     help="Gauss-Legendre nodes in h for h-dependent BSDFs such as Principled Hair (default 32: "
                          "2e-4 of the far field at radial roughness 0.3; raise it for a smaller radial roughness)")
-    ap.add_argument("--resolution", type=int, default=96, metavar="N", help="heat map theta_i cells (delta_phi: twice; default 96)")
+    ap.add_argument("--resolution", type=int, metavar="N",
+                    help=f"heat map theta_i cells (delta_phi: twice; default {DEFAULT_RESOLUTION}; "
+                         f"{HUANG_RESOLUTION} for Huang, whose rows cost ~1 ms: a coarser grid, and "
+                         f"{HUANG_SLICE_POINTS} instead of 361 directions per polar slice)")
+    ap.add_argument("--tolerance", type=float, metavar="T",
+                    help=f"Huang only: eval and albedo tolerance relative to each row's total (default "
+                         f"{HUANG_PLOT_TOLERANCE:g} in plots, docs/huang.md §4); other models have none")
     ap.add_argument("--only", choices=("polar", "heatmap", "albedo"), action="append",
                     help="write only these plots (repeatable; default all three)")
     return ap
@@ -255,19 +277,31 @@ def main(argv=None, prog: str = "hairbsdf plot") -> int:
         ap.error(f"--theta-o: expected degrees separated by commas, got {args.theta_o!r}")
     if not all(-90 < t < 90 for t in theta_o):
         ap.error("--theta-o: each angle must lie in (-90, 90) degrees")
-    if args.h_nodes < 1 or args.resolution < 4:
+    huang = is_huang(args.spec)
+    resolution = args.resolution if args.resolution is not None else HUANG_RESOLUTION if huang else DEFAULT_RESOLUTION
+    if args.h_nodes < 1 or resolution < 4:
         ap.error("--h-nodes must be >= 1 and --resolution >= 4")
+    if args.tolerance is not None and not huang:
+        ap.error("--tolerance: only Huang (principled_hair(model='huang')) takes a tolerance")
+    eval_kw = {}
+    if huang:
+        tolerance = HUANG_PLOT_TOLERANCE if args.tolerance is None else args.tolerance
+        lo, hi = HUANG_TOLERANCE_RANGE
+        if not lo <= tolerance <= hi:
+            ap.error(f"--tolerance={tolerance:g} is out of range; allowed: [{lo:g}, {hi:g}]")
+        eval_kw = dict(tolerance=tolerance)
     out, stem = Path(args.out), args.name or name
     only = set(args.only or ("polar", "heatmap", "albedo"))
     written = []
     if "polar" in only:
         written.append(lobe_polar_figure(args.spec, out / f"{stem}_polar.png", h_count=args.h_nodes,
-                                         theta_o_deg=theta_o))
+                                         theta_o_deg=theta_o, count=HUANG_SLICE_POINTS if huang else 361,
+                                         **eval_kw))
     if "heatmap" in only:
         written.append(heatmap_figure(args.spec, out / f"{stem}_heatmap.png", h_count=args.h_nodes,
-                                      theta_o_deg=theta_o, resolution=args.resolution))
+                                      theta_o_deg=theta_o, resolution=resolution, **eval_kw))
     if "albedo" in only:
-        written.append(albedo_figure(args.spec, out / f"{stem}_albedo.png"))
+        written.append(albedo_figure(args.spec, out / f"{stem}_albedo.png", **eval_kw))
     for path in written:
         print(path)
     return 0

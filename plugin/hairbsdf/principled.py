@@ -62,8 +62,11 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                "converged": the integral over h converged;
       sampler="mixture" (default): analytic lobe mixture with an exact pdf; "cycles": Cycles'
                sampler (its weight, pdf reported as 1: no MIS);
-      tolerance=1e-3: relative error target of the adaptive TT integration;
-      trt_points=16384: quasi-Monte Carlo points per h node of TRT / TRRT+ (error ~ few %, ~N^-1/2);
+      tolerance=1e-2: error target relative to the row's total (R + TT + TRT + TRRT+) of eval and
+               albedo, in [1e-6, 0.5] (docs/huang.md §4: cost and error per tolerance); eval,
+               eval_lobes, pdf and albedo also take it per call (`tolerance=`);
+      trt_points=0: TRT / TRRT+ points set by `tolerance`; N >= 16: N fixed quasi-Monte Carlo points
+               per h node (error ~ few % of TRT at 16384, ~N^-1/2);
       color_roughness="svm" (default) or "osl": the roughness of the colour conversion;
       glass_albedo_table="4.x" (default) or "5.x": the energy-compensation tables of Cycles 4.x
                or of Cycles 5.x (docs/blender5.md).
@@ -100,9 +103,13 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                          f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
-def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture", tolerance=1e-3,
-                      max_evaluations=200_000, trt_points=16384, color_roughness="svm", glass_albedo_table="4.x",
-                      **inputs) -> Closure:
+# Huang's default `tolerance` (eval and albedo, relative to the row's total; docs/huang.md §4).
+HUANG_TOLERANCE = 1e-2
+
+
+def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture",
+                      tolerance=HUANG_TOLERANCE, max_evaluations=200_000, trt_points=0, color_roughness="svm",
+                      glass_albedo_table="4.x", **inputs) -> Closure:
     """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
     if isinstance(parametrization, str):
         parametrization = parametrization.lower()
@@ -113,13 +120,11 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
     check.choice("sampler", sampler, HUANG_SAMPLERS)
     check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
     check.choice("glass_albedo_table", glass_albedo_table, HUANG_GLASS_ALBEDO_TABLES)
-    tolerance = check.real("tolerance", tolerance)
-    if not 0 < tolerance < 1:
-        raise ValueError("tolerance: must lie in (0, 1)")
+    tolerance = check.huang_tolerance(tolerance)
     if not isinstance(max_evaluations, int) or max_evaluations < 1000:
         raise ValueError("max_evaluations: must be an integer >= 1000")
-    if not isinstance(trt_points, int) or trt_points < 16:
-        raise ValueError("trt_points: must be an integer >= 16")
+    if not isinstance(trt_points, int) or isinstance(trt_points, bool) or not (trt_points == 0 or trt_points >= 16):
+        raise ValueError(f"trt_points={trt_points!r}: must be 0 (points set by `tolerance`) or an integer >= 16")
     check.keywords("principled_hair(model='huang')", inputs, HUANG_DEFAULTS)
     values = dict(HUANG_DEFAULTS)
     for key, value in inputs.items():
@@ -132,8 +137,8 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
         HUANG_ACCURACIES[accuracy], HUANG_SAMPLERS[sampler], tolerance, max_evaluations, trt_points,
         HUANG_COLOR_ROUGHNESS[color_roughness], HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table])
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
-    options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, 1e-3),
-               "trt_points": (trt_points, 16384), "color_roughness": (color_roughness, "svm"),
+    options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, HUANG_TOLERANCE),
+               "trt_points": (trt_points, 0), "color_roughness": (color_roughness, "svm"),
                "glass_albedo_table": (glass_albedo_table, "4.x")}
     extra = "".join(f", {k}={v!r}" for k, (v, d) in options.items() if v != d)
     return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"

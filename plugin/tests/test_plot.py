@@ -58,7 +58,9 @@ def test_plot_writes_non_empty_pngs(tmp_path, capsys):
 def test_plot_rejects_bad_input(tmp_path, capsys):
     for argv, fragment in ((["plot", "exec('1')"], "unknown constructor"),
                            (["plot", "epic", "--theta-o", "0,a"], "--theta-o"),
-                           (["plot", "epic", "--theta-o", "95"], "(-90, 90)")):
+                           (["plot", "epic", "--theta-o", "95"], "(-90, 90)"),
+                           (["plot", "epic", "--tolerance", "0.1"], "only Huang"),
+                           (["plot", "principled_hair(model='huang')", "--tolerance", "0.9"], "allowed: [1e-06, 0.5]")):
         with pytest.raises(SystemExit) as exc:
             cli.main(argv + ["--out", str(tmp_path)])
         assert exc.value.code == 2 and fragment in capsys.readouterr().err
@@ -68,3 +70,22 @@ def test_plot_rejects_bad_input(tmp_path, capsys):
 def test_plot_help():
     r = subprocess.run([sys.executable, "-m", "hairbsdf.cli", "plot", "--help"], capture_output=True, text=True)
     assert r.returncode == 0 and "--out" in r.stdout and "SPEC" in r.stdout.upper()
+    # Huang's coarser defaults are stated (issue 28).
+    assert "32 for Huang" in r.stdout and "--tolerance" in r.stdout
+
+
+def test_plot_uses_coarser_defaults_for_huang(monkeypatch, tmp_path):
+    from pathlib import Path
+
+    from hairbsdf import plot
+    seen = {}
+    monkeypatch.setattr(plot, "heatmap_figure", lambda spec, path, **kw: seen.setdefault("heatmap", kw) and Path(path))
+    monkeypatch.setattr(plot, "lobe_polar_figure", lambda spec, path, **kw: seen.setdefault("polar", kw) and Path(path))
+    monkeypatch.setattr(plot, "albedo_figure", lambda spec, path, **kw: seen.setdefault("albedo", kw) and Path(path))
+    assert plot.main(["principled_hair(model='huang')", "--out", str(tmp_path)]) == 0
+    assert seen["heatmap"]["resolution"] == plot.HUANG_RESOLUTION and seen["polar"]["count"] == plot.HUANG_SLICE_POINTS
+    assert all(kw["tolerance"] == plot.HUANG_PLOT_TOLERANCE for kw in seen.values())
+    seen.clear()
+    assert plot.main(["principled_hair()", "--out", str(tmp_path), "--only", "heatmap"]) == 0
+    assert seen["heatmap"]["resolution"] == plot.DEFAULT_RESOLUTION and "tolerance" not in seen["heatmap"]
+

@@ -9,7 +9,20 @@ namespace hairbsdf {
 struct QuadratureOptions {
     double panels_per_scale = 1.0;  // panels per narrowest lobe width, 6 Gauss-Legendre nodes each
     long max_nodes = 4'000'000;     // cap on theta x phi nodes
+    // Huang closures (accuracy "cycles", with a mixture sampler): > 0 replaces their quadrature
+    // by the mean of Cycles' stochastic eval / the mixture pdf over mixture-sampled directions, to
+    // this standard error relative to the albedo (huang_albedo_estimate); < 0: each closure's own
+    // tolerance; 0 keeps the quadrature.
+    double huang_tolerance = 0.0;
 };
+
+// Huang's directional albedo as the expectation of the sampled weight: Cycles' stochastic eval
+// (whose expectation is the deterministic eval) over the mixture's density at mixture-sampled
+// directions; randomized quasi-Monte Carlo, doubled until the standard error of the luminance is
+// below 0.5 x tolerance x the estimate (at most max_samples). Returns false where it does not apply
+// (accuracy "converged" or no mixture): then use the quadrature.
+bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, double tolerance, long max_samples,
+                           RGB& albedo);
 
 // Composite 6-point Gauss-Legendre in theta_i (weight cos theta_i) and phi_i, with
 // panels sized from the closures' narrowest lobes.

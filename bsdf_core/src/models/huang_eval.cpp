@@ -175,7 +175,11 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
     // and adaptive rules converge no faster than quasi-Monte Carlo: a fixed digitally shifted
     // Sobol' set (a different shift per node), TRT weighted by multiple importance between the
     // internal-reflection normals and a proposal for the exit (trt_mis_point), docs/huang.md §4.
-    if (factors_[2] > 0.0) {
+    if (factors_[2] > 0.0 && params_.trt_points == 0) {
+        if (!nodes.empty())
+            trt_by_tolerance(sp, O, nodes, trrt_node_factor, std::fabs(r_value) + std::fabs(luminance(lobes[1])),
+                             final_scale, trrt_scale, lobes, count);
+    } else if (factors_[2] > 0.0) {
         const uint32_t npts = uint32_t(std::max(params_.trt_points, 16L));
         const Sobol& so = sobol();
         double acc[6] = {0, 0, 0, 0, 0, 0};
@@ -207,6 +211,85 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
     for (RGB& l : lobes)
         if (!isfinite(l)) l = RGB(0.0);
     return lobes;
+}
+
+// --- TRT and TRRT+ to the tolerance (trt_points = 0) ----------------------------------------------
+
+// Randomized quasi-Monte Carlo with the h nodes kept as strata: kTrtReplicates copies of one
+// Sobol' set per node, each copy with its own digital shifts; the spread of the copies' totals is
+// the standard error of their mean. Points per node double until that error is below half the
+// tolerance times the row's total (R + TT + TRT + TRRT+) or the budget is spent, so TRT gets few
+// points where it is a small part of the row and many where it dominates. Budget: max_evaluations
+// TRT points (TT's cubature has its own), and at most kTrtBudget / tolerance^2 (what an estimate whose points have a relative
+// spread of ~2 needs to reach the target where TRT is the whole row): loose tolerances stay cheap
+// on the rows TRT dominates, whose error then exceeds the tolerance (docs/huang.md §4).
+namespace {
+constexpr int kTrtReplicates = 4;
+constexpr uint32_t kTrtFirstPoints = 4;  // per node and replicate
+constexpr double kTrtBudget = 20.0;
+}  // namespace
+
+void HuangHair::trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
+                                 const std::vector<double>& trrt_node_factor, double known_value, double final_scale,
+                                 double trrt_scale, std::array<RGB, kLobeCount>& lobes, long& count) const {
+    const Sobol& so = sobol();
+    const size_t node_count = nodes.size();
+    std::vector<std::array<uint32_t, 4>> shifts(node_count * kTrtReplicates);
+    uint32_t seed = 0x1B873593u;  // not the fixed-point rule's shifts: the two stay independent
+    for (auto& row : shifts)
+        for (uint32_t& sh : row) sh = seed = lookup3_hash_uint2(seed, 0x9E3779B9u);
+    // Per replicate: sums of TRT and TRRT+ (rgb), each point weighted by the node weight.
+    std::array<std::array<double, 6>, kTrtReplicates> sums{};
+    uint32_t points = 0;  // per node and replicate so far
+    auto add = [&](uint32_t from, uint32_t to) {
+        for (size_t kn = 0; kn < node_count; ++kn) {
+            const Node& n = nodes[kn];
+            const double trrt_factor = kn < trrt_node_factor.size() ? trrt_node_factor[kn] : 1.0;
+            for (int r = 0; r < kTrtReplicates; ++r) {
+                const auto& sh = shifts[kn * kTrtReplicates + size_t(r)];
+                auto& acc = sums[size_t(r)];
+                for (uint32_t i = from; i < to; ++i) {
+                    const double u0 = double(so.point(i, 0) ^ sh[0]) * 0x1p-32;
+                    const double u1 = double(so.point(i, 1) ^ sh[1]) * 0x1p-32;
+                    const double u2 = double(so.point(i, 2) ^ sh[2]) * 0x1p-32;
+                    const double u3 = double(so.point(i, 3) ^ sh[3]) * 0x1p-32;
+                    RGB trt, trrt;
+                    trt_mis_point(sp, O, n.h, u0, kTwoPi * u1, u2, u3, 2.0 * u0 * n.weight, trt, trrt);
+                    trt = (factors_[2] * final_scale) * trt;
+                    trrt = (trrt_factor * trrt_scale) * trrt;
+                    if (isfinite(trt)) acc[0] += trt.r, acc[1] += trt.g, acc[2] += trt.b;
+                    if (isfinite(trrt)) acc[3] += trrt.r, acc[4] += trrt.g, acc[5] += trrt.b;
+                }
+            }
+        }
+        count += long(to - from) * long(node_count) * kTrtReplicates;
+        points = to;
+    };
+    auto luminance_of = [&](int r) {  // replicate r's TRT + TRRT+ estimate
+        const auto& v = sums[size_t(r)];
+        return (luminance3(&v[0]) + luminance3(&v[3])) / double(points);
+    };
+    // TRT's own budget (TT's cubature has its own max_evaluations).
+    const double budget = std::min(double(params_.max_evaluations), kTrtBudget / (params_.tolerance * params_.tolerance));
+    add(0, kTrtFirstPoints);
+    for (;;) {
+        double mean = 0.0, var = 0.0;
+        for (int r = 0; r < kTrtReplicates; ++r) mean += luminance_of(r) / kTrtReplicates;
+        for (int r = 0; r < kTrtReplicates; ++r) var += (luminance_of(r) - mean) * (luminance_of(r) - mean);
+        const double standard_error = std::sqrt(var / ((kTrtReplicates - 1) * kTrtReplicates));
+        const double target = 0.5 * params_.tolerance * (known_value + std::fabs(mean));
+        if (!(standard_error > target)) break;
+        const long next = long(points) * long(node_count) * kTrtReplicates;
+        const double trt_spent = double(points) * double(node_count) * kTrtReplicates;
+        if (trt_spent + double(next) > budget || points >= (1u << 24)) break;
+        add(points, 2 * points);
+    }
+    const double scale = 1.0 / (double(points) * kTrtReplicates);
+    std::array<double, 6> mean{};
+    for (const auto& v : sums)
+        for (int j = 0; j < 6; ++j) mean[size_t(j)] += v[size_t(j)] * scale;
+    lobes[2] = RGB(mean[0], mean[1], mean[2]);
+    lobes[3] = RGB(mean[3], mean[4], mean[5]);
 }
 
 BsdfEval HuangHair::eval(const ShadingPoint& sp, Vec3 wi) const {

@@ -233,6 +233,9 @@ private:
     bool entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const;
     RGB tt_exit(const EntryState& e, Vec3 O) const;
     RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr) const;
+    void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
+                          const std::vector<double>& trrt_node_factor, double known_value, double final_scale,
+                          double trrt_scale, std::array<RGB, kLobeCount>& lobes, long& count) const;
     void trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double u2, double u3,
                        double weight, RGB& trt, RGB& trrt) const;
     double r_integrand(const ShadingPoint& sp, Vec3 O, Vec3 wh, double h) const;
