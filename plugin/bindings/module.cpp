@@ -85,6 +85,16 @@ void store(double* out, size_t i, RGB c) {
     out[3 * i + 2] = c.b;
 }
 
+// Row i of a sample call's outputs: direction (N, 3), weight (N, 3), pdf (N,), lobe (N,).
+void store_sample(const BsdfSample& s, size_t i, double* wi, double* weight, double* pdf, int32_t* lobe) {
+    wi[3 * i] = s.wi.x;
+    wi[3 * i + 1] = s.wi.y;
+    wi[3 * i + 2] = s.wi.z;
+    store(weight, i, s.weight);
+    pdf[i] = s.pdf;
+    lobe[i] = s.lobe;
+}
+
 size_t rows(const Array& a) { return size_t(a.shape(0)); }
 
 bool has_huang(const ClosureSum& bsdf) {
@@ -211,13 +221,8 @@ py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, 
         parallel_for(n, grain(bsdf, 2048), [&](size_t b, size_t e) {
             PointCache cache(bsdf, extras);
             for (size_t i = b; i < e; ++i) {
-                const BsdfSample s = bsdf.sample(cache.at(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]});
-                owi[3 * i] = s.wi.x;
-                owi[3 * i + 1] = s.wi.y;
-                owi[3 * i + 2] = s.wi.z;
-                store(ow, i, s.weight);
-                op[i] = s.pdf;
-                ol[i] = s.lobe;
+                store_sample(bsdf.sample(cache.at(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]}), i, owi, ow, op,
+                             ol);
             }
         });
     }
@@ -866,13 +871,7 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
                 const ClosureSum bsdf({Closure{weight, ChiangHair(chiang_params_from_principled(in, accuracy, tilt))}});
                 bsdf.prepare(fibre_context(pwo, ph, i), point);
                 if (op == ChiangBatchOp::Sample) {
-                    const BsdfSample s = bsdf.sample(point, {ps[3 * i], ps[3 * i + 1], ps[3 * i + 2]});
-                    owi[3 * i] = s.wi.x;
-                    owi[3 * i + 1] = s.wi.y;
-                    owi[3 * i + 2] = s.wi.z;
-                    store(ov, i, s.weight);
-                    op_pdf[i] = s.pdf;
-                    ol[i] = s.lobe;
+                    store_sample(bsdf.sample(point, {ps[3 * i], ps[3 * i + 1], ps[3 * i + 2]}), i, owi, ov, op_pdf, ol);
                 } else if (op == ChiangBatchOp::Eval) {
                     store(ov, i, bsdf.eval(point, vec_at(ps, i)).value());
                 } else {
