@@ -82,22 +82,9 @@ LightTreeCone merge_cones(const LightTreeCone& first, const LightTreeCone& secon
     return {axis, double(theta_o), theta_e};
 }
 
-LightTreeMeasure to_single_precision(LightTreeMeasure m) {
-    auto f = [](double x) { return double(float(x)); };
-    if (m.bbox.valid()) {
-        m.bbox.min = {f(m.bbox.min.x), f(m.bbox.min.y), f(m.bbox.min.z)};
-        m.bbox.max = {f(m.bbox.max.x), f(m.bbox.max.y), f(m.bbox.max.z)};
-    }
-    m.cone.axis = {f(m.cone.axis.x), f(m.cone.axis.y), f(m.cone.axis.z)};
-    m.cone.theta_o = f(m.cone.theta_o);
-    m.cone.theta_e = f(m.cone.theta_e);
-    m.energy = f(m.energy);
-    return m;
-}
-
 void LightTreeMeasure::add(const LightTreeMeasure& o) {
     if (o.energy == 0) return;
-    bbox.grow(o.bbox);  // min / max of float values: exact
+    bbox.grow(o.bbox);
     cone = merge_cones(cone, o.cone);
     energy = double(float(energy) + float(o.energy));
 }
@@ -167,7 +154,6 @@ LightTreeImportance light_tree_importance(Vec3 N, bool has_transmission, Vec3 pt
 LightTree::LightTree(std::vector<LightTreeEmitter> emitters, const std::vector<std::pair<int, Vec3>>& object_centers)
     : emitters_(std::move(emitters)) {
     public_count_ = emitters_.size();
-    for (LightTreeEmitter& e : emitters_) e.measure = to_single_precision(e.measure);
     std::vector<int> local, distant;
     std::vector<std::pair<int, std::vector<int>>> meshes;  // object -> its triangle emitters
     for (size_t i = 0; i < public_count_; ++i) {

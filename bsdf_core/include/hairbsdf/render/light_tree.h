@@ -32,11 +32,11 @@
 // * Not modelled: light linking, volumes (in_volume_segment), mesh lights.
 //
 // Status and known gaps (see also docs/engine.md):
-// * The centroid box, bucket indices, measures (bbox, cone, energy), cone merges and SAOH costs
-//   are single precision as in Cycles (evenly spaced lights sit on bucket boundaries, and
-//   symmetric layouts give split costs that tie up to rounding). Each emitter's measure is
-//   computed in double and rounded to float once, where Cycles computes it in float: inputs
-//   may differ by one float ulp.
+// * The centroid box, bucket indices, cone merges, energy sums and SAOH costs are single
+//   precision as in Cycles (evenly spaced lights sit on bucket boundaries, and symmetric layouts
+//   give split costs that tie up to rounding): each reads the measures' double fields rounded to
+//   float. Emitter measures are computed in double where Cycles computes them in float (inputs
+//   may differ by one float ulp), and importances stay double.
 // * World energy: Cycles' importance-map average (the world at the texel centres of the
 //   texture's size, or World > Map Resolution; render/lights.cpp), in double where Cycles sums
 //   in float; no Nishita sky, so no 0.8 / 0.2 sun blend. The emission estimate is
@@ -82,10 +82,6 @@ struct LightTreeMeasure {
     // SAOH cost E * A * M_omega, in float as Cycles (a near tie of two splits then breaks the same way).
     float cost() const;
 };
-
-// The measure rounded to float, as Cycles stores its emitters' measures; the tree rounds each
-// emitter's measure with it before building, so merges and costs start from Cycles' values.
-LightTreeMeasure to_single_precision(LightTreeMeasure m);
 
 // One light as the tree sees it. Built by LightSet from the scene light (lights.cpp).
 struct LightTreeEmitter {
