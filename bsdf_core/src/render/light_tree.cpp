@@ -266,8 +266,8 @@ bool LightTree::should_split(int start, int end, LightTreeMeasure& measure, int&
             total_cost = measure.cost();
             if (total_cost == 0) break;  // quirk (c)
         }
+        const float regularization = max_extent * (1.0f / ext);
         for (int i = 0; i < kBuckets - 1; ++i) {
-            const float regularization = max_extent * (1.0f / ext);
             const float c = regularization * (left[size_t(i)].cost() + right[size_t(i)].cost());
             if (c < total_cost && c < best) {
                 best = c;
