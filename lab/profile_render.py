@@ -1,6 +1,6 @@
-"""One bench_hair render with hairbsdf.render, for profilers (docs/benchmarks.md, Engine II).
+"""One bench_hair render with hairbsdf.render, for profilers (docs/benchmarks.md, Engine II and III).
 
-    perf record -g .venv/bin/python lab/profile_render.py [--samples 16] [--threads 1]
+    perf record -g .venv/bin/python lab/profile_render.py [--samples 16] [--threads 1] [--scene NAME | --npz F]
     perf report --no-children --sort dso,symbol
 """
 
@@ -20,12 +20,21 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--samples", type=int, default=16, help="samples per pixel (default 16)")
     ap.add_argument("--threads", type=int, default=1, help="render threads (default 1)")
+    ap.add_argument("--scene", default="bench_hair", help="a unit_cases.py scene (default bench_hair)")
+    ap.add_argument("--npz", default="", help="render a dumped SceneDesc (.npz, e.g. from "
+                    "lab/render_identity/dump_scenes.py) at --samples instead of --scene")
     a = ap.parse_args()
-    spec = importlib.util.spec_from_file_location("unit_cases", UNIT_CASES)
-    cases = sys.modules["unit_cases"] = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(cases)
-    out = render(cases.scene_desc(cases.case("bench_hair"), samples=a.samples), threads=a.threads)
-    print(f"bench_hair, {a.samples} spp, {a.threads} thread(s): {out['stats']['seconds']:.2f} s, "
+    if a.npz:
+        from hairbsdf.scene_file import load_scene
+        desc, name = load_scene(a.npz)[0], os.path.basename(a.npz)
+        desc["integrator"]["samples"] = a.samples
+    else:
+        spec = importlib.util.spec_from_file_location("unit_cases", UNIT_CASES)
+        cases = sys.modules["unit_cases"] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(cases)
+        desc, name = cases.scene_desc(cases.case(a.scene), samples=a.samples), a.scene
+    out = render(desc, threads=a.threads)
+    print(f"{name}, {a.samples} spp, {a.threads} thread(s): {out['stats']['seconds']:.2f} s, "
           f"{out['stats']['rays']} rays")
 
 
