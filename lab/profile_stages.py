@@ -18,6 +18,7 @@ walking its call chain from the leaf up; the first frame that names a stage deci
   the shading VM (run_program), light sampling (Lights, the light tree, suns and world), film
   (camera rays, the pixel filter, accumulation), the path loop's own work, the ray set-up around
   Embree (Geometry::intersect / occluded). libm and libc frames go to the caller that names a stage.
+  Our code outside trace_path (PreparedScene: lights, light tree, materials) is "scene preparation".
 """
 
 import argparse
@@ -118,7 +119,10 @@ def classify(chain, embree_fn, embree_size):
     if frames and EMBREE in frames[0][2]:
         syms = " ".join(s for _, s, _ in frames)
         return ("BVH build" if "rtcCommitScene" in syms or "trace_path" not in syms else "embree (chain lost)"), ()
+    in_loop = any("trace_path" in sym or "trace_pixel_sample" in sym for _, sym, _ in frames)
     for _, sym, dso in frames:
+        if not in_loop and "hairbsdf::" in sym:
+            return "scene preparation", (re.sub(r"\(.*", "", sym)[-70:],)
         for stage, keys in RULES:
             if any(k in sym for k in keys):
                 return stage, (re.sub(r"\(.*", "", sym)[-70:],)
@@ -170,7 +174,7 @@ def main():
         elif path:
             details[(stage, path[0])] += 1
     total = sum(stages.values())
-    render_stages = [s for s in stages if s not in ("BVH build", "python", "other")]
+    render_stages = [s for s in stages if s not in ("BVH build", "python", "other", "scene preparation")]
     in_render = sum(stages[s] for s in render_stages)
     print(f"\n{total} samples, {in_render} in the render loop")
     print(f"{'stage':45} {'% all':>7} {'% render loop':>14}")
