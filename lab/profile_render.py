@@ -23,7 +23,12 @@ def main():
     ap.add_argument("--scene", default="bench_hair", help="a unit_cases.py scene (default bench_hair)")
     ap.add_argument("--npz", default="", help="render a dumped SceneDesc (.npz, e.g. from "
                     "lab/render_identity/dump_scenes.py) at --samples instead of --scene")
+    ap.add_argument("--camera-ray-stream", action="store_true",
+                    help="integrator.camera_ray_stream: camera rays as one Embree stream per tile row")
+    ap.add_argument("--repeat", type=int, default=1, help="render this many times (default 1)")
     a = ap.parse_args()
+    if a.samples < 1 or a.threads < 1 or a.repeat < 1:
+        ap.error("--samples, --threads and --repeat must be positive")
     if a.npz:
         from hairbsdf.scene_file import load_scene
         desc, name = load_scene(a.npz)[0], os.path.basename(a.npz)
@@ -33,9 +38,12 @@ def main():
         cases = sys.modules["unit_cases"] = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(cases)
         desc, name = cases.scene_desc(cases.case(a.scene), samples=a.samples), a.scene
-    out = render(desc, threads=a.threads)
-    print(f"{name}, {a.samples} spp, {a.threads} thread(s): {out['stats']['seconds']:.2f} s, "
-          f"{out['stats']['rays']} rays")
+    desc["integrator"]["camera_ray_stream"] = a.camera_ray_stream
+    for _ in range(a.repeat):
+        out = render(desc, threads=a.threads)
+        print(f"{name}, {a.samples} spp, {a.threads} thread(s), camera_ray_stream {a.camera_ray_stream}: "
+              f"{out['stats']['seconds']:.2f} s, {out['stats']['rays']} rays, mean {out['combined'][..., :3].mean():.6f}",
+              flush=True)
 
 
 if __name__ == "__main__":

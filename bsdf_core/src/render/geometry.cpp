@@ -34,34 +34,39 @@ bool memory_monitor(void* user, ssize_t bytes, bool /*post*/) {
     return true;
 }
 
-// Filters shared by intersect and occluded queries. Only single rays (N = 1) are traced.
+// Filters shared by intersect and occluded queries: single rays (N = 1), and the packets of a
+// coherent camera-ray stream (N = 4 to 16; every ray of a stream has the same context).
 template <bool kCullBackFaces>
 void curve_filter(const RTCFilterFunctionNArguments* args) {
-    if (args->valid[0] == 0) return;
     const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
-    const unsigned prim = RTCHitN_primID(args->hit, args->N, 0);
     // The geometry's user data: the curve of each of its segments (primID counts from the
     // geometry's first segment). For curves in object space, Embree passes the ray and Ng of
     // that space, so the back-face sign below is the world's.
     const auto* segment_curve = static_cast<const int32_t*>(args->geometryUserPtr);
-    if (ctx->skip.kind == PrimKind::Curve && segment_curve[prim] == ctx->skip.id) {
-        args->valid[0] = 0;
-        return;
-    }
-    if (kCullBackFaces) {
-        const float d = RTCRayN_dir_x(args->ray, args->N, 0) * RTCHitN_Ng_x(args->hit, args->N, 0) +
-                        RTCRayN_dir_y(args->ray, args->N, 0) * RTCHitN_Ng_y(args->hit, args->N, 0) +
-                        RTCRayN_dir_z(args->ray, args->N, 0) * RTCHitN_Ng_z(args->hit, args->N, 0);
-        if (d > 0.0f) args->valid[0] = 0;  // back face
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] == 0) continue;
+        const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+        if (ctx->skip.kind == PrimKind::Curve && segment_curve[prim] == ctx->skip.id) {
+            args->valid[i] = 0;
+            continue;
+        }
+        if (kCullBackFaces) {
+            const float d = RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
+                            RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
+                            RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
+            if (d > 0.0f) args->valid[i] = 0;  // back face
+        }
     }
 }
 
 void triangle_filter(const RTCFilterFunctionNArguments* args) {
-    if (args->valid[0] == 0) return;
     const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
-    const int prim = int(RTCHitN_primID(args->hit, args->N, 0));
-    if ((ctx->skip.kind == PrimKind::Triangle && prim == ctx->skip.id) || prim == ctx->light_triangle) {
-        args->valid[0] = 0;
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] == 0) continue;
+        const int prim = int(RTCHitN_primID(args->hit, args->N, i));
+        if ((ctx->skip.kind == PrimKind::Triangle && prim == ctx->skip.id) || prim == ctx->light_triangle) {
+            args->valid[i] = 0;
+        }
     }
 }
 
@@ -263,17 +268,8 @@ size_t Geometry::peak_memory_bytes() const {
     return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
 }
 
-Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
+Hit Geometry::to_hit(const RTCRayHit& rh) const {
     Hit hit;
-    if (empty()) return hit;
-    QueryContext ctx;
-    rtcInitIntersectContext(&ctx.rtc);
-    ctx.skip = skip;
-    RTCRayHit rh;
-    setup_ray(ray, rh.ray);
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
     hit.t = rh.ray.tfar;
     hit.u = rh.hit.u;
@@ -292,6 +288,38 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
         hit.prim = int(rh.hit.primID);
     }
     return hit;
+}
+
+Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
+    if (empty()) return Hit{};
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.skip = skip;
+    RTCRayHit rh;
+    setup_ray(ray, rh.ray);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
+    return to_hit(rh);
+}
+
+void Geometry::intersect_stream(const Ray* rays, Hit* hits, size_t count) const {
+    if (empty()) {
+        std::fill(hits, hits + count, Hit{});
+        return;
+    }
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    std::vector<RTCRayHit> stream(count);
+    for (size_t i = 0; i < count; ++i) {
+        setup_ray(rays[i], stream[i].ray);
+        stream[i].ray.id = unsigned(i);
+        stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRayHit));
+    for (size_t i = 0; i < count; ++i) hits[i] = to_hit(stream[i]);
 }
 
 bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const {

@@ -210,7 +210,8 @@ PreparedScene::PreparedScene(SceneDesc& scene)
     for (const ImageDesc& im : scene.images) images.push_back({im.width, im.height, im.pixels.data()});
 }
 
-PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters) {
+PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters,
+                      const Hit* first_hit) {
     const IntegratorSettings& is = s.desc.integrator;
     const double clamp_direct = is.clamp_direct > 0 ? 3.0 * is.clamp_direct : 0.0;
     const double clamp_indirect = is.clamp_indirect > 0 ? 3.0 * is.clamp_indirect : 0.0;
@@ -254,7 +255,8 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     auto selection = [&](int light) { return camera ? 0.0 : s.lights.selection_pdf(light, mis_origin); };
 
     for (;;) {
-        const Hit hit = s.geometry.intersect(ray, skip);
+        const Hit hit = first_hit ? *first_hit : s.geometry.intersect(ray, skip);
+        first_hit = nullptr;
         ++counters.rays;
         const double t_end = hit ? hit.t : ray.tmax;
 
@@ -416,11 +418,8 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     }
 }
 
-PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint32_t sample, PathScratch& scratch,
-                              PathCounters& counters) {
+Ray camera_ray(const PreparedScene& s, int column, int row, uint32_t sample, Sampler& rng) {
     const Camera& cam = s.camera;
-    const uint64_t pixel = uint64_t(row) * uint64_t(cam.width()) + uint64_t(column);
-    Sampler rng(pixel, sample, s.desc.integrator.seed);
     // Cycles (integrate_camera_sample, 3.0+): sample 0 of every pixel uses the filter random
     // numbers (0.5, 0.5), i.e. the pixel centre; later samples are importance-sampled offsets.
     // At 1 spp with a narrow filter this makes a pixel one exact point sample (fibre-gonio).
@@ -433,6 +432,14 @@ PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint3
     const Ray rx = cam.generate(x + 1.0, y), ry = cam.generate(x, y + 1.0);
     ray.dP = 0.5 * (length(rx.org - ray.org) + length(ry.org - ray.org));
     ray.dD = 0.5 * (length(rx.dir - ray.dir) + length(ry.dir - ray.dir));
+    return ray;
+}
+
+PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint32_t sample, PathScratch& scratch,
+                              PathCounters& counters) {
+    const uint64_t pixel = uint64_t(row) * uint64_t(s.camera.width()) + uint64_t(column);
+    Sampler rng(pixel, sample, s.desc.integrator.seed);
+    const Ray ray = camera_ray(s, column, row, sample, rng);
     return trace_path(s, ray, rng, scratch, counters);
 }
 

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "hairbsdf/render/camera_stream.h"
 #include "hairbsdf/render/integrator.h"
 
 namespace hairbsdf::render {
@@ -85,6 +86,20 @@ void RenderJob::run() {
                 PathCounters& pc = counters.local();
                 for (size_t i = r.begin(); i != r.end(); ++i) {
                     const Tile& t = tiles[i];
+                    if (st.camera_ray_stream) {  // one coherent stream per tile row: same paths, same order
+                        for (int y = t.y0; y < t.y1; ++y) {
+                            if (cancelled()) return;
+                            trace_row_stream(prepared, y, t.x0, t.x1, s0, s1, sc, pc, [&](int x, const PathResult& p) {
+                                const size_t pixel = size_t(y) * size_t(width) + size_t(x);
+                                film.add(pixel, p.radiance, p.transparent);
+                                if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
+                            });
+                        }
+                        const uint64_t work = uint64_t(t.x1 - t.x0) * uint64_t(t.y1 - t.y0) * uint64_t(s1 - s0);
+                        const uint64_t done = done_work.fetch_add(work) + work;
+                        progress_.store(std::min(1.0, double(done) / total_work), std::memory_order_relaxed);
+                        continue;
+                    }
                     for (int y = t.y0; y < t.y1; ++y) {
                         for (int x = t.x0; x < t.x1; ++x) {
                             const size_t pixel = size_t(y) * size_t(width) + size_t(x);

@@ -21,6 +21,8 @@
 
 #include "hairbsdf/render/scene.h"
 
+struct RTCRayHit;  // Embree's ray and hit (embree3/rtcore_ray.h)
+
 namespace hairbsdf::render {
 
 struct Ray {
@@ -83,6 +85,9 @@ public:
     Geometry& operator=(const Geometry&) = delete;
 
     Hit intersect(const Ray& ray, SkipPrim skip) const;
+    // Camera rays as one coherent stream (rtcIntersect1M; integrator.camera_ray_stream): the
+    // same hits as intersect(rays[i], {}) each, traced as Embree packets.
+    void intersect_stream(const Ray* rays, Hit* hits, size_t count) const;
     // `light_triangle`: a triangle the ray aims at (an emissive-triangle light sample), ignored.
     bool occluded(const Ray& ray, SkipPrim skip, int light_triangle = -1) const;
 
@@ -112,6 +117,7 @@ public:
 
 private:
     void build(const SceneDesc& scene, std::vector<std::array<float, 4>>* release_points);
+    Hit to_hit(const RTCRayHit& rh) const;  // Embree's answer to one ray as our Hit
     struct Impl;
     std::unique_ptr<Impl> impl_;
     CurveShape shape_ = CurveShape::Thick;

@@ -83,8 +83,13 @@ struct PathScratch {
 PathResult trace_pixel_sample(const PreparedScene& scene, int column, int row, uint32_t sample, PathScratch& scratch,
                               PathCounters& counters);
 
-// One path from a given primary ray.
+// The camera ray of pixel (column, row)'s sample, drawing its filter offsets from `rng` (the
+// first numbers of the sample's stream; trace_pixel_sample = camera_ray + trace_path).
+Ray camera_ray(const PreparedScene& scene, int column, int row, uint32_t sample, Sampler& rng);
+
+// One path from a given primary ray. `first_hit`: the primary ray's hit when it was traced
+// already (a camera-ray stream); otherwise the path traces it.
 PathResult trace_path(const PreparedScene& scene, Ray ray, Sampler& rng, PathScratch& scratch,
-                      PathCounters& counters);
+                      PathCounters& counters, const Hit* first_hit = nullptr);
 
 }  // namespace hairbsdf::render
