@@ -81,12 +81,17 @@ void RenderJob::run() {
         while (done_samples < total_samples && !cancelled()) {
             const int s0 = done_samples, s1 = std::min(total_samples, done_samples + pass_samples);
             const auto pass_start = std::chrono::steady_clock::now();
+            auto tile_done = [&](const Tile& t) {  // progress: the tile's samples of this pass
+                const uint64_t work = uint64_t(t.x1 - t.x0) * uint64_t(t.y1 - t.y0) * uint64_t(s1 - s0);
+                const uint64_t done = done_work.fetch_add(work) + work;
+                progress_.store(std::min(1.0, double(done) / total_work), std::memory_order_relaxed);
+            };
             tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
                 PathScratch& sc = scratch.local();
                 PathCounters& pc = counters.local();
                 for (size_t i = r.begin(); i != r.end(); ++i) {
                     const Tile& t = tiles[i];
-                    if (st.camera_ray_stream) {  // one coherent stream per tile row: same paths, same order
+                    if (st.camera_ray_stream) {  // one coherent stream per tile row; the film in the same order
                         for (int y = t.y0; y < t.y1; ++y) {
                             if (cancelled()) return;
                             trace_row_stream(prepared, y, t.x0, t.x1, s0, s1, sc, pc, [&](int x, const PathResult& p) {
@@ -95,9 +100,7 @@ void RenderJob::run() {
                                 if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
                             });
                         }
-                        const uint64_t work = uint64_t(t.x1 - t.x0) * uint64_t(t.y1 - t.y0) * uint64_t(s1 - s0);
-                        const uint64_t done = done_work.fetch_add(work) + work;
-                        progress_.store(std::min(1.0, double(done) / total_work), std::memory_order_relaxed);
+                        tile_done(t);
                         continue;
                     }
                     for (int y = t.y0; y < t.y1; ++y) {
@@ -111,9 +114,7 @@ void RenderJob::run() {
                             }
                         }
                     }
-                    const uint64_t work = uint64_t(t.x1 - t.x0) * uint64_t(t.y1 - t.y0) * uint64_t(s1 - s0);
-                    const uint64_t done = done_work.fetch_add(work) + work;
-                    progress_.store(std::min(1.0, double(done) / total_work), std::memory_order_relaxed);
+                    tile_done(t);
                 }
             });
             if (cancelled()) break;

@@ -201,7 +201,7 @@ struct IntegratorSettings {
     bool pass_normal = false;      // world-space shading normal of the first hit
     bool pass_variance = false;    // variance of the pixel's mean radiance (squared standard error)
     // Trace each tile row's camera rays as one coherent Embree stream (render/camera_stream.h);
-    // the same image, bit for bit. Off: one rtcIntersect1 per camera ray.
+    // the same image at float rounding. Off: one rtcIntersect1 per camera ray.
     bool camera_ray_stream = false;
 };
 
