@@ -15,8 +15,14 @@
 #include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/params/deon.h"
+#include "hairbsdf/params/epic.h"
+#include "hairbsdf/params/kajiya_kay.h"
+#include "hairbsdf/params/marschner.h"
 #include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
+#include "hairbsdf/params/scheuermann.h"
+#include "hairbsdf/params/yan_fur.h"
 #include "model_params.h"
 #include "scene_schema.h"
 
@@ -437,88 +443,44 @@ py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
     d["s"] = std::vector<double>{scales[1]};
     return d;
 }
-py::dict model_dict(const KajiyaKayHair& m) {
-    const KajiyaKayHairParams& p = m.params();
+// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
+// choice's name or a bool per bound row.
+template <class P>
+py::dict table_dict(const P& p) {
     py::dict d;
-    d["model"] = "kajiya_kay";
-    d["diffuse"] = std::array<double, 3>{p.diffuse.r, p.diffuse.g, p.diffuse.b};
-    d["specular"] = std::array<double, 3>{p.specular.r, p.specular.g, p.specular.b};
-    d["exponent"] = p.exponent;
+    d["model"] = ParamTable<P>::model;
+    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+        if (!row.get) continue;  // an input the builder derived fields from
+        const ParamValue v = row.get(p);
+        const py::str name(row.spec.name);
+        switch (row.spec.kind) {
+            case ParamKind::Float: d[name] = v[0]; break;
+            case ParamKind::RGB: d[name] = v; break;
+            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
+        }
+    }
+    return d;
+}
+py::dict model_dict(const KajiyaKayHair& m) {
+    py::dict d = table_dict(m.params());
     d["specular_norm"] = m.specular_norm();
     return zoo_scales(d, m.angular_scales());
 }
-
 py::dict model_dict(const EpicHair& m) {
-    const EpicHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "epic";
-    d["base_color"] = std::array<double, 3>{p.base_color.r, p.base_color.g, p.base_color.b};
-    d["r_scale"] = p.r_scale;
-    d["scatter"] = p.scatter;
-    d["roughness"] = p.roughness;
-    d["shift"] = p.shift;
-    d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
-    d["energy"] = energy_mode_name(p.energy);
+    py::dict d = table_dict(m.params());
     d["betas"] = m.betas();
     return zoo_scales(d, m.angular_scales());
 }
-
 py::dict model_dict(const ScheuermannHair& m) {
-    const ScheuermannHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "scheuermann";
-    d["primary_color"] = std::array<double, 3>{p.primary_color.r, p.primary_color.g, p.primary_color.b};
-    d["secondary_color"] = std::array<double, 3>{p.secondary_color.r, p.secondary_color.g, p.secondary_color.b};
-    d["primary_exponent"] = p.primary_exponent;
-    d["secondary_exponent"] = p.secondary_exponent;
-    d["primary_shift"] = p.primary_shift;
-    d["secondary_shift"] = p.secondary_shift;
-    d["shift_texture"] = p.shift_texture;
-    d["noise"] = p.noise;
+    py::dict d = table_dict(m.params());
     d["norms"] = m.norms();
     return zoo_scales(d, m.angular_scales());
 }
-py::dict model_dict(const MarschnerHair& m) {
-    const MarschnerHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "marschner";
-    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
-    d["eta"] = p.eta;
-    d["eccentricity"] = p.eccentricity;
-    d["alpha_r"] = p.alpha_r;
-    d["beta_r"] = p.beta_r;
-    d["glint_scale"] = p.glint_scale;
-    d["caustic_width"] = p.caustic_width;
-    d["caustic_fade"] = p.caustic_fade;
-    d["caustic_limit"] = p.caustic_limit;
-    d["energy"] = energy_mode_name(p.energy);
-    return zoo_scales(d, m.angular_scales());
-}
-
-py::dict model_dict(const DeonHair& m) {
-    const DeonHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "deon";
-    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
-    d["eta"] = p.eta;
-    d["roughness"] = p.roughness;
-    d["tilt"] = p.tilt;
-    d["tabulated"] = p.tabulated;
-    return zoo_scales(d, m.angular_scales());
-}
+py::dict model_dict(const MarschnerHair& m) { return zoo_scales(table_dict(m.params()), m.angular_scales()); }
+py::dict model_dict(const DeonHair& m) { return zoo_scales(table_dict(m.params()), m.angular_scales()); }
 py::dict model_dict(const YanFurHair& m) {
-    const YanFurParams& p = m.params();
-    py::dict d;
-    d["model"] = "yan_fur";
-    d["medulla_ratio"] = p.medulla_ratio;
-    d["cortex_absorption"] = std::array<double, 3>{p.cortex_absorption.r, p.cortex_absorption.g, p.cortex_absorption.b};
-    d["medulla_absorption"] = p.medulla_absorption;
-    d["medulla_scattering"] = p.medulla_scattering;
-    d["medulla_g"] = p.medulla_g;
-    d["eta"] = p.eta;
-    d["alpha"] = p.alpha;
-    d["roughness"] = p.roughness;
-    d["radial_roughness"] = p.radial_roughness;
+    py::dict d = table_dict(m.params());
     d["table_build_seconds"] = m.table()->build_seconds();
     return zoo_scales(d, m.angular_scales());
 }
@@ -1030,6 +992,12 @@ PYBIND11_MODULE(_core, m) {
 
     // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
+    // (name, title, summary) per zoo model, from the tables (Blender's override menu).
+    m.def("zoo_models", []() {
+        py::list out;
+        for (const ZooModel& z : zoo_models()) out.append(py::make_tuple(z.name, z.title, z.summary));
+        return out;
+    });
 
     // The scene format (scene_schema.h): its table and its check, without TBB.
     m.def("scene_schema", &bindings::scene_schema_as_python,
