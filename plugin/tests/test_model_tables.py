@@ -37,7 +37,9 @@ def test_constructor_keywords_are_the_table(model):
     assert not problems, "\n".join(problems)
 
 
-@pytest.mark.parametrize("model", hairbsdf.zoo_model_names())
+# Every kind of row (number, RGB, choice, bool, converted, optional, builder input) is in these four; Marschner's
+# energy table and Yan's medulla tables would add seconds and no new kind.
+@pytest.mark.parametrize("model", ["kajiya_kay", "epic", "scheuermann", "deon"])
 def test_model_params_name_the_table_rows(model):
     (d,) = hairbsdf.make_model(model).model_params
     assert d["model"] == model
