@@ -39,6 +39,9 @@ hs.make_light("SUN", energy=4.0)
 scene.render.engine = "HAIRBSDF"
 scene.hairbsdf.threads = 2
 out = {"none": [p.name for p in hair.hairbsdf.params]}
+# the menu: the zoo's tables' names and titles between None and Plugin
+out["menu"] = [list(i[:2]) for i in mo.OVERRIDES]
+out["zoo"] = [list(m[:2]) for m in hairbsdf.zoo.zoo_models()]
 
 def closures(name):
     desc, rep = export_scene(bpy.context.evaluated_depsgraph_get(), render=True)
@@ -90,6 +93,8 @@ def test_override_exports_and_renders(run_blender, blender_kind, renderer_availa
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, OVERRIDE_SCENE, args={"kk": str(kk_plugin)}).result
     assert r["none"] == []
+    assert r["menu"] == [["NONE", "None"], *r["zoo"], ["plugin", "Plugin"]]
+    assert [m[0] for m in r["zoo"]] == ["kajiya_kay", "epic", "scheuermann", "marschner", "deon", "yan_fur"]
     # the items are the schema, at its defaults
     schema = {p["name"]: p for p in r["epic_schema"]}
     assert [i[0] for i in r["epic_items"]] == list(schema)

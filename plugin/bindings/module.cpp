@@ -8,15 +8,21 @@
 #include <algorithm>
 #include <cstring>
 #include <atomic>
-#include <thread>
 #include <vector>
 
 #include "hairbsdf/albedo.h"
+#include "hairbsdf/batch/batch_rows.h"
 #include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/params/deon.h"
+#include "hairbsdf/params/epic.h"
+#include "hairbsdf/params/kajiya_kay.h"
+#include "hairbsdf/params/marschner.h"
 #include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/principled_hair.h"
+#include "hairbsdf/params/scheuermann.h"
+#include "hairbsdf/params/yan_fur.h"
 #include "model_params.h"
 #include "scene_schema.h"
 
@@ -27,106 +33,10 @@ namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-std::atomic<int> g_num_threads{int(std::max(1u, std::thread::hardware_concurrency()))};
-
-// Runs fn(begin, end) over [0, n) in contiguous chunks on up to g_num_threads threads.
-template <class Fn>
-void parallel_for(size_t n, size_t min_chunk, Fn fn) {
-    const size_t threads = std::min<size_t>(size_t(g_num_threads.load()), (n + min_chunk - 1) / min_chunk);
-    if (threads <= 1) {
-        fn(size_t(0), n);
-        return;
-    }
-    std::vector<std::thread> pool;
-    const size_t chunk = (n + threads - 1) / threads;
-    for (size_t t = 0; t < threads; ++t) {
-        const size_t begin = t * chunk, end = std::min(n, begin + chunk);
-        if (begin >= end) break;
-        pool.emplace_back([=, &fn] { fn(begin, end); });
-    }
-    for (auto& th : pool) th.join();
-}
-
-Vec3 vec_at(const double* p, size_t i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 RGB vec_rgb(const double* p, size_t i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 RGB rgb_from(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
-// Optional per-sample fields of the shading context (Huang model): null = the default.
-struct Extras {
-    const double* normal = nullptr;          // (N, 3)
-    const double* pixel_coverage = nullptr;  // (N,)
-    const double* near_field = nullptr;      // (N,) 0 / 1
-    const double* random = nullptr;          // (N,) per-strand random (plugins)
-    const double* shadow = nullptr;          // (N,) Epic's light visibility through the hair volume
-};
-
-ShadingContext fibre_context(const double* wo, const double* h, size_t i, const Extras& x = {}) {
-    ShadingContext ctx;
-    ctx.tangent = {1, 0, 0};
-    ctx.wo = vec_at(wo, i);
-    ctx.h = h[i];
-    if (x.normal) ctx.normal = vec_at(x.normal, i);
-    if (x.pixel_coverage) ctx.pixel_coverage = x.pixel_coverage[i];
-    if (x.near_field) ctx.near_field = x.near_field[i] != 0.0;
-    if (x.random) ctx.random = x.random[i];
-    if (x.shadow) ctx.shadow = x.shadow[i];
-    return ctx;
-}
-
-bool same_context(const ShadingContext& a, const ShadingContext& b) {
-    return a.wo.x == b.wo.x && a.wo.y == b.wo.y && a.wo.z == b.wo.z && a.h == b.h && a.normal.x == b.normal.x &&
-           a.normal.y == b.normal.y && a.normal.z == b.normal.z && a.pixel_coverage == b.pixel_coverage &&
-           a.near_field == b.near_field && a.random == b.random && a.shadow == b.shadow;
-}
-
-void store(double* out, size_t i, RGB c) {
-    out[3 * i] = c.r;
-    out[3 * i + 1] = c.g;
-    out[3 * i + 2] = c.b;
-}
-
-// Row i of a sample call's outputs: direction (N, 3), weight (N, 3), pdf (N,), lobe (N,).
-void store_sample(const BsdfSample& s, size_t i, double* wi, double* weight, double* pdf, int32_t* lobe) {
-    wi[3 * i] = s.wi.x;
-    wi[3 * i + 1] = s.wi.y;
-    wi[3 * i + 2] = s.wi.z;
-    store(weight, i, s.weight);
-    pdf[i] = s.pdf;
-    lobe[i] = s.lobe;
-}
-
 size_t rows(const Array& a) { return size_t(a.shape(0)); }
-
-bool has_huang(const ClosureSum& bsdf) {
-    for (const Closure& c : bsdf.closures())
-        if (std::holds_alternative<HuangHair>(c.model)) return true;
-    return false;
-}
-// Rows per thread: Huang evaluations cost microseconds to milliseconds, so split finely.
-size_t grain(const ClosureSum& bsdf, size_t chiang_grain) { return has_huang(bsdf) ? 1 : chiang_grain; }
-
-// Prepares the closures for row i, reusing the previous row's shading point when the
-// view direction and h repeat (gonio sweeps: one wo, many wi).
-class PointCache {
-public:
-    explicit PointCache(const ClosureSum& bsdf, const Extras& extras = {}) : bsdf_(bsdf), extras_(extras) {}
-    const ClosureSum::ShadingPoint& at(const double* wo, const double* h, size_t i) {
-        const ShadingContext ctx = fibre_context(wo, h, i, extras_);
-        if (!valid_ || !same_context(ctx, last_)) {
-            bsdf_.prepare(ctx, point_);
-            last_ = ctx;
-            valid_ = true;
-        }
-        return point_;
-    }
-
-private:
-    const ClosureSum& bsdf_;
-    Extras extras_;
-    ClosureSum::ShadingPoint point_;
-    ShadingContext last_;
-    bool valid_ = false;
-};
 
 py::array_t<double> new_array(std::vector<py::ssize_t> shape) { return py::array_t<double>(shape); }
 
@@ -136,10 +46,10 @@ void check_rows(const Array& a, size_t n, int cols, const char* name) {
         throw py::value_error(std::string("internal: bad shape for ") + name);
 }
 
-Extras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
+RowExtras extras_from(const py::object& normal, const py::object& pixel_coverage, const py::object& near_field, size_t n,
                    std::vector<Array>& keep, const py::object& random = py::none(),
                    const py::object& shadow = py::none()) {
-    Extras x;
+    RowExtras x;
     auto get = [&](const py::object& o, int cols, const char* name) -> const double* {
         if (o.is_none()) return nullptr;
         keep.push_back(o.cast<Array>());
@@ -154,57 +64,39 @@ Extras extras_from(const py::object& normal, const py::object& pixel_coverage, c
     return x;
 }
 
-py::array_t<double> batch_eval(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
-                               bool lobes, const Extras& extras = {}) {
+// The scalar batch loops (hairbsdf/batch/batch_rows.h) on the arrays, without the GIL.
+py::array_t<double> eval_arrays(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
+                               bool lobes, const RowExtras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(wi, n, 3, "wi");
     check_rows(h, n, 0, "h");
-    // R, TT, TRT, TRRT+; plus TTs and TRTs when a yan_fur closure is in the sum (docs/models.md §7).
-    bool six = false;
-    for (const Closure& c : bsdf.closures()) six = six || std::holds_alternative<YanFurHair>(c.model);
-    const int count = six ? kLobeCount : kChiangLobeCount;
-    auto out = lobes ? new_array({py::ssize_t(n), count, 3}) : new_array({py::ssize_t(n), 3});
+    auto out = lobes ? new_array({py::ssize_t(n), batch_lobe_count(bsdf), 3}) : new_array({py::ssize_t(n), 3});
     double* o = out.mutable_data();
-    const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, grain(bsdf, 4096), [&](size_t b, size_t e) {
-            PointCache cache(bsdf, extras);
-            for (size_t i = b; i < e; ++i) {
-                const BsdfEval r = bsdf.eval(cache.at(pwo, ph, i), vec_at(pwi, i));
-                if (lobes) {
-                    for (int p = 0; p < count; ++p) store(o + 3 * count * i, size_t(p), r.lobes[p]);
-                } else {
-                    store(o, i, r.value());
-                }
-            }
-        });
+        hairbsdf::batch_eval(bsdf, n, wo.data(), wi.data(), h.data(), lobes, extras, o);
     }
     return out;
 }
 
-py::array_t<double> batch_pdf(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
-                              const Extras& extras = {}) {
+py::array_t<double> pdf_arrays(const ClosureSum& bsdf, const Array& wo, const Array& wi, const Array& h,
+                              const RowExtras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(wi, n, 3, "wi");
     check_rows(h, n, 0, "h");
     auto out = new_array({py::ssize_t(n)});
     double* o = out.mutable_data();
-    const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, grain(bsdf, 4096), [&](size_t b, size_t e) {
-            PointCache cache(bsdf, extras);
-            for (size_t i = b; i < e; ++i) o[i] = bsdf.pdf(cache.at(pwo, ph, i), vec_at(pwi, i));
-        });
+        hairbsdf::batch_pdf(bsdf, n, wo.data(), wi.data(), h.data(), extras, o);
     }
     return out;
 }
 
-py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, const Array& u,
-                       const Extras& extras = {}) {
+py::tuple sample_arrays(const ClosureSum& bsdf, const Array& wo, const Array& h, const Array& u,
+                       const RowExtras& extras = {}) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(h, n, 0, "h");
@@ -215,37 +107,27 @@ py::tuple batch_sample(const ClosureSum& bsdf, const Array& wo, const Array& h, 
     py::array_t<int32_t> lobe({py::ssize_t(n)});
     double *owi = wi.mutable_data(), *ow = weight.mutable_data(), *op = pdf.mutable_data();
     int32_t* ol = lobe.mutable_data();
-    const double *pwo = wo.data(), *ph = h.data(), *pu = u.data();
     {
         py::gil_scoped_release release;
-        parallel_for(n, grain(bsdf, 2048), [&](size_t b, size_t e) {
-            PointCache cache(bsdf, extras);
-            for (size_t i = b; i < e; ++i) {
-                store_sample(bsdf.sample(cache.at(pwo, ph, i), {pu[3 * i], pu[3 * i + 1], pu[3 * i + 2]}), i, owi, ow, op,
-                             ol);
-            }
-        });
+        hairbsdf::batch_sample(bsdf, n, wo.data(), h.data(), u.data(), extras, owi, ow, op, ol);
     }
     return py::make_tuple(wi, weight, pdf, lobe);
 }
 
-py::array_t<double> batch_albedo(const ClosureSum& bsdf, const Array& wo, const Array& h, double panels_per_scale,
+py::array_t<double> albedo_arrays(const ClosureSum& bsdf, const Array& wo, const Array& h, double panels_per_scale,
                                  long max_nodes, double huang_tolerance) {
     const size_t n = rows(wo);
     check_rows(wo, n, 3, "wo");
     check_rows(h, n, 0, "h");
     auto out = new_array({py::ssize_t(n), 3});
     double* o = out.mutable_data();
-    const double *pwo = wo.data(), *ph = h.data();
     QuadratureOptions options;
     options.panels_per_scale = panels_per_scale;
     options.max_nodes = max_nodes;
     options.huang_tolerance = huang_tolerance;
     {
         py::gil_scoped_release release;
-        parallel_for(n, 1, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) store(o, i, directional_albedo(bsdf, fibre_context(pwo, ph, i), options));
-        });
+        hairbsdf::batch_albedo(bsdf, n, wo.data(), h.data(), options, o);
     }
     return out;
 }
@@ -437,88 +319,44 @@ py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
     d["s"] = std::vector<double>{scales[1]};
     return d;
 }
-py::dict model_dict(const KajiyaKayHair& m) {
-    const KajiyaKayHairParams& p = m.params();
+// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
+// choice's name or a bool per bound row.
+template <class P>
+py::dict table_dict(const P& p) {
     py::dict d;
-    d["model"] = "kajiya_kay";
-    d["diffuse"] = std::array<double, 3>{p.diffuse.r, p.diffuse.g, p.diffuse.b};
-    d["specular"] = std::array<double, 3>{p.specular.r, p.specular.g, p.specular.b};
-    d["exponent"] = p.exponent;
+    d["model"] = ParamTable<P>::model;
+    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+        if (!row.get) continue;  // an input the builder derived fields from
+        const ParamValue v = row.get(p);
+        const py::str name(row.spec.name);
+        switch (row.spec.kind) {
+            case ParamKind::Float: d[name] = v[0]; break;
+            case ParamKind::RGB: d[name] = v; break;
+            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
+        }
+    }
+    return d;
+}
+py::dict model_dict(const KajiyaKayHair& m) {
+    py::dict d = table_dict(m.params());
     d["specular_norm"] = m.specular_norm();
     return zoo_scales(d, m.angular_scales());
 }
-
 py::dict model_dict(const EpicHair& m) {
-    const EpicHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "epic";
-    d["base_color"] = std::array<double, 3>{p.base_color.r, p.base_color.g, p.base_color.b};
-    d["r_scale"] = p.r_scale;
-    d["scatter"] = p.scatter;
-    d["roughness"] = p.roughness;
-    d["shift"] = p.shift;
-    d["variant"] = p.variant == EpicVariant::Direct ? "direct" : "environment";
-    d["energy"] = energy_mode_name(p.energy);
+    py::dict d = table_dict(m.params());
     d["betas"] = m.betas();
     return zoo_scales(d, m.angular_scales());
 }
-
 py::dict model_dict(const ScheuermannHair& m) {
-    const ScheuermannHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "scheuermann";
-    d["primary_color"] = std::array<double, 3>{p.primary_color.r, p.primary_color.g, p.primary_color.b};
-    d["secondary_color"] = std::array<double, 3>{p.secondary_color.r, p.secondary_color.g, p.secondary_color.b};
-    d["primary_exponent"] = p.primary_exponent;
-    d["secondary_exponent"] = p.secondary_exponent;
-    d["primary_shift"] = p.primary_shift;
-    d["secondary_shift"] = p.secondary_shift;
-    d["shift_texture"] = p.shift_texture;
-    d["noise"] = p.noise;
+    py::dict d = table_dict(m.params());
     d["norms"] = m.norms();
     return zoo_scales(d, m.angular_scales());
 }
-py::dict model_dict(const MarschnerHair& m) {
-    const MarschnerHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "marschner";
-    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
-    d["eta"] = p.eta;
-    d["eccentricity"] = p.eccentricity;
-    d["alpha_r"] = p.alpha_r;
-    d["beta_r"] = p.beta_r;
-    d["glint_scale"] = p.glint_scale;
-    d["caustic_width"] = p.caustic_width;
-    d["caustic_fade"] = p.caustic_fade;
-    d["caustic_limit"] = p.caustic_limit;
-    d["energy"] = energy_mode_name(p.energy);
-    return zoo_scales(d, m.angular_scales());
-}
-
-py::dict model_dict(const DeonHair& m) {
-    const DeonHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "deon";
-    d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
-    d["eta"] = p.eta;
-    d["roughness"] = p.roughness;
-    d["tilt"] = p.tilt;
-    d["tabulated"] = p.tabulated;
-    return zoo_scales(d, m.angular_scales());
-}
+py::dict model_dict(const MarschnerHair& m) { return zoo_scales(table_dict(m.params()), m.angular_scales()); }
+py::dict model_dict(const DeonHair& m) { return zoo_scales(table_dict(m.params()), m.angular_scales()); }
 py::dict model_dict(const YanFurHair& m) {
-    const YanFurParams& p = m.params();
-    py::dict d;
-    d["model"] = "yan_fur";
-    d["medulla_ratio"] = p.medulla_ratio;
-    d["cortex_absorption"] = std::array<double, 3>{p.cortex_absorption.r, p.cortex_absorption.g, p.cortex_absorption.b};
-    d["medulla_absorption"] = p.medulla_absorption;
-    d["medulla_scattering"] = p.medulla_scattering;
-    d["medulla_g"] = p.medulla_g;
-    d["eta"] = p.eta;
-    d["alpha"] = p.alpha;
-    d["roughness"] = p.roughness;
-    d["radial_roughness"] = p.radial_roughness;
+    py::dict d = table_dict(m.params());
     d["table_build_seconds"] = m.table()->build_seconds();
     return zoo_scales(d, m.angular_scales());
 }
@@ -591,7 +429,7 @@ py::dict huang_details(const ClosureSum& c, const Array& wo, const Array& wi, co
     const HuangHair& m = single_huang(c);
     const size_t n = rows(wo);
     std::vector<Array> keep;
-    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    const RowExtras x = extras_from(normal, pixel_coverage, near_field, n, keep);
     auto r = new_array({py::ssize_t(n)}), lo = new_array({py::ssize_t(n)}), hi = new_array({py::ssize_t(n)});
     auto evals = new_array({py::ssize_t(n)});
     py::array_t<bool> transparent({py::ssize_t(n)}), near({py::ssize_t(n)});
@@ -609,7 +447,7 @@ py::dict huang_details(const ClosureSum& c, const Array& wo, const Array& wi, co
                 plo[i] = sp.h_lo;
                 phi[i] = sp.h_hi;
                 long count = 0;
-                if (rows(wi) == n) m.eval_local(sp, m.to_local(sp, vec_at(pwi, i)), &count);
+                if (rows(wi) == n) m.eval_local(sp, m.to_local(sp, row_vec(pwi, i)), &count);
                 pe[i] = double(count);
             }
         });
@@ -632,7 +470,7 @@ py::array_t<double> huang_cycles_estimate(const ClosureSum& c, const Array& wo, 
     const HuangHair& m = single_huang(c);
     const size_t n = rows(wo);
     std::vector<Array> keep;
-    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    const RowExtras x = extras_from(normal, pixel_coverage, near_field, n, keep);
     auto out = new_array({py::ssize_t(n), 4, 3});
     double* o = out.mutable_data();
     const double *pwo = wo.data(), *pwi = wi.data(), *ph = h.data();
@@ -641,14 +479,14 @@ py::array_t<double> huang_cycles_estimate(const ClosureSum& c, const Array& wo, 
         parallel_for(n, 1, [&](size_t b, size_t e) {
             for (size_t i = b; i < e; ++i) {
                 const HuangHair::ShadingPoint sp = m.prepare(fibre_context(pwo, ph, i, x));
-                const Vec3 O = m.to_local(sp, vec_at(pwi, i));
+                const Vec3 O = m.to_local(sp, row_vec(pwi, i));
                 uint32_t rng = lookup3_hash_uint2(uint32_t(i), seed);
                 std::array<RGB, 4> acc{};
                 for (long k = 0; k < samples; ++k) {
                     const auto l = m.eval_cycles_stochastic(sp, O, rng);
                     for (int p = 0; p < 4; ++p) acc[size_t(p)] += l[size_t(p)];
                 }
-                for (int p = 0; p < 4; ++p) store(o + 12 * i, size_t(p), (1.0 / double(samples)) * acc[size_t(p)]);
+                for (int p = 0; p < 4; ++p) store_rgb(o + 12 * i, size_t(p), (1.0 / double(samples)) * acc[size_t(p)]);
             }
         });
     }
@@ -661,7 +499,7 @@ py::tuple huang_sample_directions(const ClosureSum& c, const Array& wo, const Ar
     const HuangHair& m = single_huang(c);
     const size_t n = rows(wo);
     std::vector<Array> keep;
-    const Extras x = extras_from(normal, pixel_coverage, near_field, n, keep);
+    const RowExtras x = extras_from(normal, pixel_coverage, near_field, n, keep);
     auto wi = new_array({py::ssize_t(n), 3});
     auto pdf = new_array({py::ssize_t(n)});
     py::array_t<int32_t> lobe({py::ssize_t(n)});
@@ -676,7 +514,7 @@ py::tuple huang_sample_directions(const ClosureSum& c, const Array& wo, const Ar
             bool have = false;
             for (size_t i = b; i < e; ++i) {
                 const ShadingContext ctx = fibre_context(pwo, ph, i, x);
-                if (!have || !same_context(ctx, last)) {
+                if (!have || !same_row_context(ctx, last)) {
                     sp = m.prepare(ctx);
                     last = ctx;
                     have = true;
@@ -873,9 +711,9 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
                 if (op == ChiangBatchOp::Sample) {
                     store_sample(bsdf.sample(point, {ps[3 * i], ps[3 * i + 1], ps[3 * i + 2]}), i, owi, ov, op_pdf, ol);
                 } else if (op == ChiangBatchOp::Eval) {
-                    store(ov, i, bsdf.eval(point, vec_at(ps, i)).value());
+                    store_rgb(ov, i, bsdf.eval(point, row_vec(ps, i)).value());
                 } else {
-                    op_pdf[i] = bsdf.pdf(point, vec_at(ps, i));
+                    op_pdf[i] = bsdf.pdf(point, row_vec(ps, i));
                 }
             }
         });
@@ -922,12 +760,12 @@ PYBIND11_MODULE(_core, m) {
 
     py::class_<ClosureSum>(m, "ClosureSum")
         .def("eval", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) {
-            return batch_eval(c, wo, wi, h, false);
+            return eval_arrays(c, wo, wi, h, false);
         })
         .def("eval_lobes", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) {
-            return batch_eval(c, wo, wi, h, true);
+            return eval_arrays(c, wo, wi, h, true);
         })
-        .def("pdf", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) { return batch_pdf(c, wo, wi, h); })
+        .def("pdf", [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h) { return pdf_arrays(c, wo, wi, h); })
         // The batch kernels: None when they do not apply to these arrays (docs/simd.md).
         .def("kernel_eval", [](const ClosureSum& c, py::handle wo, py::handle wi, py::handle h, py::object out) {
             return kernel_call(c, ChiangBatchOp::Eval, wo, wi, h, out);
@@ -938,15 +776,15 @@ PYBIND11_MODULE(_core, m) {
         .def("kernel_sample", [](const ClosureSum& c, py::handle wo, py::handle h, py::handle u) {
             return kernel_call(c, ChiangBatchOp::Sample, wo, u, h, py::none());
         })
-        .def("sample", [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u) { return batch_sample(c, wo, h, u); })
+        .def("sample", [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u) { return sample_arrays(c, wo, h, u); })
         // The same with the optional per-sample shading fields (None = default): normal (N, 3),
         // pixel_coverage (N,), near_field (N,) as 0 / 1.
         .def("eval_ex",
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, bool lobes, py::object normal,
                 py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
-                 return batch_eval(c, wo, wi, h, lobes, x);
+                 const RowExtras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
+                 return eval_arrays(c, wo, wi, h, lobes, x);
              },
              py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("lobes"), py::arg("normal"), py::arg("pixel_coverage"),
              py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
@@ -954,8 +792,8 @@ PYBIND11_MODULE(_core, m) {
              [](const ClosureSum& c, const Array& wo, const Array& wi, const Array& h, py::object normal,
                 py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
-                 return batch_pdf(c, wo, wi, h, x);
+                 const RowExtras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
+                 return pdf_arrays(c, wo, wi, h, x);
              },
              py::arg("wo"), py::arg("wi"), py::arg("h"), py::arg("normal"), py::arg("pixel_coverage"),
              py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
@@ -963,12 +801,12 @@ PYBIND11_MODULE(_core, m) {
              [](const ClosureSum& c, const Array& wo, const Array& h, const Array& u, py::object normal,
                 py::object pixel_coverage, py::object near_field, py::object random, py::object shadow) {
                  std::vector<Array> keep;
-                 const Extras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
-                 return batch_sample(c, wo, h, u, x);
+                 const RowExtras x = extras_from(normal, pixel_coverage, near_field, rows(wo), keep, random, shadow);
+                 return sample_arrays(c, wo, h, u, x);
              },
              py::arg("wo"), py::arg("h"), py::arg("u"), py::arg("normal"), py::arg("pixel_coverage"),
              py::arg("near_field"), py::arg("random") = py::none(), py::arg("shadow") = py::none())
-        .def("albedo", &batch_albedo)
+        .def("albedo", &albedo_arrays)
         .def("with_huang_tolerance",
              [](const ClosureSum& c, double tolerance) {
                  // The same sum with every Huang closure's tolerance replaced (eval's tolerance= keyword).
@@ -1030,6 +868,12 @@ PYBIND11_MODULE(_core, m) {
 
     // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
+    // (name, title, summary) per zoo model, from the tables (Blender's override menu).
+    m.def("zoo_models", []() {
+        py::list out;
+        for (const ZooModel& z : zoo_models()) out.append(py::make_tuple(z.name, z.title, z.summary));
+        return out;
+    });
 
     // The scene format (scene_schema.h): its table and its check, without TBB.
     m.def("scene_schema", &bindings::scene_schema_as_python,
@@ -1156,8 +1000,8 @@ PYBIND11_MODULE(_core, m) {
             out.mutable_data()[i] = cycles_curve_random(uint32_t(idx.data()[i]));
         return out;
     });
-    m.def("set_num_threads", [](int n) { g_num_threads = std::max(1, n); });
-    m.def("get_num_threads", []() { return g_num_threads.load(); });
+    m.def("set_num_threads", &set_batch_threads);
+    m.def("get_num_threads", &batch_threads);
     // "scalar" (the double reference path for every call) or an instruction set of the kernels.
     m.def("set_batch_kernel", [](const std::string& name, bool convert_float64) {
         g_kernels_on = name != "scalar";

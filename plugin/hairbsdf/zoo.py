@@ -2,8 +2,8 @@
 interface. Formulas, defaults and their sources: docs/models.md. Every constructor works with no
 arguments; out-of-range parameters raise ValueError naming the parameter and the allowed range.
 
-The parameter names, defaults and ranges live in one table, the C++ model factory
-(bsdf_core/include/hairbsdf/model_factory.h); `model_schema(name)` returns it and
+The parameter names, defaults and ranges live in one table per model, beside its C++ Params struct
+(bsdf_core/include/hairbsdf/params/<model>.h); `model_schema(name)` returns it and
 `make_model(name, params)` builds a model from named values, as the renderer's `hair_model`
 closure and the Blender engine's material override do."""
 
@@ -19,6 +19,11 @@ from .closure import Closure
 def zoo_model_names() -> list[str]:
     """The zoo's model names: kajiya_kay, epic, scheuermann, marschner, deon, yan_fur."""
     return list(_core.zoo_model_names())
+
+
+def zoo_models() -> list[tuple[str, str, str]]:
+    """(name, title, one-line summary) per zoo model, from the models' tables (Blender's override menu)."""
+    return [tuple(m) for m in _core.zoo_models()]
 
 
 def model_schema(model: str, path: str | None = None) -> list[dict]:

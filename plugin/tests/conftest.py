@@ -16,6 +16,16 @@ def rng():
     return np.random.default_rng(20261122)
 
 
+@pytest.fixture
+def best_kernel():
+    """The batch kernels on the best instruction set before and after the test (test_batch_kernels*.py)."""
+    import hairbsdf
+
+    hairbsdf.set_batch_kernel("best")
+    yield
+    hairbsdf.set_batch_kernel("best")
+
+
 # --- The example plugin (examples/plugins/kajiya_kay), built once per session -----------------
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "plugins" / "kajiya_kay"

@@ -9,6 +9,8 @@ import pytest
 import hairbsdf
 from hairbsdf import testing
 
+# Every test starts and ends on the best instruction set (the fixture is in conftest.py).
+pytestmark = pytest.mark.usefixtures("best_kernel")
 N = 100_000
 DEG = np.pi / 180
 # Blender's defaults, a smooth fibre (M_p's exponent near 1/v = 370 for TT), and a rougher, tilted,
@@ -33,13 +35,6 @@ def _isas():
 
 
 ISAS = _isas()
-
-
-@pytest.fixture(autouse=True)
-def best_kernel():
-    hairbsdf.set_batch_kernel("best")
-    yield
-    hairbsdf.set_batch_kernel("best")
 
 
 def hair(name, accuracy, tilt):

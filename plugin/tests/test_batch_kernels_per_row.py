@@ -10,19 +10,14 @@ import hairbsdf
 from hairbsdf import testing
 from test_batch_kernels import DEG, ISAS, _edge_rows, assert_close, reference, relative_errors, rows, scalar_path
 
+# Every test starts and ends on the best instruction set (the fixture is in conftest.py).
+pytestmark = pytest.mark.usefixtures("best_kernel")
 N = 100_000
 # The closure's uniform inputs; random_roughness and random_color make `random` matter.
 UNIFORM = dict(random_roughness=0.3, random_color=0.4, melanin_redness=0.6, tint=(0.9, 0.7, 0.8),
                color=(0.3, 0.15, 0.05), offset=3 * DEG)
 CASES = [("color", "cycles", "4.2"), ("melanin", "exact", "3.4"), ("absorption", "exact", "4.2"),
          ("melanin", "cycles", "3.4")]
-
-
-@pytest.fixture(autouse=True)
-def best_kernel():
-    hairbsdf.set_batch_kernel("best")
-    yield
-    hairbsdf.set_batch_kernel("best")
 
 
 def hair(parametrization, accuracy, tilt):

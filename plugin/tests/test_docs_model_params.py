@@ -1,7 +1,7 @@
-"""docs/models.md's parameter tables against the model factory's table (`hairbsdf.model_schema`), which
-is where each zoo model's parameters, defaults and ranges are declared: every parameter has a row, every
-row names a parameter (or a per-sample input), and each row's default and range hold the declared
-numbers. A planted difference in either place fails (test_planted_differences_are_caught)."""
+"""docs/models.md's parameter tables against each zoo model's parameter table (bsdf_core/include/hairbsdf/
+params/<model>.h, read through `hairbsdf.model_schema`), which is where its parameters, defaults and ranges
+are declared: every parameter has a row, every row names a parameter (or a per-sample input), and each
+row's default and range hold the declared numbers. A planted difference in either place fails (test_planted_differences_are_caught)."""
 
 import re
 from pathlib import Path

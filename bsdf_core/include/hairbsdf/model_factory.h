@@ -1,5 +1,6 @@
-// Zoo models and plugins by name: each model's parameter schema (the one table of the zoo's
-// parameter names, defaults and ranges, docs/models.md) and a builder from named values.
+// Zoo models and plugins by name: each model's parameter schema and a builder from named values,
+// both derived from the model's parameter table (params/<model>.h beside its Params struct: the
+// one place of its parameter names, defaults and ranges; docs/models.md).
 // Used by the Python constructors (hairbsdf.zoo through _core.make_model), by the renderer's
 // `hair_model` closure and, through the schema, by Blender's engine panel.
 #pragma once
@@ -16,6 +17,11 @@ namespace hairbsdf {
 // "kajiya_kay", "epic", "scheuermann", "marschner", "deon", "yan_fur".
 const std::vector<std::string>& zoo_model_names();
 bool is_zoo_model(const std::string& model);
+// Each zoo model's name with its title and one-line summary (Blender's override menu), in that order.
+struct ZooModel {
+    std::string name, title, summary;
+};
+const std::vector<ZooModel>& zoo_models();
 
 // The schema of a zoo model; ModelError for an unknown name (the message lists the names).
 const std::vector<ModelParamSpec>& zoo_model_schema(const std::string& model);

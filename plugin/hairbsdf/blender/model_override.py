@@ -5,7 +5,7 @@ rendered with a zoo model or a BSDF plugin, its parameters edited in the Materia
     set_override(mat, "plugin", path="/x/kk.so", params={"specular": 0.2})
 
 `material.hairbsdf` holds the choice, the plugin path and one item per parameter, filled from
-the model's schema (hairbsdf.model_schema: the zoo's defaults from the C++ model factory, or
+the model's schema (hairbsdf.model_schema: the zoo's defaults from the model's C++ parameter table, or
 the plugin's own schema). The exporter (export_materials.py) replaces each Principled Hair
 closure of an overridden material with a `hair_model` closure of the same weight (its last step, override_closures)
 (docs/scene_desc.md); other closures stay. Ranges are checked when the renderer builds the
@@ -24,18 +24,15 @@ import struct
 
 import bpy
 
+from ..zoo import model_schema, zoo_models
 from ._common import ExportReport
 from .export_materials import MaterialTranslator, override_params, override_plugin_path
 
-# Enum identifiers are the model names of hairbsdf.model_schema ("NONE": no override).
+# Enum identifiers are the zoo's model names, with the titles of their tables (params/<model>.h);
+# "NONE": no override.
 OVERRIDES = (
     ("NONE", "None", "Render the material's own closures"),
-    ("kajiya_kay", "Kajiya-Kay 1989", "Diffuse and specular cone (docs/models.md §1)"),
-    ("epic", "Epic / Unreal 2016", "Karis's real-time hair (docs/models.md §2)"),
-    ("scheuermann", "Scheuermann (ATI) 2004", "Two shifted Kajiya-Kay lobes (docs/models.md §3)"),
-    ("marschner", "Marschner 2003", "R, TT, TRT with glints (docs/models.md §4)"),
-    ("deon", "d'Eon 2011", "Energy-conserving R, TT, TRT, TRRT+ (docs/models.md §5)"),
-    ("yan_fur", "Yan 2015 fur", "Double cylinder: cortex and scattering medulla (docs/models.md §7)"),
+    *zoo_models(),
     ("plugin", "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
 )
 PRINCIPLED_HAIR_NODE = "ShaderNodeBsdfHairPrincipled"
@@ -146,8 +143,7 @@ def fill_params(settings, keep=True) -> None:
     if model == "NONE" or (model == "plugin" and not path):
         return
     try:
-        import hairbsdf
-        schema = hairbsdf.model_schema(model, path or None)
+        schema = model_schema(model, path or None)
     except Exception as exc:  # a plugin that does not load: say why in the panel
         settings.schema_error = f"{type(exc).__name__}: {exc}"
         return
