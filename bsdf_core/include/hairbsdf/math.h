@@ -125,26 +125,33 @@ inline double wrap_angle(double a) {
 inline std::atomic<bool> g_cycles_float_maths{true};
 inline bool cycles_float_maths() { return g_cycles_float_maths.load(std::memory_order_relaxed); }
 inline void set_cycles_float_maths(bool on) { g_cycles_float_maths.store(on, std::memory_order_relaxed); }
-// exp to about 1e-8 relative (better than float), inlined: exp(x) = 2^k exp(r) with k the integer
-// nearest x / ln 2 and |r| <= ln(2) / 2, exp(r) from its Taylor series to r^7 (error <= r^8 / 8!).
-// 0 below -708, +inf above 709; NaN stays NaN.
+// 2^(j/32), j = 0..31: the table of exp_float_accuracy.
+alignas(64) inline constexpr double kExp2Sixteenths[32] = {
+    1.0, 1.0218971486541166, 1.0442737824274138, 1.0671404006768237,
+    1.0905077326652577, 1.1143867425958924, 1.1387886347566916, 1.1637248587775775,
+    1.189207115002721, 1.215247359980469, 1.241857812073484, 1.2690509571917332,
+    1.2968395546510096, 1.3252366431597413, 1.3542555469368927, 1.383909881963832,
+    1.4142135623730951, 1.4451808069770467, 1.4768261459394993, 1.5091644275934228,
+    1.5422108254079407, 1.5759808451078865, 1.6104903319492543, 1.645755478153965,
+    1.681792830507429, 1.718619298122478, 1.7562521603732995, 1.7947090750031072,
+    1.8340080864093424, 1.8741676341103, 1.9152065613971474, 1.9571441241754002,
+};
+// exp to about 1e-10 relative (better than float), inlined: exp(x) = 2^(k/32) exp(r) with k the integer
+// nearest 32 x / ln 2 and |r| <= ln(2) / 64; 2^(k/32) = 2^floor(k/32) times a table entry, exp(r) from
+// its Taylor series to r^3 (error <= r^4 / 4! < 6e-10). 0 below -708, +inf above 709; NaN stays NaN.
 inline double exp_float_accuracy(double x) {
     if (!(x > -708.0 && x < 709.0)) return x != x ? x : (x > 0.0 ? HUGE_VAL : 0.0);
     constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
-    const double k = (x * 1.4426950408889634 + kRound) - kRound;  // x / ln 2, rounded
-    const double r = (x - k * 0.6931471803691238) - k * 1.9082149292705877e-10;  // ln 2 = hi + lo
-    double p = 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
-    const int64_t bits = (int64_t(k) + 1023) << 52;  // 2^k, k in [-1022, 1023]
+    const double k = (x * 46.16624130844683 + kRound) - kRound;  // 32 x / ln 2, rounded
+    const double r = (x - k * 0.02166084938653512) - k * 5.9631716539705866e-12;  // ln 2 / 32 = hi + lo
+    const int64_t ki = int64_t(k);
+    // The table entry's bits plus floor(k / 32) in the exponent field.
+    uint64_t bits;
+    std::memcpy(&bits, &kExp2Sixteenths[ki & 31], sizeof bits);
+    bits += uint64_t(ki >> 5) << 52;
     double scale;
     std::memcpy(&scale, &bits, sizeof scale);
-    return p * scale;
+    return scale + scale * (r * (1.0 + r * (0.5 + r * (1.0 / 6.0))));
 }
 // asin on [-1, 1] to about 1e-9 relative, inlined: odd polynomial on |x| <= 1/2 (least-squares fit
 // of asin(x) / x in x^2, our own), beyond it asin(x) = pi/2 - 2 asin(sqrt((1 - x) / 2)).
