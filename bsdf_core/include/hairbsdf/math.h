@@ -23,6 +23,10 @@ constexpr double kTwoPi = 2.0 * kPi;
 constexpr double kInvTwoPi = 1.0 / kTwoPi;
 constexpr double kSqrtPiOver8 = 0.6266570686577501;  // sqrt(pi/8), docs/cycles.md §2.4
 
+struct SinCosPair {
+    double sin, cos;
+};
+
 struct Vec3 {
     double x = 0, y = 0, z = 0;
 };
@@ -126,7 +130,7 @@ inline std::atomic<bool> g_cycles_float_maths{true};
 inline bool cycles_float_maths() { return g_cycles_float_maths.load(std::memory_order_relaxed); }
 inline void set_cycles_float_maths(bool on) { g_cycles_float_maths.store(on, std::memory_order_relaxed); }
 // 2^(j/32), j = 0..31: the table of exp_float_accuracy.
-alignas(64) inline constexpr double kExp2Sixteenths[32] = {
+alignas(64) inline constexpr double kExp2ThirtySeconds[32] = {
     1.0, 1.0218971486541166, 1.0442737824274138, 1.0671404006768237,
     1.0905077326652577, 1.1143867425958924, 1.1387886347566916, 1.1637248587775775,
     1.189207115002721, 1.215247359980469, 1.241857812073484, 1.2690509571917332,
@@ -147,7 +151,7 @@ inline double exp_float_accuracy(double x) {
     const int64_t ki = int64_t(k);
     // The table entry's bits plus floor(k / 32) in the exponent field.
     uint64_t bits;
-    std::memcpy(&bits, &kExp2Sixteenths[ki & 31], sizeof bits);
+    std::memcpy(&bits, &kExp2ThirtySeconds[ki & 31], sizeof bits);
     bits += uint64_t(ki >> 5) << 52;
     double scale;
     std::memcpy(&scale, &bits, sizeof scale);
@@ -196,6 +200,56 @@ inline double atan2_float_accuracy(double y, double x) {
     if (x < 0.0) a = kPi - a;
     return std::signbit(y) ? -a : a;
 }
+// log of x > 0 to about 1e-10 relative, inlined: x = 2^e m with m in [sqrt(1/2), sqrt(2)) read from the
+// bits, log m = 2 atanh(t) with t = (m - 1) / (m + 1), |t| <= 0.172, from atanh's series to t^11 (error
+// below t^13 / 13). Zero, negative, subnormal, infinite and NaN arguments go to std::log.
+inline double log_float_accuracy(double x) {
+    if (!(x >= 2.2250738585072014e-308 && x <= 1.7976931348623157e308)) return std::log(x);
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    // Exponent relative to sqrt(1/2) (bits 0x3FE6A09E667F3BCD), so that the mantissa lands in [sqrt(1/2), sqrt(2)).
+    const int64_t e = int64_t(bits - 0x3FE6A09E667F3BCDull) >> 52;
+    bits -= uint64_t(e) << 52;
+    double m;
+    std::memcpy(&m, &bits, sizeof m);
+    const double t = (m - 1.0) / (m + 1.0), z = t * t;
+    double p = 1.0 / 11.0;
+    p = p * z + 1.0 / 9.0;
+    p = p * z + 1.0 / 7.0;
+    p = p * z + 1.0 / 5.0;
+    p = p * z + 1.0 / 3.0;
+    return double(e) * 0.6931471805599453 + 2.0 * (t + t * z * p);
+}
+// sin and cos of x together to about 1e-15 absolute for |x| up to a few turns, inlined (the sampled
+// direction must stay a unit vector to 1e-12): x = n pi/2 + r with |r| <= pi/4 (pi/2 in two parts), sin r
+// and cos r from their Taylor series to r^13 and r^14, then the quadrant n mod 4.
+inline SinCosPair sincos_accurate(double x) {
+    constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
+    const double n = (x * 0.6366197723675814 + kRound) - kRound;  // x / (pi/2), rounded
+    const double r = (x - n * 1.5707963267948966) - n * 6.123233995736766e-17;
+    const double z = r * r;
+    double ps = -1.0 / 6227020800.0;
+    ps = ps * z + 1.0 / 39916800.0;
+    ps = ps * z - 1.0 / 362880.0;
+    ps = ps * z + 1.0 / 5040.0;
+    ps = ps * z - 1.0 / 120.0;
+    ps = ps * z + 1.0 / 6.0;
+    const double sin_r = r - r * z * ps;
+    double pc = 1.0 / 87178291200.0;
+    pc = pc * z - 1.0 / 479001600.0;
+    pc = pc * z + 1.0 / 3628800.0;
+    pc = pc * z - 1.0 / 40320.0;
+    pc = pc * z + 1.0 / 720.0;
+    pc = pc * z - 1.0 / 24.0;
+    pc = pc * z + 0.5;
+    const double cos_r = 1.0 - z * pc;
+    switch (int64_t(n) & 3) {
+        case 0: return {sin_r, cos_r};
+        case 1: return {cos_r, -sin_r};
+        case 2: return {-sin_r, -cos_r};
+        default: return {-cos_r, sin_r};
+    }
+}
 // exp, asin (clamped to [-1, 1]) and atan2 to float accuracy or better where `in_float` (the inlined
 // forms above), else glibc's double functions.
 inline double exp_in(bool in_float, double x) { return in_float ? exp_float_accuracy(x) : std::exp(x); }
@@ -205,6 +259,10 @@ inline double asin_in(bool in_float, double x) {
 }
 inline double atan2_in(bool in_float, double y, double x) {
     return in_float ? atan2_float_accuracy(y, x) : std::atan2(y, x);
+}
+inline double log_in(bool in_float, double x) { return in_float ? log_float_accuracy(x) : std::log(x); }
+inline SinCosPair sincos_in(bool in_float, double x) {
+    return in_float ? sincos_accurate(x) : SinCosPair{std::sin(x), std::cos(x)};
 }
 
 

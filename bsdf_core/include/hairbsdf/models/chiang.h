@@ -119,12 +119,14 @@ private:
 };
 
 // d'Eon et al. 2013 sampler of M_p around the direction (sin_theta_o, cos_theta_o):
-// returns sin(theta_i). u_theta is clamped to >= 1e-5 as in Cycles.
+// returns sin(theta_i). u_theta is clamped to >= 1e-5 as in Cycles. `in_float`: the inlined log and cos
+// of math.h (log_in, sincos_in).
 inline double sample_longitudinal(double v, double exp_minus_2_over_v, double u_theta, double u_azimuth,
-                                  double sin_theta_o, double cos_theta_o) {
+                                  double sin_theta_o, double cos_theta_o, bool in_float = false) {
     u_theta = clamp(u_theta, 1e-5, 1.0);
-    const double fac = 1.0 + v * std::log(u_theta + (1.0 - u_theta) * exp_minus_2_over_v);
-    return clamp(-fac * sin_theta_o + cos_from_sin(fac) * std::cos(kTwoPi * u_azimuth) * cos_theta_o, -1.0, 1.0);
+    const double fac = 1.0 + v * log_in(in_float, u_theta + (1.0 - u_theta) * exp_minus_2_over_v);
+    const double cos_azimuth = sincos_in(in_float, kTwoPi * u_azimuth).cos;
+    return clamp(-fac * sin_theta_o + cos_from_sin(fac) * cos_azimuth * cos_theta_o, -1.0, 1.0);
 }
 
 // Rotation of an angle (sin, cos) by a fixed angle (sin_a, cos_a), returning |cos| (docs/cycles.md §4.3).
@@ -308,8 +310,12 @@ public:
                                     ? sample_lobe_direction(vt, p, longitudinal->theta, longitudinal->azimuth, u[0])
                                     : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
-        return sample_from_eval(frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi),
-                                eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths()), p);
+        // frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi) with phi_o = -pi/2: cos(phi - pi/2) = sin(phi),
+        // sin(phi - pi/2) = -cos(phi).
+        const bool in_float = float_maths();
+        const SinCosPair sc = sincos_in(in_float, phi);
+        const Vec3 wi = sin_theta_i * frame.x + (cos_theta_i * sc.sin) * frame.y - (cos_theta_i * sc.cos) * frame.z;
+        return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, in_float), p);
     }
 
     // A direction from lobe p's sampling density (M_p about the lobe's tilted cone, N_p's trimmed
@@ -320,16 +326,17 @@ public:
     };
     LobeDirection sample_lobe_direction(const ViewTerms& vt, int p, double u_lobe, double u1, double u0) const {
         const double v = params_.v_sample[p];
+        const bool in_float = float_maths();
         double sin_theta_i;
         if (params_.tilt_convention == TiltConvention::Blender42) {
             // Sample around the tilted view angle (the importance-sampling fix #114780).
             const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
-            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, o.sin, o.cos);
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, o.sin, o.cos, in_float);
         } else {
             // Blender 3.4: sample around the untilted view angle, then rotate the result
             // back by the lobe's tilt (the pbrt-v3 scheme that #114780 replaced).
             sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, vt.sin_theta_o,
-                                              vt.cos_theta_o);
+                                              vt.cos_theta_o, in_float);
         }
         double cos_theta_i = cos_from_sin(sin_theta_i);
 
@@ -337,7 +344,7 @@ public:
         if (p < 3) {
             // The trimmed logistic's inverse CDF (sample_trimmed_logistic) with its CDF at -pi hoisted.
             const double s = params_.s[p], cdf_minus_pi = logistic_cdf_minus_pi_[p];
-            const double x = -s * std::log(1.0 / (u0 * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0);
+            const double x = -s * log_in(in_float, 1.0 / (u0 * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0);
             phi = vt.azimuth_center[p] + clamp(x, -kPi, kPi);
         } else {
             phi = kTwoPi * u0;
