@@ -213,6 +213,7 @@ public:
         std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
         std::array<double, 3> azimuth_center{};  // centre of N_p in phi - phi_o: R, TT, TRT
         bool valid = false;
+        bool in_float = false;  // float_maths() as view_terms read it, for eval and sample to reuse
     };
 
     struct ShadingPoint {
@@ -227,18 +228,27 @@ public:
     // The view terms with Chiang's pass transmittance exp(-sigma_a 2 cos gamma_t / cos theta_t).
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
         const bool in_float = float_maths();
-        return view_terms(frame, ctx, [this, in_float](const ChiangPassGeometry& g) {
-            const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
-            return RGB(exp_in(in_float, x.r), exp_in(in_float, x.g), exp_in(in_float, x.b));
-        });
+        return view_terms(
+            frame, ctx,
+            [this, in_float](const ChiangPassGeometry& g) {
+                const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
+                return RGB(exp_in(in_float, x.r), exp_in(in_float, x.g), exp_in(in_float, x.b));
+            },
+            in_float);
     }
     // The same with another transmittance per internal pass (yan_fur's medulla): a callable
     // RGB(const ChiangPassGeometry&). Everything else (Fresnel, A_p, lobe weights) is Chiang's.
     template <class PassTransmittance>
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
                          const PassTransmittance& pass_transmittance) const {
+        return view_terms(frame, ctx, pass_transmittance, float_maths());
+    }
+    // ... with float_maths() read once by the caller.
+    template <class PassTransmittance>
+    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx, const PassTransmittance& pass_transmittance,
+                         bool in_float) const {
         ViewTerms vt;
-        const bool in_float = float_maths();
+        vt.in_float = in_float;
         const double eta = params_.eta;
         vt.sin_theta_o = frame.sin_theta(ctx.wo);
         vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
@@ -264,13 +274,13 @@ public:
             vt.lobe_weight[p] = luminance(vt.attenuation[p]);
             total += vt.lobe_weight[p];
         }
-        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
-        for (double& w : vt.lobe_weight) w /= total;
-
+        // Every field is written before the validity test, on both paths.
         for (int p = 0; p < 3; ++p) {
             vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
             vt.azimuth_center[p] = 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
         }
+        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
+        for (double& w : vt.lobe_weight) w /= total;
         vt.valid = true;
         return vt;
     }
@@ -278,7 +288,7 @@ public:
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
-        const bool in_float = float_maths();
+        const bool in_float = sp.view.in_float;
         const double phi = atan2_in(in_float, dot(wi, sp.frame.z), dot(wi, sp.frame.y));  // frame.phi(wi)
         return eval_local(sp.view, sin_theta_i, cos_from_sin(sin_theta_i), phi - sp.view.phi_o, in_float);
     }
@@ -312,7 +322,7 @@ public:
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         // frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi) with phi_o = -pi/2: cos(phi - pi/2) = sin(phi),
         // sin(phi - pi/2) = -cos(phi).
-        const bool in_float = float_maths();
+        const bool in_float = vt.in_float;
         const SinCosPair sc = sincos_in(in_float, phi);
         const Vec3 wi = sin_theta_i * frame.x + (cos_theta_i * sc.sin) * frame.y - (cos_theta_i * sc.cos) * frame.z;
         return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, in_float), p);
@@ -326,7 +336,7 @@ public:
     };
     LobeDirection sample_lobe_direction(const ViewTerms& vt, int p, double u_lobe, double u1, double u0) const {
         const double v = params_.v_sample[p];
-        const bool in_float = float_maths();
+        const bool in_float = vt.in_float;
         double sin_theta_i;
         if (params_.tilt_convention == TiltConvention::Blender42) {
             // Sample around the tilted view angle (the importance-sampling fix #114780).
@@ -368,7 +378,8 @@ public:
         return eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths());
     }
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
-        BsdfEval out;
+        std::array<double, 4> mn;  // M_p N_p per lobe (TRRT+: M_p / 2 pi)
+        double pdf = 0;
         for (int p = 0; p < 3; ++p) {
             double mp;
             if (params_.tilt_convention == TiltConvention::Blender42) {
@@ -381,14 +392,18 @@ public:
             // logistic(x, s) times its trimming's normalisation
             const double s = params_.s[p], e = exp_in(in_float, -std::fabs(x) / s);
             const double np = e / (s * sqr(1.0 + e)) * logistic_norm_[p];
-            out.lobes[p] = (mp * np) * vt.attenuation[p];
-            out.pdf += vt.lobe_weight[p] * mp * np;
+            mn[p] = mp * np;
+            pdf += vt.lobe_weight[p] * mn[p];
         }
-        const double m3 = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
-        out.lobes[3] = m3 * vt.attenuation[3];
-        out.pdf += vt.lobe_weight[3] * m3;
-        if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
-        return out;
+        mn[3] = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
+        pdf += vt.lobe_weight[3] * mn[3];
+        // Built once at the end (no zeroed BsdfEval overwritten lobe by lobe); one finiteness test of the pdf
+        // and the value's sum.
+        const RGB l0 = mn[0] * vt.attenuation[0], l1 = mn[1] * vt.attenuation[1];
+        const RGB l2 = mn[2] * vt.attenuation[2], l3 = mn[3] * vt.attenuation[3];
+        const RGB value = (l0 + l1) + (l2 + l3);
+        if (!std::isfinite(pdf + value.r + value.g + value.b)) return {};
+        return BsdfEval{{l0, l1, l2, l3, RGB(), RGB()}, pdf};
     }
 
 private:
