@@ -204,14 +204,15 @@ public:
     }
 
     // Everything that depends only on the view direction and h: computed once per
-    // shading point (Cycles' closure setup), then shared by eval, pdf and sample.
+    // shading point (Cycles' closure setup), then shared by eval, pdf and sample. view_terms writes every
+    // field; the numbers have no default (a value-initialised ViewTerms{} is zero).
     struct ViewTerms {
-        double sin_theta_o = 0, cos_theta_o = 0, phi_o = 0;
-        double gamma_o = 0, gamma_t = 0;
-        std::array<RGB, 4> attenuation{};    // A_p with tints
-        std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
-        std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
-        std::array<double, 3> azimuth_center{};  // centre of N_p in phi - phi_o: R, TT, TRT
+        double sin_theta_o, cos_theta_o, phi_o;
+        double gamma_o, gamma_t;
+        std::array<RGB, 4> attenuation;    // A_p with tints
+        std::array<double, 4> lobe_weight;  // a_p: luminance-normalised selection probabilities
+        std::array<SinCos, 3> tilted;       // tilted view angle per lobe (4.2 convention)
+        std::array<double, 3> azimuth_center;  // centre of N_p in phi - phi_o: R, TT, TRT
         bool valid = false;
         bool in_float = false;  // float_maths() as view_terms read it, for eval and sample to reuse
     };
