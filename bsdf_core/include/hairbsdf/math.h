@@ -157,6 +157,26 @@ inline double exp_float_accuracy(double x) {
     std::memcpy(&scale, &bits, sizeof scale);
     return scale + scale * (r * (1.0 + r * (0.5 + r * (1.0 / 6.0))));
 }
+// Two doubles in one SSE2 register (GCC/Clang vector extension): the scalar paths' lobe pairs.
+typedef double Double2 __attribute__((vector_size(16)));
+typedef uint64_t UInt2 __attribute__((vector_size(16)));
+// exp_float_accuracy on both lanes at once; lanes outside (-708, 709) or NaN take the scalar form.
+inline Double2 exp_float_accuracy(Double2 x) {
+    if (!(x[0] > -708.0 && x[0] < 709.0 && x[1] > -708.0 && x[1] < 709.0))
+        return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
+    constexpr double kRound = 6755399441055744.0;
+    const Double2 shifted = x * 46.16624130844683 + kRound;  // its low bits hold k
+    const Double2 k = shifted - kRound;
+    const Double2 r = (x - k * 0.02166084938653512) - k * 5.9631716539705866e-12;
+    UInt2 kbits;
+    std::memcpy(&kbits, &shifted, sizeof kbits);
+    Double2 scale = {kExp2ThirtySeconds[kbits[0] & 31], kExp2ThirtySeconds[kbits[1] & 31]};
+    UInt2 bits;
+    std::memcpy(&bits, &scale, sizeof bits);
+    bits += (kbits >> 5) << 52;  // floor(k / 32) into the exponent field, modulo 2^12 as the carry leaves
+    std::memcpy(&scale, &bits, sizeof scale);
+    return scale + scale * (r * (1.0 + r * (0.5 + r * (1.0 / 6.0))));
+}
 // asin on [-1, 1] to about 1e-9 relative, inlined: odd polynomial on |x| <= 1/2 (least-squares fit
 // of asin(x) / x in x^2, our own), beyond it asin(x) = pi/2 - 2 asin(sqrt((1 - x) / 2)).
 inline double asin_float_accuracy(double x) {

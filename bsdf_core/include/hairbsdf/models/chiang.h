@@ -109,6 +109,12 @@ public:
         return exp_in(in_float, a + 1.0 / (16.0 * a) - b + log_norm_) / std::sqrt(kTwoPi * a);
     }
     double variance() const { return v_; }
+    // The Cycles branches' numbers, for the lane-pair form (ChiangHair::mp_pair): M_p = I0(a) exp(add - b) mul
+    // below asym_limit, the asymptote exp(a + 1/(16 a) - b + add) / sqrt(2 pi a) above it.
+    double inv_v() const { return inv_v_; }
+    double cycles_add() const { return log_branch_ ? log_norm_ : 0.0; }
+    double cycles_mul() const { return log_branch_ ? 1.0 : norm_; }
+    double cycles_asym_limit() const { return log_branch_ ? 12.0 : HUGE_VAL; }
 
 private:
     double v_ = 1, inv_v_ = 1;
@@ -167,6 +173,10 @@ public:
         for (int p = 0; p < 4; ++p) {
             mp_[p] = LongitudinalLobe(params.v[p], params.accuracy);
             exp_minus_2_over_v_[p] = std::exp(-2.0 / params.v_sample[p]);
+            pair_inv_v_[p / 2][p % 2] = mp_[p].inv_v();
+            pair_add_[p / 2][p % 2] = mp_[p].cycles_add();
+            pair_mul_[p / 2][p % 2] = mp_[p].cycles_mul();
+            pair_asym_limit_[p / 2][p % 2] = mp_[p].cycles_asym_limit();
         }
         for (const RGB& t : params.tint) tinted_ = tinted_ || t.r != 1.0 || t.g != 1.0 || t.b != 1.0;
         for (int p = 0; p < 3; ++p) {
@@ -233,7 +243,9 @@ public:
             frame, ctx,
             [this, in_float](const ChiangPassGeometry& g) {
                 const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
-                return RGB(exp_in(in_float, x.r), exp_in(in_float, x.g), exp_in(in_float, x.b));
+                if (!in_float) return RGB(std::exp(x.r), std::exp(x.g), std::exp(x.b));
+                const Double2 rg = exp_float_accuracy(Double2{x.r, x.g});  // red and green in one pair
+                return RGB(rg[0], rg[1], exp_float_accuracy(x.b));
             },
             in_float);
     }
@@ -381,6 +393,25 @@ public:
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
         std::array<double, 4> mn;  // M_p N_p per lobe (TRRT+: M_p / 2 pi)
         double pdf = 0;
+        if (in_float && params_.tilt_convention == TiltConvention::Blender42) {
+            // Lobes in pairs (R, TT) and (TRT, TRRT+), two lanes at once: the same formulas as below.
+            const Double2 m01 = mp_pair(0, sin_theta_i, cos_theta_i, Double2{vt.tilted[0].sin, vt.tilted[1].sin},
+                                        Double2{vt.tilted[0].cos, vt.tilted[1].cos});
+            const Double2 m23 = mp_pair(1, sin_theta_i, cos_theta_i, Double2{vt.tilted[2].sin, vt.sin_theta_o},
+                                        Double2{vt.tilted[2].cos, vt.cos_theta_o});
+            const double x0 = wrap_angle(phi - vt.azimuth_center[0]), x1 = wrap_angle(phi - vt.azimuth_center[1]);
+            const double x2 = wrap_angle(phi - vt.azimuth_center[2]);
+            const Double2 s01 = {params_.s[0], params_.s[1]};
+            const Double2 e01 = exp_float_accuracy(-Double2{std::fabs(x0), std::fabs(x1)} / s01);
+            const Double2 one_e = 1.0 + e01;
+            const Double2 np01 = e01 / (s01 * (one_e * one_e)) * Double2{logistic_norm_[0], logistic_norm_[1]};
+            const double s2 = params_.s[2], e2 = exp_float_accuracy(-std::fabs(x2) / s2);
+            const double np2 = e2 / (s2 * sqr(1.0 + e2)) * logistic_norm_[2];
+            mn = {m01[0] * np01[0], m01[1] * np01[1], m23[0] * np2, m23[1] * kInvTwoPi};
+            pdf = ((vt.lobe_weight[0] * mn[0] + vt.lobe_weight[1] * mn[1]) + vt.lobe_weight[2] * mn[2]) +
+                  vt.lobe_weight[3] * mn[3];
+            return finish_eval(vt, mn, pdf);
+        }
         for (int p = 0; p < 3; ++p) {
             double mp;
             if (params_.tilt_convention == TiltConvention::Blender42) {
@@ -398,6 +429,9 @@ public:
         }
         mn[3] = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
         pdf += vt.lobe_weight[3] * mn[3];
+        return finish_eval(vt, mn, pdf);
+    }
+    HAIRBSDF_ALWAYS_INLINE static BsdfEval finish_eval(const ViewTerms& vt, const std::array<double, 4>& mn, double pdf) {
         // Built once at the end (no zeroed BsdfEval overwritten lobe by lobe); one finiteness test of the pdf
         // and the value's sum.
         const RGB l0 = mn[0] * vt.attenuation[0], l1 = mn[1] * vt.attenuation[1];
@@ -408,6 +442,31 @@ public:
     }
 
 private:
+    // M_p of the lobe pair `pair` (0: R and TT, 1: TRT and TRRT+) at accuracy `cycles` in float-accuracy maths,
+    // branch-free per lane: Cycles' series I0(a) exp(add - b) mul, or above the lane's limit its asymptote.
+    HAIRBSDF_ALWAYS_INLINE Double2 mp_pair(int pair, double sin_theta_i, double cos_theta_i, Double2 sin_theta_o,
+                                           Double2 cos_theta_o) const {
+        const Double2 inv_v = pair_inv_v_[pair];
+        const Double2 a = cos_theta_i * cos_theta_o * inv_v;
+        const Double2 b = sin_theta_i * sin_theta_o * inv_v;
+        const Double2 q = 0.25 * a * a;  // cycles_bessel_i0 on both lanes
+        Double2 i0 = q * (1.0 / 131681894400.0) + 1.0 / 1625702400.0;
+        i0 = i0 * q + 1.0 / 25401600.0;
+        i0 = i0 * q + 1.0 / 518400.0;
+        i0 = i0 * q + 1.0 / 14400.0;
+        i0 = i0 * q + 1.0 / 576.0;
+        i0 = i0 * q + 1.0 / 36.0;
+        i0 = i0 * q + 1.0 / 4.0;
+        i0 = i0 * q + 1.0;
+        i0 = i0 * q + 1.0;
+        const Double2 add = pair_add_[pair];
+        const auto asym = a > pair_asym_limit_[pair];
+        const Double2 exponent = asym ? a + 1.0 / (16.0 * a) - b + add : add - b;
+        const Double2 root = {std::sqrt(kTwoPi * a[0]), std::sqrt(kTwoPi * a[1])};
+        const Double2 factor = asym ? 1.0 / root : i0 * pair_mul_[pair];
+        return exp_float_accuracy(exponent) * factor;
+    }
+
     // Cycles accuracy takes float-accuracy exp, asin and atan2 unless the double reference is selected.
     bool float_maths() const { return params_.accuracy == Accuracy::Cycles && cycles_float_maths(); }
 
@@ -416,6 +475,7 @@ private:
     std::array<double, 3> logistic_norm_{};
     std::array<double, 3> logistic_cdf_minus_pi_{};  // logistic_cdf(-pi, s), sample_trimmed_logistic's
     std::array<double, 4> exp_minus_2_over_v_{};
+    Double2 pair_inv_v_[2]{}, pair_add_[2]{}, pair_mul_[2]{}, pair_asym_limit_[2]{};  // mp_pair's numbers
     std::array<SinCos, 3> rotations_{};  // tilt rotation per lobe (R, TT, TRT)
     bool tinted_ = false;                // a tint other than 1 (MaterialX's per-lobe tints)
 };
