@@ -258,8 +258,8 @@ public:
     }
     // ... with float_maths() read once by the caller.
     template <class PassTransmittance>
-    ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx, const PassTransmittance& pass_transmittance,
-                         bool in_float) const {
+    HAIRBSDF_ALWAYS_INLINE ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
+                                                const PassTransmittance& pass_transmittance, bool in_float) const {
         ViewTerms vt;
         vt.in_float = in_float;
         const double eta = params_.eta;
@@ -390,7 +390,7 @@ public:
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
         return eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths());
     }
-    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
+    HAIRBSDF_ALWAYS_INLINE BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
         std::array<double, 4> mn;  // M_p N_p per lobe (TRRT+: M_p / 2 pi)
         double pdf = 0;
         if (in_float && params_.tilt_convention == TiltConvention::Blender42) {
