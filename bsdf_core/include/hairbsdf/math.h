@@ -120,9 +120,10 @@ inline double wrap_angle(double a) {
 }
 
 // Cycles' kernel computes its transcendentals in float. The scalar path of Chiang's
-// Accuracy::Cycles computes its exp, asin and atan2 to float accuracy or better too, through the *_in
-// helpers below (inlined, good to 1e-8 relative or better), far cheaper than glibc's double
-// functions; the rest of its arithmetic (and the sampler's log, sin and cos) stays double. The double reference of
+// Accuracy::Cycles computes its exp, asin, atan2 and the sampler's log, sin and cos to float accuracy or
+// better too, through the *_in helpers below (inlined, good to 1e-8 relative or better; sin and cos to 2e-14
+// so that sampled directions stay unit vectors), far cheaper than glibc's double functions; the rest of its
+// arithmetic stays double. The double reference of
 // the same formulas stays available process-wide (set_cycles_float_maths(false), Python's
 // hairbsdf.set_scalar_maths("double")): the tests of the float32 SIMD kernels compare against it.
 // Accuracy::Exact is always double.
