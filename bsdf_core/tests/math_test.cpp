@@ -92,7 +92,7 @@ TEST(FloatAccuracyMaths, ExpAsinAtan2WithinTheirBounds) {
             worst_atan2 = std::max(worst_atan2, std::fabs(atan2_float_accuracy(y, x) / std::atan2(y, x) - 1.0));
         }
     }
-    EXPECT_LT(worst_exp, 1e-8);
+    EXPECT_LT(worst_exp, 1e-9);  // the table and cubic: 6e-10
     EXPECT_LT(worst_asin, 1e-8);
     EXPECT_LT(worst_atan2, 1e-8);
     EXPECT_EQ(exp_float_accuracy(-800.0), 0.0);
@@ -104,4 +104,49 @@ TEST(FloatAccuracyMaths, ExpAsinAtan2WithinTheirBounds) {
     EXPECT_EQ(atan2_float_accuracy(-0.0, -1.0), -kPi);
     EXPECT_EQ(atan2_float_accuracy(0.0, 0.0), 0.0);
     EXPECT_NEAR(atan2_float_accuracy(1.0, 0.0), 0.5 * kPi, 1e-15);
+}
+
+// The sampler's log and sin/cos at accuracy `cycles` (Chiang's sample): log to 1e-10 relative over the
+// whole normal range (and near 1, where log is small), sin and cos to 1e-13 absolute over a few turns, so
+// that a sampled direction stays a unit vector to 1e-12; other arguments of log go to std::log.
+TEST(FloatAccuracyMaths, LogAndSincosWithinTheirBounds) {
+    double worst_log = 0, worst_sincos = 0, worst_unit = 0;
+    for (double e = -1020.0; e < 1020.0; e += 0.0731) {
+        const double x = std::exp2(e);
+        worst_log = std::max(worst_log, std::fabs(log_float_accuracy(x) / std::log(x) - 1.0));
+    }
+    for (double x = 0.99; x < 1.01; x += 1.0 / 65536.0) {
+        if (x != 1.0) worst_log = std::max(worst_log, std::fabs(log_float_accuracy(x) / std::log(x) - 1.0));
+    }
+    for (double x = -4.0 * kPi; x < 4.0 * kPi; x += 1.0 / 4096.0) {
+        const SinCosPair sc = sincos_accurate(x);
+        worst_sincos = std::max({worst_sincos, std::fabs(sc.sin - std::sin(x)), std::fabs(sc.cos - std::cos(x))});
+        worst_unit = std::max(worst_unit, std::fabs(sc.sin * sc.sin + sc.cos * sc.cos - 1.0));
+    }
+    EXPECT_LT(worst_log, 1e-10);
+    EXPECT_LT(worst_sincos, 1e-13);
+    EXPECT_LT(worst_unit, 1e-13);
+    EXPECT_EQ(log_float_accuracy(1.0), 0.0);
+    EXPECT_EQ(log_float_accuracy(0.0), -HUGE_VAL);
+    EXPECT_TRUE(std::isnan(log_float_accuracy(-1.0)));
+    EXPECT_EQ(log_float_accuracy(HUGE_VAL), HUGE_VAL);
+    EXPECT_NEAR(log_float_accuracy(4.9e-324), std::log(4.9e-324), 1e-12);  // subnormal: std::log
+    EXPECT_EQ(sincos_accurate(0.0).sin, 0.0);
+    EXPECT_EQ(sincos_accurate(0.0).cos, 1.0);
+}
+
+// The two-lane exp (Chiang's lobe pairs) gives the scalar form's values, out-of-range and NaN lanes included.
+TEST(FloatAccuracyMaths, TwoLaneExpEqualsTheScalarForm) {
+    double worst = 0;
+    for (double x = -707.0; x < 708.0; x += 0.0137) {
+        const Double2 e = exp_float_accuracy(Double2{x, -0.5 * x});
+        worst = std::max({worst, std::fabs(e[0] / exp_float_accuracy(x) - 1.0),
+                          std::fabs(e[1] / exp_float_accuracy(-0.5 * x) - 1.0)});
+    }
+    EXPECT_LT(worst, 1e-15);
+    const Double2 edge = exp_float_accuracy(Double2{-800.0, 1.0});
+    EXPECT_EQ(edge[0], 0.0);
+    EXPECT_NEAR(edge[1], std::exp(1.0), 1e-9);
+    EXPECT_EQ(exp_float_accuracy(Double2{0.0, 800.0})[1], HUGE_VAL);
+    EXPECT_TRUE(std::isnan(exp_float_accuracy(Double2{NAN, 0.0})[0]));
 }

@@ -402,17 +402,23 @@ public:
     // closure (the common case) is weighted in place, without the sum's accumulator; the same
     // values as the loop (0 + x is x).
     BsdfEval eval(const ShadingContext& ctx, Vec3 wi) const {
-        BsdfEval out;
-        if (!(total_sample_weight_ > 0)) return out;
+        if (!(total_sample_weight_ > 0)) return {};
         if (closures_.size() == 1) {
+            // The model's result is weighted where it was returned (no zeroed accumulator copied over).
             const Closure& c = closures_[0];
             const ChiangHair* chiang = std::get_if<ChiangHair>(&c.model);  // devirtualised for Chiang
-            out = chiang ? chiang->eval(chiang->prepare(ctx), wi) : eval_model(c.model, ctx, wi);
-            if (!closure_counts(out)) return {};
-            for (RGB& lobe : out.lobes) lobe = c.weight * lobe;
-            out.pdf = c.sample_weight() * out.pdf / total_sample_weight_;
-            return out;
+            BsdfEval e = chiang ? chiang->eval(chiang->prepare(ctx), wi) : eval_model(c.model, ctx, wi);
+            if (!closure_counts(e)) {
+                e = BsdfEval{};
+            } else {
+                // Chiang leaves the lobes past its four at zero: only its own are weighted.
+                const size_t lobes = chiang ? size_t(kChiangLobeCount) : size_t(kLobeCount);
+                for (size_t p = 0; p < lobes; ++p) e.lobes[p] = c.weight * e.lobes[p];
+                e.pdf = c.sample_weight() * e.pdf / total_sample_weight_;
+            }
+            return e;
         }
+        BsdfEval out;
         for (const Closure& c : closures_) {
             const BsdfEval e = eval_model(c.model, ctx, wi);
             if (!closure_counts(e)) continue;

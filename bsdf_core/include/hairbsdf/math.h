@@ -23,6 +23,10 @@ constexpr double kTwoPi = 2.0 * kPi;
 constexpr double kInvTwoPi = 1.0 / kTwoPi;
 constexpr double kSqrtPiOver8 = 0.6266570686577501;  // sqrt(pi/8), docs/cycles.md §2.4
 
+struct SinCosPair {
+    double sin, cos;
+};
+
 struct Vec3 {
     double x = 0, y = 0, z = 0;
 };
@@ -116,35 +120,63 @@ inline double wrap_angle(double a) {
 }
 
 // Cycles' kernel computes its transcendentals in float. The scalar path of Chiang's
-// Accuracy::Cycles computes its exp, asin and atan2 to float accuracy or better too, through the *_in
-// helpers below (inlined, good to 1e-8 relative or better), far cheaper than glibc's double
-// functions; the rest of its arithmetic (and the sampler's log, sin and cos) stays double. The double reference of
+// Accuracy::Cycles computes its exp, asin, atan2 and the sampler's log, sin and cos to float accuracy or
+// better too, through the *_in helpers below (inlined, good to 1e-8 relative or better; sin and cos to 2e-14
+// so that sampled directions stay unit vectors), far cheaper than glibc's double functions; the rest of its
+// arithmetic stays double. The double reference of
 // the same formulas stays available process-wide (set_cycles_float_maths(false), Python's
 // hairbsdf.set_scalar_maths("double")): the tests of the float32 SIMD kernels compare against it.
 // Accuracy::Exact is always double.
 inline std::atomic<bool> g_cycles_float_maths{true};
 inline bool cycles_float_maths() { return g_cycles_float_maths.load(std::memory_order_relaxed); }
 inline void set_cycles_float_maths(bool on) { g_cycles_float_maths.store(on, std::memory_order_relaxed); }
-// exp to about 1e-8 relative (better than float), inlined: exp(x) = 2^k exp(r) with k the integer
-// nearest x / ln 2 and |r| <= ln(2) / 2, exp(r) from its Taylor series to r^7 (error <= r^8 / 8!).
-// 0 below -708, +inf above 709; NaN stays NaN.
+// 2^(j/32), j = 0..31: the table of exp_float_accuracy.
+alignas(64) inline constexpr double kExp2ThirtySeconds[32] = {
+    1.0, 1.0218971486541166, 1.0442737824274138, 1.0671404006768237,
+    1.0905077326652577, 1.1143867425958924, 1.1387886347566916, 1.1637248587775775,
+    1.189207115002721, 1.215247359980469, 1.241857812073484, 1.2690509571917332,
+    1.2968395546510096, 1.3252366431597413, 1.3542555469368927, 1.383909881963832,
+    1.4142135623730951, 1.4451808069770467, 1.4768261459394993, 1.5091644275934228,
+    1.5422108254079407, 1.5759808451078865, 1.6104903319492543, 1.645755478153965,
+    1.681792830507429, 1.718619298122478, 1.7562521603732995, 1.7947090750031072,
+    1.8340080864093424, 1.8741676341103, 1.9152065613971474, 1.9571441241754002,
+};
+// exp to about 1e-10 relative (better than float), inlined: exp(x) = 2^(k/32) exp(r) with k the integer
+// nearest 32 x / ln 2 and |r| <= ln(2) / 64; 2^(k/32) = 2^floor(k/32) times a table entry, exp(r) from
+// its Taylor series to r^3 (error <= r^4 / 4! < 6e-10). 0 below -708, +inf above 709; NaN stays NaN.
 inline double exp_float_accuracy(double x) {
     if (!(x > -708.0 && x < 709.0)) return x != x ? x : (x > 0.0 ? HUGE_VAL : 0.0);
     constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
-    const double k = (x * 1.4426950408889634 + kRound) - kRound;  // x / ln 2, rounded
-    const double r = (x - k * 0.6931471803691238) - k * 1.9082149292705877e-10;  // ln 2 = hi + lo
-    double p = 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
-    const int64_t bits = (int64_t(k) + 1023) << 52;  // 2^k, k in [-1022, 1023]
+    const double k = (x * 46.16624130844683 + kRound) - kRound;  // 32 x / ln 2, rounded
+    const double r = (x - k * 0.02166084938653512) - k * 5.9631716539705866e-12;  // ln 2 / 32 = hi + lo
+    const int64_t ki = int64_t(k);
+    // The table entry's bits plus floor(k / 32) in the exponent field.
+    uint64_t bits;
+    std::memcpy(&bits, &kExp2ThirtySeconds[ki & 31], sizeof bits);
+    bits += uint64_t(ki >> 5) << 52;
     double scale;
     std::memcpy(&scale, &bits, sizeof scale);
-    return p * scale;
+    return scale + scale * (r * (1.0 + r * (0.5 + r * (1.0 / 6.0))));
+}
+// Two doubles in one SSE2 register (GCC/Clang vector extension): the scalar paths' lobe pairs.
+typedef double Double2 __attribute__((vector_size(16)));
+typedef uint64_t UInt2 __attribute__((vector_size(16)));
+// exp_float_accuracy on both lanes at once; lanes outside (-708, 709) or NaN take the scalar form.
+inline Double2 exp_float_accuracy(Double2 x) {
+    if (!(x[0] > -708.0 && x[0] < 709.0 && x[1] > -708.0 && x[1] < 709.0))
+        return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
+    constexpr double kRound = 6755399441055744.0;
+    const Double2 shifted = x * 46.16624130844683 + kRound;  // its low bits hold k
+    const Double2 k = shifted - kRound;
+    const Double2 r = (x - k * 0.02166084938653512) - k * 5.9631716539705866e-12;
+    UInt2 kbits;
+    std::memcpy(&kbits, &shifted, sizeof kbits);
+    Double2 scale = {kExp2ThirtySeconds[kbits[0] & 31], kExp2ThirtySeconds[kbits[1] & 31]};
+    UInt2 bits;
+    std::memcpy(&bits, &scale, sizeof bits);
+    bits += (kbits >> 5) << 52;  // floor(k / 32) into the exponent field, modulo 2^12 as the carry leaves
+    std::memcpy(&scale, &bits, sizeof scale);
+    return scale + scale * (r * (1.0 + r * (0.5 + r * (1.0 / 6.0))));
 }
 // asin on [-1, 1] to about 1e-9 relative, inlined: odd polynomial on |x| <= 1/2 (least-squares fit
 // of asin(x) / x in x^2, our own), beyond it asin(x) = pi/2 - 2 asin(sqrt((1 - x) / 2)).
@@ -189,6 +221,56 @@ inline double atan2_float_accuracy(double y, double x) {
     if (x < 0.0) a = kPi - a;
     return std::signbit(y) ? -a : a;
 }
+// log of x > 0 to about 1e-10 relative, inlined: x = 2^e m with m in [sqrt(1/2), sqrt(2)) read from the
+// bits, log m = 2 atanh(t) with t = (m - 1) / (m + 1), |t| <= 0.172, from atanh's series to t^11 (error
+// below t^13 / 13). Zero, negative, subnormal, infinite and NaN arguments go to std::log.
+inline double log_float_accuracy(double x) {
+    if (!(x >= 2.2250738585072014e-308 && x <= 1.7976931348623157e308)) return std::log(x);
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    // Exponent relative to sqrt(1/2) (bits 0x3FE6A09E667F3BCD), so that the mantissa lands in [sqrt(1/2), sqrt(2)).
+    const int64_t e = int64_t(bits - 0x3FE6A09E667F3BCDull) >> 52;
+    bits -= uint64_t(e) << 52;
+    double m;
+    std::memcpy(&m, &bits, sizeof m);
+    const double t = (m - 1.0) / (m + 1.0), z = t * t;
+    double p = 1.0 / 11.0;
+    p = p * z + 1.0 / 9.0;
+    p = p * z + 1.0 / 7.0;
+    p = p * z + 1.0 / 5.0;
+    p = p * z + 1.0 / 3.0;
+    return double(e) * 0.6931471805599453 + 2.0 * (t + t * z * p);
+}
+// sin and cos of x together to about 1e-15 absolute for |x| up to a few turns, inlined (the sampled
+// direction must stay a unit vector to 1e-12): x = n pi/2 + r with |r| <= pi/4 (pi/2 in two parts), sin r
+// and cos r from their Taylor series to r^13 and r^14, then the quadrant n mod 4.
+inline SinCosPair sincos_accurate(double x) {
+    constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
+    const double n = (x * 0.6366197723675814 + kRound) - kRound;  // x / (pi/2), rounded
+    const double r = (x - n * 1.5707963267948966) - n * 6.123233995736766e-17;
+    const double z = r * r;
+    double ps = -1.0 / 6227020800.0;
+    ps = ps * z + 1.0 / 39916800.0;
+    ps = ps * z - 1.0 / 362880.0;
+    ps = ps * z + 1.0 / 5040.0;
+    ps = ps * z - 1.0 / 120.0;
+    ps = ps * z + 1.0 / 6.0;
+    const double sin_r = r - r * z * ps;
+    double pc = 1.0 / 87178291200.0;
+    pc = pc * z - 1.0 / 479001600.0;
+    pc = pc * z + 1.0 / 3628800.0;
+    pc = pc * z - 1.0 / 40320.0;
+    pc = pc * z + 1.0 / 720.0;
+    pc = pc * z - 1.0 / 24.0;
+    pc = pc * z + 0.5;
+    const double cos_r = 1.0 - z * pc;
+    switch (int64_t(n) & 3) {
+        case 0: return {sin_r, cos_r};
+        case 1: return {cos_r, -sin_r};
+        case 2: return {-sin_r, -cos_r};
+        default: return {-cos_r, sin_r};
+    }
+}
 // exp, asin (clamped to [-1, 1]) and atan2 to float accuracy or better where `in_float` (the inlined
 // forms above), else glibc's double functions.
 inline double exp_in(bool in_float, double x) { return in_float ? exp_float_accuracy(x) : std::exp(x); }
@@ -198,6 +280,10 @@ inline double asin_in(bool in_float, double x) {
 }
 inline double atan2_in(bool in_float, double y, double x) {
     return in_float ? atan2_float_accuracy(y, x) : std::atan2(y, x);
+}
+inline double log_in(bool in_float, double x) { return in_float ? log_float_accuracy(x) : std::log(x); }
+inline SinCosPair sincos_in(bool in_float, double x) {
+    return in_float ? sincos_accurate(x) : SinCosPair{std::sin(x), std::cos(x)};
 }
 
 

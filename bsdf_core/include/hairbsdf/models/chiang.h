@@ -109,6 +109,12 @@ public:
         return exp_in(in_float, a + 1.0 / (16.0 * a) - b + log_norm_) / std::sqrt(kTwoPi * a);
     }
     double variance() const { return v_; }
+    // The Cycles branches' numbers, for the lane-pair form (ChiangHair::mp_pair): M_p = I0(a) exp(add - b) mul
+    // below asym_limit, the asymptote exp(a + 1/(16 a) - b + add) / sqrt(2 pi a) above it.
+    double inv_v() const { return inv_v_; }
+    double cycles_add() const { return log_branch_ ? log_norm_ : 0.0; }
+    double cycles_mul() const { return log_branch_ ? 1.0 : norm_; }
+    double cycles_asym_limit() const { return log_branch_ ? 12.0 : HUGE_VAL; }
 
 private:
     double v_ = 1, inv_v_ = 1;
@@ -119,12 +125,14 @@ private:
 };
 
 // d'Eon et al. 2013 sampler of M_p around the direction (sin_theta_o, cos_theta_o):
-// returns sin(theta_i). u_theta is clamped to >= 1e-5 as in Cycles.
+// returns sin(theta_i). u_theta is clamped to >= 1e-5 as in Cycles. `in_float`: the inlined log and cos
+// of math.h (log_in, sincos_in).
 inline double sample_longitudinal(double v, double exp_minus_2_over_v, double u_theta, double u_azimuth,
-                                  double sin_theta_o, double cos_theta_o) {
+                                  double sin_theta_o, double cos_theta_o, bool in_float = false) {
     u_theta = clamp(u_theta, 1e-5, 1.0);
-    const double fac = 1.0 + v * std::log(u_theta + (1.0 - u_theta) * exp_minus_2_over_v);
-    return clamp(-fac * sin_theta_o + cos_from_sin(fac) * std::cos(kTwoPi * u_azimuth) * cos_theta_o, -1.0, 1.0);
+    const double fac = 1.0 + v * log_in(in_float, u_theta + (1.0 - u_theta) * exp_minus_2_over_v);
+    const double cos_azimuth = sincos_in(in_float, kTwoPi * u_azimuth).cos;
+    return clamp(-fac * sin_theta_o + cos_from_sin(fac) * cos_azimuth * cos_theta_o, -1.0, 1.0);
 }
 
 // Rotation of an angle (sin, cos) by a fixed angle (sin_a, cos_a), returning |cos| (docs/cycles.md §4.3).
@@ -165,6 +173,10 @@ public:
         for (int p = 0; p < 4; ++p) {
             mp_[p] = LongitudinalLobe(params.v[p], params.accuracy);
             exp_minus_2_over_v_[p] = std::exp(-2.0 / params.v_sample[p]);
+            pair_inv_v_[p / 2][p % 2] = mp_[p].inv_v();
+            pair_add_[p / 2][p % 2] = mp_[p].cycles_add();
+            pair_mul_[p / 2][p % 2] = mp_[p].cycles_mul();
+            pair_asym_limit_[p / 2][p % 2] = mp_[p].cycles_asym_limit();
         }
         for (const RGB& t : params.tint) tinted_ = tinted_ || t.r != 1.0 || t.g != 1.0 || t.b != 1.0;
         for (int p = 0; p < 3; ++p) {
@@ -202,15 +214,17 @@ public:
     }
 
     // Everything that depends only on the view direction and h: computed once per
-    // shading point (Cycles' closure setup), then shared by eval, pdf and sample.
+    // shading point (Cycles' closure setup), then shared by eval, pdf and sample. view_terms writes every
+    // field; the numbers have no default (a value-initialised ViewTerms{} is zero).
     struct ViewTerms {
-        double sin_theta_o = 0, cos_theta_o = 0, phi_o = 0;
-        double gamma_o = 0, gamma_t = 0;
-        std::array<RGB, 4> attenuation{};    // A_p with tints
-        std::array<double, 4> lobe_weight{};  // a_p: luminance-normalised selection probabilities
-        std::array<SinCos, 3> tilted{};       // tilted view angle per lobe (4.2 convention)
-        std::array<double, 3> azimuth_center{};  // centre of N_p in phi - phi_o: R, TT, TRT
+        double sin_theta_o, cos_theta_o, phi_o;
+        double gamma_o, gamma_t;
+        std::array<RGB, 4> attenuation;    // A_p with tints
+        std::array<double, 4> lobe_weight;  // a_p: luminance-normalised selection probabilities
+        std::array<SinCos, 3> tilted;       // tilted view angle per lobe (4.2 convention)
+        std::array<double, 3> azimuth_center;  // centre of N_p in phi - phi_o: R, TT, TRT
         bool valid = false;
+        bool in_float = false;  // float_maths() as view_terms read it, for eval and sample to reuse
     };
 
     struct ShadingPoint {
@@ -225,18 +239,29 @@ public:
     // The view terms with Chiang's pass transmittance exp(-sigma_a 2 cos gamma_t / cos theta_t).
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx) const {
         const bool in_float = float_maths();
-        return view_terms(frame, ctx, [this, in_float](const ChiangPassGeometry& g) {
-            const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
-            return RGB(exp_in(in_float, x.r), exp_in(in_float, x.g), exp_in(in_float, x.b));
-        });
+        return view_terms(
+            frame, ctx,
+            [this, in_float](const ChiangPassGeometry& g) {
+                const RGB x = (-2.0 * g.cos_gamma_t / g.cos_theta_t) * params_.sigma_a;
+                if (!in_float) return RGB(std::exp(x.r), std::exp(x.g), std::exp(x.b));
+                const Double2 rg = exp_float_accuracy(Double2{x.r, x.g});  // red and green in one pair
+                return RGB(rg[0], rg[1], exp_float_accuracy(x.b));
+            },
+            in_float);
     }
     // The same with another transmittance per internal pass (yan_fur's medulla): a callable
     // RGB(const ChiangPassGeometry&). Everything else (Fresnel, A_p, lobe weights) is Chiang's.
     template <class PassTransmittance>
     ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
                          const PassTransmittance& pass_transmittance) const {
+        return view_terms(frame, ctx, pass_transmittance, float_maths());
+    }
+    // ... with float_maths() read once by the caller.
+    template <class PassTransmittance>
+    HAIRBSDF_ALWAYS_INLINE ViewTerms view_terms(const FibreFrame& frame, const ShadingContext& ctx,
+                                                const PassTransmittance& pass_transmittance, bool in_float) const {
         ViewTerms vt;
-        const bool in_float = float_maths();
+        vt.in_float = in_float;
         const double eta = params_.eta;
         vt.sin_theta_o = frame.sin_theta(ctx.wo);
         vt.cos_theta_o = cos_from_sin(vt.sin_theta_o);
@@ -262,13 +287,13 @@ public:
             vt.lobe_weight[p] = luminance(vt.attenuation[p]);
             total += vt.lobe_weight[p];
         }
-        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
-        for (double& w : vt.lobe_weight) w /= total;
-
+        // Every field is written before the validity test, on both paths.
         for (int p = 0; p < 3; ++p) {
             vt.tilted[p] = rotate_angle(vt.sin_theta_o, vt.cos_theta_o, rotations_[p].sin, rotations_[p].cos);
             vt.azimuth_center[p] = 2.0 * p * vt.gamma_t - 2.0 * vt.gamma_o + p * kPi;
         }
+        if (!(total > 0) || !std::isfinite(total) || !std::isfinite(vt.gamma_t)) return vt;
+        for (double& w : vt.lobe_weight) w /= total;
         vt.valid = true;
         return vt;
     }
@@ -276,7 +301,7 @@ public:
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
-        const bool in_float = float_maths();
+        const bool in_float = sp.view.in_float;
         const double phi = atan2_in(in_float, dot(wi, sp.frame.z), dot(wi, sp.frame.y));  // frame.phi(wi)
         return eval_local(sp.view, sin_theta_i, cos_from_sin(sin_theta_i), phi - sp.view.phi_o, in_float);
     }
@@ -308,8 +333,12 @@ public:
                                     ? sample_lobe_direction(vt, p, longitudinal->theta, longitudinal->azimuth, u[0])
                                     : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
-        return sample_from_eval(frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi),
-                                eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths()), p);
+        // frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi) with phi_o = -pi/2: cos(phi - pi/2) = sin(phi),
+        // sin(phi - pi/2) = -cos(phi).
+        const bool in_float = vt.in_float;
+        const SinCosPair sc = sincos_in(in_float, phi);
+        const Vec3 wi = sin_theta_i * frame.x + (cos_theta_i * sc.sin) * frame.y - (cos_theta_i * sc.cos) * frame.z;
+        return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, in_float), p);
     }
 
     // A direction from lobe p's sampling density (M_p about the lobe's tilted cone, N_p's trimmed
@@ -320,16 +349,17 @@ public:
     };
     LobeDirection sample_lobe_direction(const ViewTerms& vt, int p, double u_lobe, double u1, double u0) const {
         const double v = params_.v_sample[p];
+        const bool in_float = vt.in_float;
         double sin_theta_i;
         if (params_.tilt_convention == TiltConvention::Blender42) {
             // Sample around the tilted view angle (the importance-sampling fix #114780).
             const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
-            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, o.sin, o.cos);
+            sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, o.sin, o.cos, in_float);
         } else {
             // Blender 3.4: sample around the untilted view angle, then rotate the result
             // back by the lobe's tilt (the pbrt-v3 scheme that #114780 replaced).
             sin_theta_i = sample_longitudinal(v, exp_minus_2_over_v_[p], u_lobe, u1, vt.sin_theta_o,
-                                              vt.cos_theta_o);
+                                              vt.cos_theta_o, in_float);
         }
         double cos_theta_i = cos_from_sin(sin_theta_i);
 
@@ -337,7 +367,7 @@ public:
         if (p < 3) {
             // The trimmed logistic's inverse CDF (sample_trimmed_logistic) with its CDF at -pi hoisted.
             const double s = params_.s[p], cdf_minus_pi = logistic_cdf_minus_pi_[p];
-            const double x = -s * std::log(1.0 / (u0 * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0);
+            const double x = -s * log_in(in_float, 1.0 / (u0 * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0);
             phi = vt.azimuth_center[p] + clamp(x, -kPi, kPi);
         } else {
             phi = kTwoPi * u0;
@@ -360,8 +390,28 @@ public:
     BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi) const {
         return eval_local(vt, sin_theta_i, cos_theta_i, phi, float_maths());
     }
-    BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
-        BsdfEval out;
+    HAIRBSDF_ALWAYS_INLINE BsdfEval eval_local(const ViewTerms& vt, double sin_theta_i, double cos_theta_i, double phi, bool in_float) const {
+        std::array<double, 4> mn;  // M_p N_p per lobe (TRRT+: M_p / 2 pi)
+        double pdf = 0;
+        if (in_float && params_.tilt_convention == TiltConvention::Blender42) {
+            // Lobes in pairs (R, TT) and (TRT, TRRT+), two lanes at once: the same formulas as below.
+            const Double2 m01 = mp_pair(0, sin_theta_i, cos_theta_i, Double2{vt.tilted[0].sin, vt.tilted[1].sin},
+                                        Double2{vt.tilted[0].cos, vt.tilted[1].cos});
+            const Double2 m23 = mp_pair(1, sin_theta_i, cos_theta_i, Double2{vt.tilted[2].sin, vt.sin_theta_o},
+                                        Double2{vt.tilted[2].cos, vt.cos_theta_o});
+            const double x0 = wrap_angle(phi - vt.azimuth_center[0]), x1 = wrap_angle(phi - vt.azimuth_center[1]);
+            const double x2 = wrap_angle(phi - vt.azimuth_center[2]);
+            const Double2 s01 = {params_.s[0], params_.s[1]};
+            const Double2 e01 = exp_float_accuracy(-Double2{std::fabs(x0), std::fabs(x1)} / s01);
+            const Double2 one_e = 1.0 + e01;
+            const Double2 np01 = e01 / (s01 * (one_e * one_e)) * Double2{logistic_norm_[0], logistic_norm_[1]};
+            const double s2 = params_.s[2], e2 = exp_float_accuracy(-std::fabs(x2) / s2);
+            const double np2 = e2 / (s2 * sqr(1.0 + e2)) * logistic_norm_[2];
+            mn = {m01[0] * np01[0], m01[1] * np01[1], m23[0] * np2, m23[1] * kInvTwoPi};
+            pdf = ((vt.lobe_weight[0] * mn[0] + vt.lobe_weight[1] * mn[1]) + vt.lobe_weight[2] * mn[2]) +
+                  vt.lobe_weight[3] * mn[3];
+            return finish_eval(vt, mn, pdf);
+        }
         for (int p = 0; p < 3; ++p) {
             double mp;
             if (params_.tilt_convention == TiltConvention::Blender42) {
@@ -374,17 +424,49 @@ public:
             // logistic(x, s) times its trimming's normalisation
             const double s = params_.s[p], e = exp_in(in_float, -std::fabs(x) / s);
             const double np = e / (s * sqr(1.0 + e)) * logistic_norm_[p];
-            out.lobes[p] = (mp * np) * vt.attenuation[p];
-            out.pdf += vt.lobe_weight[p] * mp * np;
+            mn[p] = mp * np;
+            pdf += vt.lobe_weight[p] * mn[p];
         }
-        const double m3 = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
-        out.lobes[3] = m3 * vt.attenuation[3];
-        out.pdf += vt.lobe_weight[3] * m3;
-        if (!std::isfinite(out.pdf) || !isfinite(out.value())) return {};
-        return out;
+        mn[3] = mp_[3].eval(sin_theta_i, cos_theta_i, vt.sin_theta_o, vt.cos_theta_o, in_float) * kInvTwoPi;
+        pdf += vt.lobe_weight[3] * mn[3];
+        return finish_eval(vt, mn, pdf);
+    }
+    HAIRBSDF_ALWAYS_INLINE static BsdfEval finish_eval(const ViewTerms& vt, const std::array<double, 4>& mn, double pdf) {
+        // Built once at the end (no zeroed BsdfEval overwritten lobe by lobe); one finiteness test of the pdf
+        // and the value's sum.
+        const RGB l0 = mn[0] * vt.attenuation[0], l1 = mn[1] * vt.attenuation[1];
+        const RGB l2 = mn[2] * vt.attenuation[2], l3 = mn[3] * vt.attenuation[3];
+        const RGB value = (l0 + l1) + (l2 + l3);
+        if (!std::isfinite(pdf + value.r + value.g + value.b)) return {};
+        return BsdfEval{{l0, l1, l2, l3, RGB(), RGB()}, pdf};
     }
 
 private:
+    // M_p of the lobe pair `pair` (0: R and TT, 1: TRT and TRRT+) at accuracy `cycles` in float-accuracy maths,
+    // branch-free per lane: Cycles' series I0(a) exp(add - b) mul, or above the lane's limit its asymptote.
+    HAIRBSDF_ALWAYS_INLINE Double2 mp_pair(int pair, double sin_theta_i, double cos_theta_i, Double2 sin_theta_o,
+                                           Double2 cos_theta_o) const {
+        const Double2 inv_v = pair_inv_v_[pair];
+        const Double2 a = cos_theta_i * cos_theta_o * inv_v;
+        const Double2 b = sin_theta_i * sin_theta_o * inv_v;
+        const Double2 q = 0.25 * a * a;  // cycles_bessel_i0 on both lanes
+        Double2 i0 = q * (1.0 / 131681894400.0) + 1.0 / 1625702400.0;
+        i0 = i0 * q + 1.0 / 25401600.0;
+        i0 = i0 * q + 1.0 / 518400.0;
+        i0 = i0 * q + 1.0 / 14400.0;
+        i0 = i0 * q + 1.0 / 576.0;
+        i0 = i0 * q + 1.0 / 36.0;
+        i0 = i0 * q + 1.0 / 4.0;
+        i0 = i0 * q + 1.0;
+        i0 = i0 * q + 1.0;
+        const Double2 add = pair_add_[pair];
+        const auto asym = a > pair_asym_limit_[pair];
+        const Double2 exponent = asym ? a + 1.0 / (16.0 * a) - b + add : add - b;
+        const Double2 root = {std::sqrt(kTwoPi * a[0]), std::sqrt(kTwoPi * a[1])};
+        const Double2 factor = asym ? 1.0 / root : i0 * pair_mul_[pair];
+        return exp_float_accuracy(exponent) * factor;
+    }
+
     // Cycles accuracy takes float-accuracy exp, asin and atan2 unless the double reference is selected.
     bool float_maths() const { return params_.accuracy == Accuracy::Cycles && cycles_float_maths(); }
 
@@ -393,6 +475,7 @@ private:
     std::array<double, 3> logistic_norm_{};
     std::array<double, 3> logistic_cdf_minus_pi_{};  // logistic_cdf(-pi, s), sample_trimmed_logistic's
     std::array<double, 4> exp_minus_2_over_v_{};
+    Double2 pair_inv_v_[2]{}, pair_add_[2]{}, pair_mul_[2]{}, pair_asym_limit_[2]{};  // mp_pair's numbers
     std::array<SinCos, 3> rotations_{};  // tilt rotation per lobe (R, TT, TRT)
     bool tinted_ = false;                // a tint other than 1 (MaterialX's per-lobe tints)
 };
