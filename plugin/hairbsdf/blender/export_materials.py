@@ -8,9 +8,9 @@ Supported (everything else is reported with a warning naming the node and socket
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
   * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
   * linked closure inputs: the node network feeding them is compiled into the material's
-    shading program (shading_network.py, docs/shading_vm.md); constant networks fold into
-    plain values, Hair Info > Random straight into the Principled Hair's Random socket stays
-    None (per-curve random).
+    shading program (shading_network.py, docs/shading_vm.md), which the scene loader folds
+    where it does not depend on the hit; Hair Info > Random straight into the Principled Hair's
+    Random socket stays None (per-curve random).
 A material without nodes is a diffuse of its viewport colour and a missing material is
 Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
 A material whose hair model override is set (Material tab, model_override.py) has its
@@ -101,9 +101,7 @@ class MaterialTranslator:
             self.warn(f"'{node.name}' > '{sock.name}' varies per hit, which hairbsdf supports only for closure "
                       f"inputs; using the socket value {_fmt(fallback)}")
             return fallback
-        holder = {}
-        self.network.finish([(holder, "v", v, kind)])
-        return holder["v"]
+        return self.network.constant_value(v)
 
     @staticmethod
     def _socket_default(sock, kind, default):
@@ -173,6 +171,15 @@ class MaterialTranslator:
         out["closures"] = override_closures(material, out["closures"], self.warn)
         if any(c.get("type") == "emission" for c in out["closures"]):
             out["emission_sampling"] = emission_sampling(material)
+        return out
+
+    def constant_inputs(self, inputs: dict) -> dict:
+        """`inputs` (a closure's, of the last translated material) with each register that does not
+        depend on the hit replaced by its value: for the harness's map_inputs, which reads numbers."""
+        out = dict(inputs)
+        for container, key, value, _ in self.pending:
+            if container is inputs and isinstance(out.get(key), dict) and not self.network.is_dynamic(value):
+                out[key] = self.network.constant_value(value)
         return out
 
     def program_needs(self) -> tuple:

@@ -214,9 +214,11 @@ def principled_inputs(material):
     """The first Principled Hair closure's inputs as the exporter reads them (the keys of
     docs/scene_desc.md's principled_hair `inputs`, colours as tuples, `random` None when the
     per-strand Hair Info > Random is used) plus `model` and `parametrization`; None without one."""
-    for c in MaterialTranslator(ExportReport()).translate(material)["closures"]:
+    translator = MaterialTranslator(ExportReport())
+    for c in translator.translate(material)["closures"]:
         if c.get("type") == "principled_hair":
-            return dict(c["inputs"], model=c["model"], parametrization=c["parametrization"])
+            return dict(translator.constant_inputs(c["inputs"]), model=c["model"],
+                        parametrization=c["parametrization"])
     return None
 
 
