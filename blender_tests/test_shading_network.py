@@ -1,10 +1,10 @@
 """The shading-network compiler (plugin/hairbsdf/blender/shading_network.py) and the renderer's
 shading VM, against Blender and Cycles.
 
-* test_compiler_*: node trees built with bpy are compiled; constant networks fold into plain
-  values (no program), hit-dependent ones give a program whose evaluation
-  (hairbsdf._render.eval_program) is checked against formulas written here from Blender's
-  node definitions, and unsupported nodes are warned by name with the socket value used.
+* test_compiler_*: node trees built with bpy are compiled; constant networks give registers
+  whose values are the same at every hit (the scene loader folds them), hit-dependent ones a
+  program whose evaluation (hairbsdf._render.eval_program) is checked against formulas written
+  here from Blender's node definitions, and unsupported nodes are warned by name with the socket value used.
 * test_emission_networks_match_cycles_per_pixel: the strongest check. Straight strands whose
   Emission colour is a node network (Hair Info, ColorRamp, Map Range, Math, Mix, Gamma, ...; and
   point / curve attributes in 4.x), seen by an orthographic camera at 1 sample per pixel (the
