@@ -1,10 +1,10 @@
 """The shading-network compiler (plugin/hairbsdf/blender/shading_network.py) and the renderer's
 shading VM, against Blender and Cycles.
 
-* test_compiler_*: node trees built with bpy are compiled; constant networks fold into plain
-  values (no program), hit-dependent ones give a program whose evaluation
-  (hairbsdf._render.eval_program) is checked against formulas written here from Blender's
-  node definitions, and unsupported nodes are warned by name with the socket value used.
+* test_compiler_*: node trees built with bpy are compiled; constant networks give registers
+  whose values are the same at every hit (the scene loader folds them), hit-dependent ones a
+  program whose evaluation (hairbsdf._render.eval_program) is checked against formulas written
+  here from Blender's node definitions, and unsupported nodes are warned by name with the socket value used.
 * test_emission_networks_match_cycles_per_pixel: the strongest check. Straight strands whose
   Emission colour is a node network (Hair Info, ColorRamp, Map Range, Math, Mix, Gamma, ...; and
   point / curve attributes in 4.x), seen by an orthographic camera at 1 sample per pixel (the
@@ -178,11 +178,16 @@ def test_compiler_folds_evaluates_and_warns(run_blender, engine_kind, renderer_a
     mats, warnings = r["materials"], "\n".join(r["warnings"])
     x, rnd = np.asarray(r["x"]), np.asarray(r["random"])
 
-    # 1. constants fold: no program, plain numbers
+    # 1. constant networks: registers of a program with no Hair Info or attribute, whose values
+    #    are the same at every hit (the scene loader folds them: render_shading_vm_test's
+    #    ShadingVmFold, plugin/tests/test_render_shading_program.py)
     const = mats["Constant"]
-    assert const["program"] is None
-    assert const["closures"][0]["inputs"]["roughness"] == pytest.approx(0.6, rel=1e-6)
-    assert const["closures"][0]["inputs"]["melanin"] == 1.0  # Clamp 0..1
+    assert const["program"] is not None
+    regs = np.asarray(const["eval"])  # at 13 hits of different Random and Intercept
+    const_inputs = const["closures"][0]["inputs"]
+    rough, melanin = regs[:, _register(const_inputs["roughness"])], regs[:, _register(const_inputs["melanin"])]
+    assert (rough == rough[0]).all() and rough[0] == pytest.approx(0.6, rel=1e-6)
+    assert (melanin == 1.0).all()  # Clamp 0..1
 
     # 2. the dynamic material: registers, and their values per hit
     dyn = mats["Dynamic"]
@@ -914,8 +919,12 @@ table = MaterialTable(rep)
 res = {}
 for m in mats:
     d = table.materials[table.index(m)]
-    res[m.name] = {"color": d["closures"][0]["color"], "program": "program" in d,
-                   "needs": sorted(table.needs[table.index(m)][1])}
+    color = d["closures"][0]["color"]
+    res[m.name] = {"color": color, "program": "program" in d, "needs": sorted(table.needs[table.index(m)][1])}
+    if isinstance(color, dict):  # a register: its value at a hit
+        k = color["register"]
+        res[m.name]["color_value"] = _render.eval_program(d["program"], attributes=np.zeros((1, 2, 4), np.float32),
+                                                          images=table.attributes.images.images)[0, k:k + 3].tolist()
 px = np.empty(8 * 4 * 4, np.float32); images["tex.exr"].pixels.foreach_get(px)
 emit({"materials": res, "warnings": rep.warnings, "uv": UV_ATTRIBUTE, "texel_2_1": px.reshape(4, 8, 4)[1, 2].tolist(),
       "exr_colorspace": images["tex.exr"].colorspace_settings.name,
@@ -936,19 +945,21 @@ def test_image_texture_compiler(run_blender, engine_kind, renderer_available):
     assert mats["Named"]["program"] and mats["Named"]["needs"] == [uv + "Second"]
     assert not mats["Box"]["program"] and mats["Box"]["color"] == pytest.approx((0.25, 0.5, 0.75))
     assert "'Tex' (Image Texture > Color) (its projection BOX" in warnings
-    # the Mapping is warned and its socket value (0, 0, 0) is the lookup vector: a constant
-    assert not mats["NormalMapping"]["program"] and "(Mapping > Vector) (its vector_type NORMAL)" in warnings
+    # the Mapping is warned and its socket value (0, 0, 0) is the lookup vector: a constant (no UV
+    # read; the loader folds the lookup)
+    assert mats["NormalMapping"]["needs"] == [] and "(Mapping > Vector) (its vector_type NORMAL)" in warnings
     for name in ("NoImage", "MissingFile"):
         assert not mats[name]["program"] and mats[name]["color"] == pytest.approx((1.0, 0.0, 1.0)), name
         assert mats[name]["needs"] == []
     assert "'Tex' has no image; like Cycles, it reads magenta" in warnings
     assert "image 'gone' has no pixels" in warnings
-    # folded at export with the VM's own lookup: the texel (float EXR, stored premultiplied)
-    assert not mats["ConstantVector"]["program"]
+    # a constant vector: the program reads the texel at every hit (the loader folds it, with the
+    # VM's own lookup; float EXR, stored premultiplied)
+    assert mats["ConstantVector"]["program"] and mats["ConstantVector"]["needs"] == []
     # Blender 5.x reads the float EXR it wrote as sRGB: Blender's pixel buffer is then decoded by
     # OpenColorIO, Cycles' lookup (and ours) by the sRGB formula, 2e-5 apart.
     rel = 1e-6 if r["exr_colorspace"] != "sRGB" else 5e-5
-    assert mats["ConstantVector"]["color"] == pytest.approx(r["texel_2_1"][:3], rel=rel)
+    assert mats["ConstantVector"]["color_value"] == pytest.approx(r["texel_2_1"][:3], rel=rel)
     # each image read once; sRGB files stay encoded (the PNG, and the EXR in 5.x)
     assert len(r["images"]) == 2 and r["srgb"] == [r["exr_colorspace"] == "sRGB", True]
     assert sorted(r["attributes"]) == sorted([uv, uv + "Second"])

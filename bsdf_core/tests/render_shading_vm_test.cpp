@@ -414,3 +414,54 @@ TEST(ShadingVmImage, OpWritesColorAndAlphaAndUnassociates) {
     bad.code[4] = 4;  // flags
     EXPECT_THROW(validate_program(bad, 0, 1), std::invalid_argument);
 }
+
+// Constant folding (fold_program): constant outputs take their value at the zero hit, the
+// program keeps only the hit-dependent instructions the other outputs need (with the folded
+// values they read as constants), and runs to the same values as the whole program.
+TEST(ShadingVmFold, KeepsTheHitDependentInstructionsAndFoldsTheRest) {
+    const int32_t mul = int32_t(MathType::Multiply), add = int32_t(MathType::Add);
+    // constants 0.2, 3, 0.5 at 0..2; temporaries from 3
+    const auto p = make_program({0.2f, 3.0f, 0.5f},
+                                {op(ShadingOp::Math), mul, 0, 3, 0, 1, 0,      // r3 = 0.2 x 3: constant
+                                 op(ShadingOp::HairInfo), 1, 4,                // r4 = Intercept
+                                 op(ShadingOp::Math), mul, 0, 5, 4, 3, 0,      // r5 = r4 x r3
+                                 op(ShadingOp::Copy), 6, 2,                    // r6..r8 = (0.5, r4, 0.2):
+                                 op(ShadingOp::Copy), 7, 4,                    //   a colour, partly
+                                 op(ShadingOp::Copy), 8, 0,                    //   hit-dependent
+                                 op(ShadingOp::Math), add, 0, 9, 2, 2, 0,      // r9 = 0.5 + 0.5: constant
+                                 op(ShadingOp::HairInfo), 0, 10},              // r10 = Random: read by no output
+                                8);
+    validate_program(p, 0);
+    ShadingHitContext zero;
+    zero.is_strand = 1.0f;
+    const FoldedProgram f = fold_program(p, zero, {{3, 1}, {5, 1}, {6, 3}, {9, 1}});
+    ASSERT_TRUE(f.folded);
+    EXPECT_FALSE(f.dynamic[3]);
+    EXPECT_EQ(f.values[3], 0.2f * 3.0f);
+    EXPECT_FALSE(f.dynamic[9]);
+    EXPECT_EQ(f.values[9], 1.0f);
+    EXPECT_TRUE(f.dynamic[5]);
+    EXPECT_TRUE(f.dynamic[7]);
+    EXPECT_FALSE(f.dynamic[6]);
+    // HairInfo, the multiply and the three copies; not the constant math nor the unread Random
+    const ShadingProgram& q = f.program;
+    validate_program(q, 0);
+    EXPECT_EQ(q.code.size(), size_t(3 + 7 + 3 * 3));
+    EXPECT_EQ(f.slot[7], f.slot[6] + 1);
+    EXPECT_EQ(f.slot[8], f.slot[6] + 2);
+    for (float intercept : {0.0f, 0.3f, 0.9f}) {
+        ShadingHitContext hit;
+        hit.intercept = intercept;
+        hit.random = 0.7f;
+        const auto whole = run(p, hit), kept = run(q, hit);
+        for (int32_t r : {5, 6, 7, 8}) EXPECT_EQ(kept[size_t(f.slot[size_t(r)])], whole[size_t(r)]) << r;
+    }
+    // Only constant outputs: no program at all.
+    const FoldedProgram none = fold_program(p, zero, {{3, 1}, {9, 1}});
+    ASSERT_TRUE(none.folded);
+    EXPECT_TRUE(none.program.empty());
+    EXPECT_EQ(none.program.register_count, 0);
+    // A temporary written twice is not folded: the program stays as it is.
+    const auto twice = make_program({1.0f}, {op(ShadingOp::Copy), 1, 0, op(ShadingOp::HairInfo), 1, 1}, 1);
+    EXPECT_FALSE(fold_program(twice, zero, {{1, 1}}).folded);
+}

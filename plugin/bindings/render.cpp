@@ -431,7 +431,9 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
 // hit's shading normal (diffuse, the legacy Hair BSDF's N test), wo where None.
 py::tuple py_eval_hit_bsdf(py::handle scene_dict, int material, py::handle wo_h, py::handle wi_h, py::handle h_h,
                            py::handle normal_h, double random, uint32_t seed, double blur) {
-    const SceneDesc scene = scene_from_dict(scene_dict);
+    SceneDesc scene = scene_from_dict(scene_dict);
+    std::vector<std::string> program_warnings;  // the renderer reports them; not this probe
+    repair_programs(scene, program_warnings);    // folded as the renderer folds them
     if (material < 0 || size_t(material) >= scene.materials.size()) throw py::value_error("material: no such index");
     const IntegratorSettings& is = scene.integrator;
     const MaterialShader shader(scene.materials[size_t(material)], is.tilt, is.accuracy, is.huang_sampler);

@@ -111,7 +111,40 @@ def test_hair_inputs_from_registers_equal_constant_inputs():
     linked = render(scene({"register": 0}, {"register": 3}, prog))["combined"]
     const = render(scene(float(np.float32(0.6)), float(np.float32(0.2) + np.float32(0.1))))["combined"]
     assert linked[..., 3].sum() > 20
-    np.testing.assert_allclose(linked, const, rtol=1e-6, atol=1e-7)
+    # the loader folds the program (no input depends on the hit): the same pixels, bit for bit
+    assert np.array_equal(linked, const)
+    # eval_hit_bsdf folds as the renderer does
+    rng = np.random.default_rng(3)
+    wo, wi = (v / np.linalg.norm(v, axis=1, keepdims=True) for v in rng.normal(size=(2, 16, 3)))
+    h = rng.uniform(-1, 1, 16)
+    folded = _render.eval_hit_bsdf(scene({"register": 0}, {"register": 3}, prog), 0, wo, wi, h)
+    plain = _render.eval_hit_bsdf(scene(float(np.float32(0.6)), float(np.float32(0.2) + np.float32(0.1))), 0,
+                                  wo, wi, h)
+    assert all(np.array_equal(a, b) for a, b in zip(folded, plain))
+
+
+def test_loader_folds_constant_registers_and_keeps_the_hit_dependent_ones():
+    """The emission colour is a block gathered from a constant Math result, Hair Info >
+    Intercept and a given constant, the strength a constant Math result: the loader folds the
+    strength and the constant parts of the colour into the program's constants and keeps the
+    Copies of the colour block, so each pixel is (0.5, intercept, 0.25) x 3."""
+    multiply, add = 2, 0
+    code = [MATH, multiply, 0, 3, 0, 1, 1,      # r3 = 0.5 x 0.5 = 0.25 (constant)
+            HAIR_INFO, 1, 4,                    # r4 = Intercept
+            MATH, add, 0, 5, 0, 0, 0,           # r5 = 0.5 + 0.5 (constant)
+            COPY, 6, 0, COPY, 7, 4, COPY, 8, 3,  # r6..r8 = (0.5, intercept, 0.25)
+            MATH, add, 0, 9, 5, 2, 2,           # r9 = 1 + 2 = 3 (constant): the strength
+            HAIR_INFO, 0, 10]                   # r10 = Random, read by nothing
+    intercept = ((np.linspace(-1, 1, N_KEYS) + 1) / 2).astype(np.float32)
+    scene = _scene(_program(code, constants=(0.5, 0.5, 2.0), registers=11), {"register": 6},
+                   curves_extra={"point_intercept": intercept})
+    scene["materials"][0]["closures"][0]["strength"] = {"register": 9}
+    out = render(scene)
+    assert not out["stats"]["warnings"], out["stats"]["warnings"]
+    x, px = _middle_row(out)
+    np.testing.assert_allclose(px[:, 0], 1.5, rtol=1e-6)
+    np.testing.assert_allclose(px[:, 1], 3.0 * (x + 1) / 2, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(px[:, 2], 0.75, rtol=1e-6)
 
 
 @pytest.mark.parametrize("program,warning", [

@@ -1,6 +1,8 @@
 // Scene repair: see render/scene.h.
 #include "hairbsdf/render/scene.h"
 
+#include "hairbsdf/render/shading.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -67,11 +69,57 @@ void repair_closures(SceneDesc& s, std::vector<std::string>& warnings) {
     if (bad_closures) warnings.push_back("materials: " + plural(bad_closures, "closure") + " with NaN/Inf values set to black");
 }
 
-// Images: a bad size empties the image (it reads 0), NaN/Inf texels read 0. Shading programs:
-// an invalid one (or a link outside its registers) is dropped, so the inputs keep their
-// constant values.
-void repair_images_and_programs(SceneDesc& s, std::vector<std::string>& warnings) {
-    const int attribute_count = int(std::max(s.curves.attributes.size(), s.meshes.attributes.size()));
+int link_width(const ClosureDesc::Link& l) {
+    using In = ClosureDesc::Input;
+    return (l.input == In::Color || l.input == In::Tint || l.input == In::AbsorptionCoefficient) ? 3 : 1;
+}
+
+// A closure input whose register does not depend on the hit takes its value, as a hit would
+// read it (shading.h's register_value: a non-finite value reads 0).
+void set_folded_input(ClosureDesc& c, const ClosureDesc::Link& l, const float* values) {
+    if (c.type == ClosureDesc::Type::PrincipledHair)
+        apply_links({l}, values, c.hair, c.random_from_curve);
+    else if (l.input == ClosureDesc::Input::Color)
+        c.color = register_rgb(values, l.reg);
+    else if (l.input == ClosureDesc::Input::Strength)
+        c.strength = register_value(values, l.reg);
+}
+
+// Constant folding (docs/shading_vm.md), the one place it happens: the program runs once with a
+// zero hit; inputs that do not depend on the hit become constants, the program keeps the
+// instructions the others need, and a material left with none has no program (the renderer then
+// builds its closures once).
+void fold_material_program(MaterialDesc& m, const std::vector<ShadingImage>& images, int attribute_count) {
+    std::vector<std::pair<int32_t, int32_t>> outputs;
+    for (const ClosureDesc& c : m.closures)
+        for (const ClosureDesc::Link& l : c.links) outputs.push_back({l.reg, link_width(l)});
+    const std::vector<float> attributes(size_t(std::max(attribute_count, 1)) * 4, 0.0f);
+    ShadingHitContext zero_hit;
+    zero_hit.is_strand = 1.0f;
+    zero_hit.attributes = attributes.data();
+    zero_hit.attribute_count = attribute_count;
+    zero_hit.images = images.data();
+    zero_hit.image_count = int(images.size());
+    FoldedProgram folded = fold_program(m.program, zero_hit, outputs);
+    if (!folded.folded) return;
+    for (ClosureDesc& c : m.closures) {
+        std::vector<ClosureDesc::Link> kept;
+        for (ClosureDesc::Link l : c.links) {
+            const auto first = folded.dynamic.begin() + l.reg;
+            if (std::any_of(first, first + link_width(l), [](char d) { return d; })) {
+                l.reg = folded.slot[size_t(l.reg)];
+                kept.push_back(l);
+            } else {
+                set_folded_input(c, l, folded.values.data());
+            }
+        }
+        c.links = std::move(kept);
+    }
+    m.program = std::move(folded.program);
+}
+
+// Images: a bad size empties the image (it reads 0), NaN/Inf texels read 0.
+void repair_images(SceneDesc& s, std::vector<std::string>& warnings) {
     size_t bad_image_values = 0;
     for (ImageDesc& im : s.images) {
         if (!im.valid()) {
@@ -86,27 +134,6 @@ void repair_images_and_programs(SceneDesc& s, std::vector<std::string>& warnings
             }
     }
     if (bad_image_values) warnings.push_back("images: " + plural(bad_image_values, "NaN/Inf value") + " set to 0");
-    for (MaterialDesc& m : s.materials) {
-        std::string problem;
-        try {
-            if (!m.program.empty()) validate_program(m.program, attribute_count, int(s.images.size()));
-        } catch (const std::invalid_argument& e) {
-            problem = e.what();
-        }
-        for (const ClosureDesc& c : m.closures)
-            for (const ClosureDesc::Link& l : c.links) {
-                const int width = (l.input == ClosureDesc::Input::Color || l.input == ClosureDesc::Input::Tint ||
-                                   l.input == ClosureDesc::Input::AbsorptionCoefficient) ? 3 : 1;
-                if (problem.empty() && (l.reg < 0 || l.reg + width > m.program.register_count))
-                    problem = "a closure input names register " + std::to_string(l.reg) + " outside the program's " +
-                              std::to_string(m.program.register_count) + " registers";
-            }
-        if (!problem.empty()) {
-            warnings.push_back("materials: '" + m.name + "': " + problem + "; the program is ignored");
-            m.program = ShadingProgram{};
-            for (ClosureDesc& c : m.closures) c.links.clear();
-        }
-    }
 }
 
 // Curves: strands with NaN/Inf keys, too few keys, no length or no radius are dropped, in place;
@@ -424,11 +451,42 @@ void repair_integrator(SceneDesc& s, std::vector<std::string>& warnings) {
 
 }  // namespace
 
+// Shading programs: an invalid one (or a link outside its registers) is dropped, so the inputs
+// keep their constant values; a valid one is folded (fold_material_program).
+void repair_programs(SceneDesc& s, std::vector<std::string>& warnings) {
+    const int attribute_count = int(std::max(s.curves.attributes.size(), s.meshes.attributes.size()));
+    std::vector<ShadingImage> images;
+    for (const ImageDesc& im : s.images)  // a bad size reads 0, as repair_images makes it
+        images.push_back(im.valid() ? ShadingImage{im.width, im.height, im.pixels.data()} : ShadingImage{});
+    for (MaterialDesc& m : s.materials) {
+        std::string problem;
+        try {
+            if (!m.program.empty()) validate_program(m.program, attribute_count, int(s.images.size()));
+        } catch (const std::invalid_argument& e) {
+            problem = e.what();
+        }
+        for (const ClosureDesc& c : m.closures)
+            for (const ClosureDesc::Link& l : c.links) {
+                if (problem.empty() && (l.reg < 0 || l.reg + link_width(l) > m.program.register_count))
+                    problem = "a closure input names register " + std::to_string(l.reg) + " outside the program's " +
+                              std::to_string(m.program.register_count) + " registers";
+            }
+        if (!problem.empty()) {
+            warnings.push_back("materials: '" + m.name + "': " + problem + "; the program is ignored");
+            m.program = ShadingProgram{};
+            for (ClosureDesc& c : m.closures) c.links.clear();
+        } else if (!m.program.empty()) {
+            fold_material_program(m, images, attribute_count);
+        }
+    }
+}
+
 std::vector<std::string> repair_scene(SceneDesc& s) {
     std::vector<std::string> warnings;
     DefaultSurface fallback_material{s};
     repair_closures(s, warnings);
-    repair_images_and_programs(s, warnings);
+    repair_images(s, warnings);
+    repair_programs(s, warnings);
     repair_curves(s, warnings, fallback_material);
     repair_meshes(s, warnings, fallback_material);
     repair_lights_and_world(s, warnings);

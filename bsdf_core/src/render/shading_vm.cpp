@@ -444,6 +444,35 @@ int argument_count(ShadingOp op) {
 
 }  // namespace
 
+std::vector<ShadingOperand> instruction_operands(const int32_t* code) {
+    const int32_t* a = code + 1;
+    auto in = [a](int arg, int32_t width, const char* what) { return ShadingOperand{arg, a[arg], width, false, what}; };
+    auto out = [a](int arg, int32_t width, const char* what) { return ShadingOperand{arg, a[arg], width, true, what}; };
+    switch (ShadingOp(code[0])) {
+        case ShadingOp::Math: return {out(2, 1, "out"), in(3, 1, "a"), in(4, 1, "b"), in(5, 1, "c")};
+        case ShadingOp::MapRange:
+            return {out(2, 1, "out"), in(3, 1, "input"), in(4, 1, "input"), in(5, 1, "input"),
+                    in(6, 1, "input"), in(7, 1, "input"), in(8, 1, "input")};
+        case ShadingOp::Clamp: return {out(1, 1, "out"), in(2, 1, "value"), in(3, 1, "min"), in(4, 1, "max")};
+        case ShadingOp::ColorRamp:
+            return {in(1, 4 * a[2], "ramp table"), out(3, 3, "out color"), out(4, 1, "out alpha"), in(5, 1, "fac")};
+        case ShadingOp::MixColor: return {out(2, 3, "out"), in(3, 1, "fac"), in(4, 3, "a"), in(5, 3, "b")};
+        case ShadingOp::MixFloat: return {out(1, 1, "out"), in(2, 1, "fac"), in(3, 1, "a"), in(4, 1, "b")};
+        case ShadingOp::MixVector: return {out(2, 3, "out"), in(3, a[0] ? 3 : 1, "fac"), in(4, 3, "a"), in(5, 3, "b")};
+        case ShadingOp::Invert: return {out(0, 3, "out"), in(1, 1, "fac"), in(2, 3, "color")};
+        case ShadingOp::Gamma: return {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "gamma")};
+        case ShadingOp::BrightContrast:
+            return {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "bright"), in(3, 1, "contrast")};
+        case ShadingOp::Copy: return {out(0, 1, "out"), in(1, 1, "in")};
+        case ShadingOp::Luminance: return {out(0, 1, "out"), in(1, 3, "color"), in(2, 3, "weights")};
+        case ShadingOp::Average: return {out(0, 1, "out"), in(1, 3, "vector")};
+        case ShadingOp::HairInfo: return {out(1, 1, "out")};
+        case ShadingOp::Attribute: return {out(1, 5, "out")};
+        case ShadingOp::ImageTexture: return {out(4, 4, "out"), in(5, 3, "vector")};
+    }
+    return {};
+}
+
 void validate_program(const ShadingProgram& p, int attribute_count, int image_count) {
     const int32_t n_const = int32_t(p.constants.size());
     if (p.register_count < n_const)
@@ -459,84 +488,137 @@ void validate_program(const ShadingProgram& p, int attribute_count, int image_co
         if (argc < 0) throw std::invalid_argument(where + ": unknown opcode " + std::to_string(p.code[pc]));
         if (pc + 1 + size_t(argc) > n) throw std::invalid_argument(where + ": truncated");
         const int32_t* a = &p.code[pc + 1];
-        auto read = [&](int32_t slot, int width, const char* what) {
-            if (slot < 0 || slot + width > p.register_count)
-                throw std::invalid_argument(where + ": " + what + " reads register " + std::to_string(slot) +
-                                            " outside 0.." + std::to_string(p.register_count - 1));
-        };
-        auto write = [&](int32_t slot, int width, const char* what) {
-            if (slot < n_const || slot + width > p.register_count)
-                throw std::invalid_argument(where + ": " + what + " writes register " + std::to_string(slot) +
-                                            "; allowed " + std::to_string(n_const) + ".." +
-                                            std::to_string(p.register_count - width) + " (constants are read-only)");
-        };
         auto in_range = [&](int32_t v, int32_t lo, int32_t hi, const char* what) {
             if (v < lo || v > hi)
                 throw std::invalid_argument(where + ": " + what + " " + std::to_string(v) + " outside " +
                                             std::to_string(lo) + ".." + std::to_string(hi));
         };
-        switch (op) {
-            case ShadingOp::Math:
-                in_range(a[0], 0, int32_t(MathType::Count) - 1, "math type");
-                write(a[2], 1, "out");
-                read(a[3], 1, "a"); read(a[4], 1, "b"); read(a[5], 1, "c");
-                break;
-            case ShadingOp::MapRange:
-                in_range(a[0], 0, 3, "map range type");
-                write(a[2], 1, "out");
-                for (int k = 3; k < 9; ++k) read(a[k], 1, "input");
-                break;
-            case ShadingOp::Clamp:
-                in_range(a[0], 0, 1, "clamp type");
-                write(a[1], 1, "out");
-                read(a[2], 1, "value"); read(a[3], 1, "min"); read(a[4], 1, "max");
-                break;
+        switch (op) {  // enum arguments; register blocks below
+            case ShadingOp::Math: in_range(a[0], 0, int32_t(MathType::Count) - 1, "math type"); break;
+            case ShadingOp::MapRange: in_range(a[0], 0, 3, "map range type"); break;
+            case ShadingOp::Clamp: in_range(a[0], 0, 1, "clamp type"); break;
             case ShadingOp::ColorRamp:
                 in_range(a[2], 2, 1 << 16, "ramp table size");
                 if (a[1] < 0 || a[1] + 4 * a[2] > n_const)
                     throw std::invalid_argument(where + ": ramp table outside the constants");
-                write(a[3], 3, "out color"); write(a[4], 1, "out alpha"); read(a[5], 1, "fac");
                 break;
             case ShadingOp::MixColor:
                 in_range(a[0], 0, int32_t(MixBlend::Count) - 1, "blend type");
                 in_range(a[1], 0, 3, "flags");
-                write(a[2], 3, "out"); read(a[3], 1, "fac"); read(a[4], 3, "a"); read(a[5], 3, "b");
                 break;
-            case ShadingOp::MixFloat:
-                write(a[1], 1, "out"); read(a[2], 1, "fac"); read(a[3], 1, "a"); read(a[4], 1, "b");
-                break;
-            case ShadingOp::MixVector:
-                write(a[2], 3, "out"); read(a[3], a[0] ? 3 : 1, "fac"); read(a[4], 3, "a"); read(a[5], 3, "b");
-                break;
-            case ShadingOp::Invert:
-                write(a[0], 3, "out"); read(a[1], 1, "fac"); read(a[2], 3, "color");
-                break;
-            case ShadingOp::Gamma:
-                write(a[0], 3, "out"); read(a[1], 3, "color"); read(a[2], 1, "gamma");
-                break;
-            case ShadingOp::BrightContrast:
-                write(a[0], 3, "out"); read(a[1], 3, "color"); read(a[2], 1, "bright"); read(a[3], 1, "contrast");
-                break;
-            case ShadingOp::Copy: write(a[0], 1, "out"); read(a[1], 1, "in"); break;
-            case ShadingOp::Luminance: write(a[0], 1, "out"); read(a[1], 3, "color"); read(a[2], 3, "weights"); break;
-            case ShadingOp::Average: write(a[0], 1, "out"); read(a[1], 3, "vector"); break;
-            case ShadingOp::HairInfo: in_range(a[0], 0, 3, "hair info output"); write(a[1], 1, "out"); break;
-            case ShadingOp::Attribute:
-                in_range(a[0], 0, attribute_count - 1, "attribute index");
-                write(a[1], 5, "out");
-                break;
+            case ShadingOp::HairInfo: in_range(a[0], 0, 3, "hair info output"); break;
+            case ShadingOp::Attribute: in_range(a[0], 0, attribute_count - 1, "attribute index"); break;
             case ShadingOp::ImageTexture:
                 in_range(a[0], 0, image_count - 1, "image index");
                 in_range(a[1], 0, 2, "interpolation");
                 in_range(a[2], 0, 3, "extension");
                 in_range(a[3], 0, kImageUnassociateAlpha | kImageSrgbDecode, "flags");
-                write(a[4], 4, "out");
-                read(a[5], 3, "vector");
                 break;
+            default: break;
+        }
+        for (const ShadingOperand& o : instruction_operands(&p.code[pc])) {
+            if (o.write && (o.slot < n_const || o.slot + o.width > p.register_count))
+                throw std::invalid_argument(where + ": " + o.what + " writes register " + std::to_string(o.slot) +
+                                            "; allowed " + std::to_string(n_const) + ".." +
+                                            std::to_string(p.register_count - o.width) + " (constants are read-only)");
+            if (!o.write && (o.slot < 0 || o.slot + o.width > p.register_count))
+                throw std::invalid_argument(where + ": " + o.what + " reads register " + std::to_string(o.slot) +
+                                            " outside 0.." + std::to_string(p.register_count - 1));
         }
         pc += 1 + size_t(argc);
         ++index;
     }
+}
+
+FoldedProgram fold_program(const ShadingProgram& p, const ShadingHitContext& zero_hit,
+                           const std::vector<std::pair<int32_t, int32_t>>& outputs) {
+    FoldedProgram f;
+    const int32_t n_reg = p.register_count, n_const = int32_t(p.constants.size());
+    f.values.assign(size_t(n_reg), 0.0f);
+    f.dynamic.assign(size_t(n_reg), 0);
+    f.slot.assign(size_t(n_reg), -1);
+    run_program(p, zero_hit, f.values.data());
+
+    struct Instruction {
+        size_t pc;
+        std::vector<ShadingOperand> operands;
+        bool dynamic = false, kept = false;
+    };
+    std::vector<Instruction> code;
+    std::vector<char> written(size_t(n_reg), 0);
+    auto any_dynamic = [&f](const ShadingOperand& o) {
+        return std::any_of(f.dynamic.begin() + o.slot, f.dynamic.begin() + o.slot + o.width, [](char d) { return d; });
+    };
+    // Forward: which registers depend on the hit. Folding assumes each temporary is written once
+    // and read after (the exporter's programs); anything else is left as it is.
+    for (size_t pc = 0; pc < p.code.size(); pc += 1 + size_t(argument_count(ShadingOp(p.code[pc])))) {
+        Instruction ins{pc, instruction_operands(&p.code[pc])};
+        const ShadingOp op = ShadingOp(p.code[pc]);
+        ins.dynamic = op == ShadingOp::HairInfo || op == ShadingOp::Attribute;
+        for (const ShadingOperand& o : ins.operands) {
+            if (o.write) continue;
+            for (int32_t r = o.slot; r < o.slot + o.width; ++r)
+                if (r >= n_const && !written[size_t(r)]) return f;
+            ins.dynamic = ins.dynamic || any_dynamic(o);
+        }
+        for (const ShadingOperand& o : ins.operands) {
+            if (!o.write) continue;
+            for (int32_t r = o.slot; r < o.slot + o.width; ++r) {
+                if (written[size_t(r)]) return f;
+                written[size_t(r)] = 1;
+                f.dynamic[size_t(r)] = ins.dynamic;
+            }
+        }
+        code.push_back(std::move(ins));
+    }
+    // Backward: the instructions the dynamic outputs need. A block read partly from dynamic
+    // registers (a colour gathered from a dynamic and a constant float) stays whole in registers.
+    std::vector<char> live(size_t(n_reg), 0);
+    auto keep_block = [&live](int32_t slot, int32_t width) { std::fill(live.begin() + slot, live.begin() + slot + width, 1); };
+    for (const auto& [slot, width] : outputs)
+        if (any_dynamic(ShadingOperand{0, slot, width, false, ""})) keep_block(slot, width);
+    for (auto it = code.rbegin(); it != code.rend(); ++it) {
+        for (const ShadingOperand& o : it->operands)
+            if (o.write && std::any_of(live.begin() + o.slot, live.begin() + o.slot + o.width, [](char l) { return l; }))
+                it->kept = true;
+        if (!it->kept) continue;
+        for (const ShadingOperand& o : it->operands) {
+            if (o.write) keep_block(o.slot, o.width);
+            else if (any_dynamic(o)) keep_block(o.slot, o.width);
+        }
+    }
+    if (std::any_of(live.begin(), live.begin() + n_const, [](char l) { return l; })) return f;
+    // The kept instructions' constant reads (given or folded) become the new constants, each
+    // block once; the kept registers follow, in their old order, so blocks stay contiguous.
+    std::vector<std::pair<std::pair<int32_t, int32_t>, int32_t>> placed;  // (slot, width) -> new slot
+    auto place = [&](const ShadingOperand& o) {
+        for (const auto& [key, at] : placed)
+            if (key.first == o.slot && key.second == o.width) return at;
+        const int32_t at = int32_t(f.program.constants.size());
+        f.program.constants.insert(f.program.constants.end(), f.values.begin() + o.slot,
+                                   f.values.begin() + o.slot + o.width);
+        placed.push_back({{o.slot, o.width}, at});
+        return at;
+    };
+    for (const Instruction& ins : code)
+        if (ins.kept)
+            for (const ShadingOperand& o : ins.operands)
+                if (!o.write && !any_dynamic(o)) place(o);
+    int32_t next = int32_t(f.program.constants.size());
+    for (int32_t r = n_const; r < n_reg; ++r)
+        if (live[size_t(r)]) f.slot[size_t(r)] = next++;
+    for (const Instruction& ins : code) {
+        if (!ins.kept) continue;
+        const int argc = argument_count(ShadingOp(p.code[ins.pc]));
+        std::vector<int32_t> words(p.code.begin() + long(ins.pc), p.code.begin() + long(ins.pc) + 1 + argc);
+        for (const ShadingOperand& o : ins.operands)
+            words[size_t(o.arg) + 1] = (!o.write && !any_dynamic(o)) ? place(o) : f.slot[size_t(o.slot)];
+        f.program.code.insert(f.program.code.end(), words.begin(), words.end());
+    }
+    f.program.register_count = f.program.code.empty() ? 0 : next;
+    if (f.program.code.empty()) f.program.constants.clear();
+    f.folded = true;
+    return f;
 }
 
 void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r) {

@@ -8,13 +8,14 @@ Supported (everything else is reported with a warning naming the node and socket
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
   * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
   * linked closure inputs: the node network feeding them is compiled into the material's
-    shading program (shading_network.py, docs/shading_vm.md); constant networks fold into
-    plain values, Hair Info > Random straight into the Principled Hair's Random socket stays
-    None (per-curve random).
+    shading program (shading_network.py, docs/shading_vm.md), which the scene loader folds
+    where it does not depend on the hit; Hair Info > Random straight into the Principled Hair's
+    Random socket stays None (per-curve random).
 A material without nodes is a diffuse of its viewport colour and a missing material is
 Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
 A material whose hair model override is set (Material tab, model_override.py) has its
-Principled Hair closures replaced by `hair_model` closures of the same weights.
+Principled Hair closures replaced by `hair_model` closures of the same weights: the step
+after translating it (MaterialTable.index, override_closures).
 """
 
 from __future__ import annotations
@@ -50,19 +51,26 @@ def _mul(w, f):
 
 
 class MaterialTranslator:
-    """Translates one material at a time; warnings go to `report` prefixed with the
-    material's name."""
+    """Translates one node tree at a time, a material's (translate) or the world's
+    (export_world.export_world): both walk their shaders with `walk`. Warnings go to `report`
+    prefixed with the owner ("Material 'Hair'", "World 'World'")."""
 
     def __init__(self, report, attributes: AttributeTable | None = None):
         self.report = report
-        self.material_name = ""
+        self.owner = ""
         self.attributes = attributes if attributes is not None else AttributeTable()
         self.network = None
         self.pending = []  # (container, key, Value, kind) resolved by network.finish()
 
+    def begin(self, owner: str) -> None:
+        """Starts a node tree: warnings name `owner`, its values compile into a fresh network."""
+        self.owner = owner
+        self.network = ShadingNetwork(self.attributes, self.warn, self._link_source)
+        self.pending = []
+
     # ------------------------------------------------------------------ helpers
     def warn(self, msg: str) -> None:
-        self.report.warn(f"Material '{self.material_name}': {msg}")
+        self.report.warn(f"{self.owner}: {msg}")
 
     @staticmethod
     def _link_source(socket, depth=0):
@@ -93,17 +101,13 @@ class MaterialTranslator:
         sock = find_socket(node.inputs, ident)
         if sock is None:
             return default
-        if self.network is None:  # used outside translate() (the world exporter)
-            self.network = ShadingNetwork(self.attributes, self.warn, self._link_source)
         v = self.network.input(node, sock, kind)
         if self.network.is_dynamic(v):
             fallback = self._socket_default(sock, kind, default)
             self.warn(f"'{node.name}' > '{sock.name}' varies per hit, which hairbsdf supports only for closure "
                       f"inputs; using the socket value {_fmt(fallback)}")
             return fallback
-        holder = {}
-        self.network.finish([(holder, "v", v, kind)])
-        return holder["v"]
+        return self.network.constant_value(v)
 
     @staticmethod
     def _socket_default(sock, kind, default):
@@ -136,9 +140,7 @@ class MaterialTranslator:
     def translate(self, material) -> dict:
         if material is None:
             return {"name": DEFAULT_MATERIAL_NAME, "closures": [_diffuse((1.0, 1.0, 1.0), GREY)]}
-        self.material_name = material.name
-        self.network = ShadingNetwork(self.attributes, self.warn, self._link_source)
-        self.pending = []
+        self.begin(f"Material '{material.name}'")
         out = {"name": material.name, "closures": []}
         nt = material.node_tree if getattr(material, "use_nodes", False) else None
         if nt is None:
@@ -164,15 +166,23 @@ class MaterialTranslator:
         if src is None:
             return out
         closures = []
-        self._shader(src[0], src[1], (1.0, 1.0, 1.0), closures, 0)
+        self.walk(src[0], src[1], (1.0, 1.0, 1.0), lambda node, weight: self._shader(node, weight, closures))
         out["closures"] = [c for c in closures if max(c["weight"]) > 0.0 or min(c["weight"]) < 0.0]
         kept = {id(c) for c in out["closures"]} | {id(c.get("inputs")) for c in out["closures"]}
         program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
         if program is not None:
             out["program"] = program
-        out["closures"] = override_closures(material, out["closures"], self.warn)
         if any(c.get("type") == "emission" for c in out["closures"]):
             out["emission_sampling"] = emission_sampling(material)
+        return out
+
+    def constant_inputs(self, inputs: dict) -> dict:
+        """`inputs` (a closure's, of the last translated material) with each register that does not
+        depend on the hit replaced by its value: for the harness's map_inputs, which reads numbers."""
+        out = dict(inputs)
+        for container, key, value, _ in self.pending:
+            if container is inputs and isinstance(out.get(key), dict) and not self.network.is_dynamic(value):
+                out[key] = self.network.constant_value(value)
         return out
 
     def program_needs(self) -> tuple:
@@ -181,7 +191,10 @@ class MaterialTranslator:
             return False, set()
         return self.network.uses_intercept, set(self.network.attribute_names)
 
-    def _shader(self, node, out_socket, weight, closures, depth):
+    def walk(self, node, out_socket, weight, visit, depth=0):
+        """Walks the shader nodes feeding `out_socket` of `node`: muted nodes pass through, Mix
+        Shader (constant Fac) and Add Shader fold into weights, and every other node is handed to
+        `visit(node, weight)` (a material's closures, the world's backgrounds)."""
         if depth > MAX_DEPTH:
             self.warn("shader graph too deep; truncated")
             return
@@ -192,7 +205,7 @@ class MaterialTranslator:
                 if link.to_socket == out_socket or link.to_socket.identifier == out_socket.identifier:
                     src = self._link_source(link.from_socket)
                     if src is not None:
-                        self._shader(src[0], src[1], weight, closures, depth + 1)
+                        self.walk(src[0], src[1], weight, visit, depth + 1)
                     return
             return
         if t == "ShaderNodeMixShader":
@@ -202,14 +215,19 @@ class MaterialTranslator:
             for sock, f in zip(shaders, (1.0 - fac, fac)):
                 src = self._link_source(sock)
                 if src is not None and f > 0.0:
-                    self._shader(src[0], src[1], _mul(weight, f), closures, depth + 1)
+                    self.walk(src[0], src[1], _mul(weight, f), visit, depth + 1)
             return
         if t == "ShaderNodeAddShader":
             for sock in (s for s in node.inputs if s.type == "SHADER"):
                 src = self._link_source(sock)
                 if src is not None:
-                    self._shader(src[0], src[1], weight, closures, depth + 1)
+                    self.walk(src[0], src[1], weight, visit, depth + 1)
             return
+        visit(node, weight)
+
+    def _shader(self, node, weight, closures):
+        """A material's closure node (walk's visit)."""
+        t = node.bl_idname
         if t == "ShaderNodeBsdfHairPrincipled":
             closures.append(self._principled_hair(node, weight))
             return
@@ -313,7 +331,10 @@ class MaterialTable:
         idx = self._index.get(key)
         if idx is None:
             idx = len(self.materials)
-            self.materials.append(self.translator.translate(material))
+            translated = self.translator.translate(material)
+            # the model override step: before the hair exporter asks uses_huang
+            translated["closures"] = override_closures(material, translated["closures"], self.translator.warn)
+            self.materials.append(translated)
             self.needs.append(self.translator.program_needs() if "program" in self.materials[-1] else (False, set()))
             self._index[key] = idx
         return idx
@@ -333,7 +354,8 @@ class MaterialTable:
 
 # ---------------------------------------------------------------------------- the model override step
 # A material's hair model override (its `hairbsdf` settings, model_override.py) replaces its
-# Principled Hair closures by a hair_model closure: the last step of translating it.
+# Principled Hair closures by a hair_model closure: the step after translating it
+# (MaterialTable.index).
 
 
 def override_closures(material, closures: list, warn) -> list:

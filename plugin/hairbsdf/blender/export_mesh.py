@@ -25,7 +25,7 @@ class MeshBuffer:
         self.normals: list[np.ndarray] = []
         self.attributes: list[dict] = []  # per object: {name: (T, 12) float32 RGBA per corner}
         self.objects: list[np.ndarray] = []  # per object: its index, once per triangle
-        self.reversed: list[bool] = []  # per object: corners reversed (a negative scale)
+        self.reversed: list[np.ndarray] = []  # per object: 1 per triangle where its corners are reversed
         self._nverts = 0
 
     def add(self, verts, tris, mat, normals, attributes=None, reversed_corners=False):
@@ -37,7 +37,7 @@ class MeshBuffer:
         self.normals.append(normals)
         self.attributes.append(attributes or {})
         self.objects.append(np.full(tris.shape[0], len(self.objects), np.int32))
-        self.reversed.append(bool(reversed_corners))
+        self.reversed.append(np.full(tris.shape[0], int(bool(reversed_corners)), np.int32))
         self._nverts += verts.shape[0]
 
     def finish(self, attribute_names=()) -> dict:
@@ -51,9 +51,9 @@ class MeshBuffer:
                "triangle_material": np.concatenate(self.material).astype(np.int32),
                "triangle_normals": np.ascontiguousarray(np.concatenate(self.normals), np.float32),
                "triangle_object": np.concatenate(self.objects).astype(np.int32)}
-        if any(self.reversed):
-            out["triangle_reversed"] = np.concatenate(
-                [np.full(t.shape[0], int(r), np.int32) for t, r in zip(self.triangles, self.reversed)])
+        reversed_corners = np.concatenate(self.reversed)
+        if reversed_corners.any():
+            out["triangle_reversed"] = reversed_corners
         if any(self.attributes) and attribute_names:
             out["attributes"] = [
                 {"name": name, "data": np.ascontiguousarray(np.concatenate(

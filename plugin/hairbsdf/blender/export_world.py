@@ -13,6 +13,9 @@ from .images import read_image_rgb
 
 
 def export_world(scene, report) -> dict:
+    """The world of docs/scene_desc.md, walked by the materials' translator (MaterialTranslator.walk:
+    one walk of muted nodes, Mix and Add Shader for both). It has its own attribute and image
+    tables: the world is no shading program, and what its inputs read stays out of the scene's."""
     world = scene.world
     if world is None:
         return {"color": (0.0, 0.0, 0.0)}
@@ -26,8 +29,7 @@ def export_world(scene, report) -> dict:
     if out is None:
         return {"color": (0.0, 0.0, 0.0)}
     tr = MaterialTranslator(report)
-    tr.material_name = world.name
-    tr.warn = lambda msg: report.warn(f"World '{world.name}': {msg}")
+    tr.begin(f"World '{world.name}'")
     vol = find_socket(out.inputs, "Volume")
     if vol is not None and tr._link_source(vol) is not None:
         tr.warn("the Volume output is not supported and is ignored")
@@ -35,9 +37,7 @@ def export_world(scene, report) -> dict:
     color = [0.0, 0.0, 0.0]
     texture = {}
 
-    def walk(node, weight, depth=0):
-        if depth > 32:
-            return
+    def background(node, weight):
         t = node.bl_idname
         if t in ("ShaderNodeBackground", "ShaderNodeEmission"):
             s = tr.value(node, "Strength", "float", 1.0)
@@ -52,23 +52,11 @@ def export_world(scene, report) -> dict:
             c = tr.value(node, "Color", "color", (0.05, 0.05, 0.05))
             for k in range(3):
                 color[k] += weight[k] * c[k] * s
-        elif t == "ShaderNodeMixShader":
-            f = min(max(tr.value(node, "Fac", "float", 0.5), 0.0), 1.0)
-            shaders = [s for s in node.inputs if s.type == "SHADER"]
-            for sock, w in zip(shaders, (1.0 - f, f)):
-                s2 = tr._link_source(sock)
-                if s2 is not None and w > 0:
-                    walk(s2[0], tuple(x * w for x in weight), depth + 1)
-        elif t == "ShaderNodeAddShader":
-            for sock in (s for s in node.inputs if s.type == "SHADER"):
-                s2 = tr._link_source(sock)
-                if s2 is not None:
-                    walk(s2[0], weight, depth + 1)
         else:
             tr.warn(f"node '{node.name}' ({getattr(node, 'bl_label', t)}) is not supported as a world shader; ignored")
 
     if src is not None:
-        walk(src[0], (1.0, 1.0, 1.0))
+        tr.walk(src[0], src[1], (1.0, 1.0, 1.0), background)
     result = {"color": tuple(float(c) for c in color), "mis": world_mis(world),
               "map_resolution": world_map_resolution(world)}
     if texture.get("pixels") is not None:

@@ -7,7 +7,8 @@ rendered with a zoo model or a BSDF plugin, its parameters edited in the Materia
 `material.hairbsdf` holds the choice, the plugin path and one item per parameter, filled from
 the model's schema (hairbsdf.model_schema: the zoo's defaults from the model's C++ parameter table, or
 the plugin's own schema). The exporter (export_materials.py) replaces each Principled Hair
-closure of an overridden material with a `hair_model` closure of the same weight (its last step, override_closures)
+closure of an overridden material with a `hair_model` closure of the same weight (the step after translating
+it, override_closures)
 (docs/scene_desc.md); other closures stay. Ranges are checked when the renderer builds the
 model; the panel (ui.py) marks values out of range.
 
@@ -210,9 +211,11 @@ def principled_inputs(material):
     """The first Principled Hair closure's inputs as the exporter reads them (the keys of
     docs/scene_desc.md's principled_hair `inputs`, colours as tuples, `random` None when the
     per-strand Hair Info > Random is used) plus `model` and `parametrization`; None without one."""
-    for c in MaterialTranslator(ExportReport()).translate(material)["closures"]:
+    translator = MaterialTranslator(ExportReport())
+    for c in translator.translate(material)["closures"]:  # the node's closures: the override is a later step
         if c.get("type") == "principled_hair":
-            return dict(c["inputs"], model=c["model"], parametrization=c["parametrization"])
+            return dict(translator.constant_inputs(c["inputs"]), model=c["model"],
+                        parametrization=c["parametrization"])
     return None
 
 

@@ -3,11 +3,11 @@ program for the renderer's shading VM (bsdf_core/include/hairbsdf/render/shading
 docs/shading_vm.md).
 
 Each closure input is compiled by walking the links backwards from its socket; every node
-output becomes registers written by one or a few VM instructions. `finish()` then folds what
-does not depend on the hit: the whole program is run once by the VM itself (so folding and
-rendering share one implementation of every op), inputs whose value is known become plain
-numbers again, and a material whose inputs are all constant gets no program at all (the
-renderer's fast path). Unsupported nodes are reported with a warning naming them, and the
+output becomes registers written by one or a few VM instructions. `finish()` writes each closure
+input as a number (a socket value, a Value / RGB node) or a register of the program, which holds
+every instruction: the scene loader folds what does not depend on the hit, once, in C++
+(render/scene.cpp; a material whose inputs all fold has no program there: the renderer's fast
+path). Unsupported nodes are reported with a warning naming them, and the
 socket's own default value is used, as the exporter always did.
 
 Supported: Value, RGB, Hair Info (Random, Intercept, Length, Is Strand), Attribute (Geometry),
@@ -195,9 +195,8 @@ class ShadingNetwork:
         if all(p.reg.kind == "k" for p in parts):
             return self.constant([self.constants[p.reg.index] for p in parts])
         out = self._temp(3)
-        dynamic = any(self.is_dynamic(p) for p in parts)  # all three or none: one block
         for i, p in enumerate(parts):
-            self._emit("COPY", [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)], dynamic=dynamic)
+            self._emit("COPY", [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)])
         return Value(out, 3)
 
     # ------------------------------------------------------------------ sockets
@@ -256,111 +255,51 @@ class ShadingNetwork:
                 return self.input(node, link.from_socket, _kind_of(out.type), depth)
         return self.constant((0.0,) * _width(out.type))
 
-    # ------------------------------------------------------------------ folding
+    # ------------------------------------------------------------------ program
     def finish(self, inputs) -> dict | None:
-        """Resolves `inputs`: a list of (container, key, Value, kind). Constant values are written
-        into the container as numbers / tuples, hit-dependent ones as {"register": slot}.
-        Returns the program dict of docs/scene_desc.md, or None when nothing depends on the hit."""
-        values = self._evaluate()
-        dynamic_inputs = []
-        for container, key, value, kind in inputs:
-            if self.is_dynamic(value):
-                dynamic_inputs.append((container, key, value))
-            else:
-                v = [float(x) for x in self._read(values, value)]
-                container[key] = v[0] if value.width == 1 else tuple(v)
-        if not dynamic_inputs:
-            return None
-        program = self._relocate(values, [v for _, _, v in dynamic_inputs])
-        for container, key, value in dynamic_inputs:
-            container[key] = {"register": program["_slot"](value.reg)}
-        del program["_slot"]
-        return program
-
-    def _evaluate(self) -> np.ndarray:
-        """Every register's value with a zero hit context (exact for the constant ones)."""
-        if not self.instructions:
-            return np.asarray(self.constants, np.float32)
-        from hairbsdf import _render
+        """Resolves `inputs`: a list of (container, key, Value, kind). A value held in the
+        constants (a socket value, a Value / RGB node) is written into the container as a number /
+        tuple, one computed by instructions as {"register": slot}. Returns the program dict of
+        docs/scene_desc.md (every instruction, unfolded), or None when no input reads a register.
+        Folding is the scene loader's (render/scene.cpp, docs/shading_vm.md): it runs the program
+        once, turns the inputs that do not depend on the hit into constants and keeps the rest."""
         n_const = len(self.constants)
-        code = self._words(lambda r: r.index if r.kind == "k" else n_const + r.index, self.instructions)
-        prog = {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
-                "registers": n_const + self.temps}
-        n_attr = max(len(self.attributes.names), 1)
-        return _render.eval_program(prog, 0.0, 0.0, 0.0, 1.0, np.zeros((1, n_attr, 4), np.float32),
-                                    images=self.attributes.images.images)[0]
+        linked = False
+        for container, key, value, kind in inputs:
+            if value.reg.kind == "k":
+                v = self.constants[value.reg.index:value.reg.index + value.width]
+                container[key] = v[0] if value.width == 1 else tuple(v)
+            else:
+                container[key] = {"register": n_const + value.reg.index}
+                linked = True
+        if not linked:
+            return None
+        return self._program()
 
-    def _read(self, values, value):
-        base = value.reg.index if value.reg.kind == "k" else len(self.constants) + value.reg.index
-        return values[base:base + value.width]
-
-    @staticmethod
-    def _words(slot_of, instructions):
-        out = []
-        for ins in instructions:
-            out.extend(slot_of(w) if isinstance(w, Reg) else int(w) for w in ins.words)
-        return out
-
-    def _relocate(self, values, needed) -> dict:
-        """The hit-dependent instructions that `needed` depends on, with every constant they read
-        (given or folded) in a fresh constant block."""
-        live = {i for v in needed for i in range(v.reg.index, v.reg.index + v.width) if v.reg.kind == "t"}
-        kept = []
-        for ins in reversed(self.instructions):
-            if not ins.dynamic:
-                continue
-            if not any(i in live for p, w in ins.writes for i in range(ins.words[p].index, ins.words[p].index + w)):
-                continue
-            kept.append(ins)
-            for p, w in ins.reads:
-                r = ins.words[p]
-                if self._is_dynamic(r, w):
-                    live.update(range(r.index, r.index + w))
-        kept.reverse()
-        # Constant blocks read by the kept code: given constants keep their block, folded temps
-        # get one; ramp tables (a constant index argument) are kept whole.
-        constants: list[float] = []
-        placed: dict = {}
-
-        def place(reg, width):
-            key = (reg.kind, reg.index, width)
-            if key not in placed:
-                placed[key] = len(constants)
-                constants.extend(float(x) for x in self._read(values, Value(reg, width)))
-            return placed[key]
-
-        const_map: dict = {}
-        for ins in kept:
-            for p, w in ins.reads:
-                r = ins.words[p]
-                if not self._is_dynamic(r, w):
-                    const_map[(id(ins), p)] = place(r, w)
-            if ins.words[0] == _vm("ops")["COLOR_RAMP"]:
-                table, size = ins.words[2], ins.words[3]
-                const_map[(id(ins), 2)] = place(table, 4 * size)
-        temp_slots: dict = {}
-
-        def temp_slot(index):
-            return temp_slots.setdefault(index, len(temp_slots))
-
-        # Temporaries are renumbered densely; a multi-float write keeps its block contiguous.
-        for ins in kept:
-            for p, w in ins.writes:
-                for i in range(ins.words[p].index, ins.words[p].index + w):
-                    temp_slot(i)
-        n_const = len(constants)
+    def _program(self) -> dict:
+        n_const = len(self.constants)
         code = []
-        for ins in kept:
-            for p, word in enumerate(ins.words):
-                if (id(ins), p) in const_map:
-                    code.append(const_map[(id(ins), p)])
-                elif isinstance(word, Reg):
-                    code.append(n_const + temp_slot(word.index))
-                else:
-                    code.append(int(word))
-        return {"code": np.asarray(code, np.int32), "constants": np.asarray(constants, np.float32),
-                "registers": n_const + len(temp_slots),
-                "_slot": lambda reg: n_const + temp_slot(reg.index)}
+        for ins in self.instructions:
+            code.extend(n_const + w.index if isinstance(w, Reg) and w.kind == "t" else
+                        w.index if isinstance(w, Reg) else int(w) for w in ins.words)
+        return {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
+                "registers": n_const + self.temps}
+
+    def constant_value(self, value: Value):
+        """The value of a Value that does not depend on the hit, for what must be a number at export
+        (closure weights, the world's inputs): read from the constants, or, when instructions
+        compute it, by running the program once with the VM."""
+        if value.reg.kind == "k":
+            v = self.constants[value.reg.index:value.reg.index + value.width]
+        else:
+            from hairbsdf import _render
+            n_attr = max(len(self.attributes.names), 1)
+            registers = _render.eval_program(self._program(), 0.0, 0.0, 0.0, 1.0,
+                                             np.zeros((1, n_attr, 4), np.float32),
+                                             images=self.attributes.images.images)[0]
+            start = len(self.constants) + value.reg.index
+            v = [float(x) for x in registers[start:start + value.width]]
+        return v[0] if value.width == 1 else tuple(v)
 
 
 _UNSUPPORTED = object()

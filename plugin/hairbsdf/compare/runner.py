@@ -457,6 +457,8 @@ class Runner:
         """Path of the case's .blend (built and cached for library scenes) and build info."""
         if case.file:
             return dict(ok=True, blend=case.file, info={}, cached=True)
+        if case.skip:  # the catalog's min_blender / variant_min_blender: the one place they are checked
+            return dict(ok=False, error="%s: %s" % (case.id, case.skip))
         d = self.o.cache / "blend"
         d.mkdir(parents=True, exist_ok=True)
         key = self.blend_key(case)

@@ -260,4 +260,10 @@ struct SceneDesc {
 // clamped to something renderable.
 std::vector<std::string> repair_scene(SceneDesc& scene);
 
+// The materials' shading programs, as repair_scene prepares them: an invalid one (or a link outside
+// its registers) is dropped with a warning; a valid one is folded (docs/shading_vm.md: inputs that
+// do not depend on the hit become numbers). For callers that shade without rendering; the images
+// are read as they are (repair_scene repairs them first).
+void repair_programs(SceneDesc& scene, std::vector<std::string>& warnings);
+
 }  // namespace hairbsdf::render

@@ -117,6 +117,35 @@ void validate_program(const ShadingProgram& program, int attribute_count, int im
 // Evaluates a validated program; `registers` has program.register_count slots.
 void run_program(const ShadingProgram& program, const ShadingHitContext& context, float* registers);
 
+// A register block an instruction reads or writes: argument `arg` (0 = the first after the
+// opcode) names slots [slot, slot + width). A ColorRamp's table is a read of 4 x size slots.
+struct ShadingOperand {
+    int arg;
+    int32_t slot, width;
+    bool write;
+    const char* what;
+};
+// The blocks of the instruction at `code` (its opcode first), whose length has been checked.
+// The one description of the operand layout: validate_program and fold_program read it.
+std::vector<ShadingOperand> instruction_operands(const int32_t* code);
+
+// Constant folding, done once when a scene is loaded (render/scene.cpp): the program is run
+// with `zero_hit` (Hair Info and attributes 0); an instruction is hit-dependent when it is a
+// HairInfo or Attribute op or reads a register such an instruction wrote. `outputs` are the
+// register blocks (slot, width) the closure inputs read.
+struct FoldedProgram {
+    bool folded = false;            // false: a program that writes a register twice or reads a temporary
+                                    //   before writing it; keep the program as it is
+    std::vector<float> values;      // every register of the program at the zero hit
+    std::vector<char> dynamic;      // per register: depends on the hit
+    ShadingProgram program;         // the hit-dependent instructions the dynamic outputs need, the constant
+                                    //   values they read in its constants; empty when no output is dynamic
+    std::vector<int32_t> slot;      // per register: its slot in `program` (-1: not kept)
+};
+// `program` must be valid (validate_program).
+FoldedProgram fold_program(const ShadingProgram& program, const ShadingHitContext& zero_hit,
+                           const std::vector<std::pair<int32_t, int32_t>>& outputs);
+
 // The sRGB transfer function, decoding (0 below 0), in float as Cycles' color_srgb_to_linear:
 // images Cycles keeps sRGB-encoded are decoded after the lookup (ImageTexture flag 2, the
 // world's Environment Texture).

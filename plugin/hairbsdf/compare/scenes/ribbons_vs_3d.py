@@ -1,7 +1,6 @@
 """ribbons_vs_3d: thick wavy strands seen from close by; the variant picks the curve shape
 (RIBBONS = Rounded Ribbons, THICK = 3D Curves, THICK_LINEAR = Linear 3D Curves, Blender 5.x).  An area light in front and a sun behind."""
 
-import bpy
 import scene_lib as lib
 
 MATERIAL = dict(parametrization="COLOR", color=(0.35, 0.2, 0.1), roughness=0.25, radial_roughness=0.3, coat=0.1,
@@ -9,9 +8,7 @@ MATERIAL = dict(parametrization="COLOR", color=(0.35, 0.2, 0.1), roughness=0.25,
 
 
 def build(scene, cfg):
-    shape = (cfg.get("variant") or "THICK").upper()
-    if shape == "THICK_LINEAR" and bpy.app.version < (5, 0, 0):
-        raise RuntimeError("ribbons_vs_3d:THICK_LINEAR (Linear 3D Curves) needs Blender 5.0+")
+    shape = (cfg.get("variant") or "THICK").upper()  # THICK_LINEAR: 5.0+, refused from the catalog
     w, h = cfg["res"]
     lib.parity_settings(scene, width=w, height=h, spp=cfg["spp"], seed=cfg["seed"], threads=cfg.get("threads", 0),
                         curve_shape=shape, subdivisions=3, osl=cfg.get("osl", False))
