@@ -81,9 +81,10 @@ struct HuangHairParams {
     double aspect_ratio = 1.0;  // minor / major axis; > 1 is inverted like Cycles (docs/huang.md §1)
     double r_factor = 1.0, tt_factor = 1.0, trt_factor = 1.0;  // Reflection, Transmission, Secondary Reflection (>= 0)
     HuangQuadrature quadrature = HuangQuadrature::Cycles;
-    double tolerance = 1e-3;   // relative error target of the adaptive TT integration
-    long max_evaluations = 200000;  // cap on TT integrand evaluations per eval
-    long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
+    // The API's defaults (the Python module reads them from here, huang_option_defaults):
+    double tolerance = 1e-2;   // error target relative to the row's total (TT cubature, TRT points, albedo)
+    long max_evaluations = 200000;  // cap on TT integrand evaluations (and on TRT points) per eval
+    long trt_points = 0;       // 0: TRT / TRRT+ points set by tolerance; >= 16: fixed points per h node
     HuangSampler sampler = HuangSampler::Mixture;
     GlassAlbedoTable glass_albedo_table = GlassAlbedoTable::Cycles4;  // Cycles 4.x or 5.x energy compensation
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
