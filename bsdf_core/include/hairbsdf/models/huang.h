@@ -164,6 +164,12 @@ public:
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
     std::array<RGB, kLobeCount> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
+    // Cycles' stochastic eval over a subset of its residual nodes: R by its Simpson sum, the residual
+    // at `count` nodes chosen systematically by their Simpson weight (positions (u_node + j) / count
+    // of the cumulative weight), each divided by its expected count. Over u_node and rng_state its
+    // expectation is eval_cycles_stochastic's, at a cost set by count (the albedo estimator).
+    std::array<RGB, kLobeCount> eval_cycles_node_subset(const ShadingPoint& sp, Vec3 O, size_t count, double u_node,
+                                                        uint32_t& rng_state) const;
     // The mixture density in the local frame.
     double pdf_local(const ShadingPoint& sp, Vec3 O) const;
     Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }
