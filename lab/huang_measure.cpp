@@ -81,6 +81,8 @@ HuangHairParams base(double alpha, double r, double tt, double trt) {
     p.r_factor = r;
     p.tt_factor = tt;
     p.trt_factor = trt;
+    p.tolerance = 1e-3;  // the fixed-point TRT rule of these measurements
+    p.trt_points = 16384;
     return p;
 }
 

@@ -897,6 +897,15 @@ PYBIND11_MODULE(_core, m) {
                                                  kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
     m.def("principled_huang", &principled_huang);
     m.def("huang_from_params", &huang_from_params);
+    m.def("huang_option_defaults", [] {
+        // HuangHairParams' numerical options as the API's defaults (written once, in huang.h).
+        const HuangHairParams p;
+        py::dict d;
+        d["tolerance"] = p.tolerance;
+        d["max_evaluations"] = p.max_evaluations;
+        d["trt_points"] = p.trt_points;
+        return d;
+    });
     m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta, int glass_albedo_table) {
         auto out = new_array({sqrt_alpha.size()});
         for (py::ssize_t i = 0; i < sqrt_alpha.size(); ++i)

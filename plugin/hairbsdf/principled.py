@@ -103,12 +103,15 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                          f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
-# Huang's default `tolerance` (eval and albedo, relative to the row's total; docs/huang.md §4).
-HUANG_TOLERANCE = 1e-2
+# Huang's numerical options and their defaults, from C++ HuangHairParams (huang.h): `tolerance` (eval
+# and albedo, relative to the row's total; docs/huang.md §4), `max_evaluations`, `trt_points`.
+HUANG_OPTION_DEFAULTS = _core.huang_option_defaults()
+HUANG_TOLERANCE = HUANG_OPTION_DEFAULTS["tolerance"]
 
 
 def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture",
-                      tolerance=HUANG_TOLERANCE, max_evaluations=200_000, trt_points=0, color_roughness="svm",
+                      tolerance=HUANG_TOLERANCE, max_evaluations=HUANG_OPTION_DEFAULTS["max_evaluations"],
+                      trt_points=HUANG_OPTION_DEFAULTS["trt_points"], color_roughness="svm",
                       glass_albedo_table="4.x", **inputs) -> Closure:
     """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
     if isinstance(parametrization, str):
@@ -138,7 +141,7 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
         HUANG_COLOR_ROUGHNESS[color_roughness], HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table])
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, HUANG_TOLERANCE),
-               "trt_points": (trt_points, 0), "color_roughness": (color_roughness, "svm"),
+               "trt_points": (trt_points, HUANG_OPTION_DEFAULTS["trt_points"]), "color_roughness": (color_roughness, "svm"),
                "glass_albedo_table": (glass_albedo_table, "4.x")}
     extra = "".join(f", {k}={v!r}" for k, (v, d) in options.items() if v != d)
     return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"

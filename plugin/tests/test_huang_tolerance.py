@@ -71,3 +71,11 @@ def test_albedo_estimate_matches_an_independent_estimate(rng):
     w[ok] = f / s.pdf[ok, None]
     mean, error = w.mean(axis=0), w.std(axis=0) / np.sqrt(len(w))
     assert np.all(np.abs(estimate - mean) <= 4 * error + 1e-2 * mean), (estimate, mean, error)
+
+
+def test_numerical_defaults_are_the_cpp_ones():
+    """tolerance, max_evaluations and trt_points: written once, in C++ HuangHairParams (huang.h)."""
+    cpp = hairbsdf._core.huang_option_defaults()
+    params = huang().model_params[0]
+    assert params["tolerance"] == cpp["tolerance"] and params["trt_points"] == cpp["trt_points"]
+    assert (cpp["tolerance"], cpp["trt_points"]) == (1e-2, 0)  # the documented defaults (docs/huang.md §4)

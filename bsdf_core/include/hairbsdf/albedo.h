@@ -18,8 +18,10 @@ struct QuadratureOptions {
 
 // Huang's directional albedo as the expectation of the sampled weight: Cycles' stochastic eval
 // (whose expectation is the deterministic eval) over the mixture's density at mixture-sampled
-// directions; randomized quasi-Monte Carlo, doubled until the standard error of the luminance is
-// below 0.5 x tolerance x the estimate (at most max_samples). Returns false where it does not apply
+// directions, the residual nodes chosen systematically by Simpson weight (HuangHair::eval_cycles_node_subset);
+// randomized quasi-Monte Carlo, doubled until the standard error of the luminance (the larger of the
+// shifted copies' spread and the per-sample error) is below 0.5 x tolerance x the estimate (at most
+// max_samples). Returns false where it does not apply
 // (accuracy "converged" or no mixture): then use the quadrature.
 bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, double tolerance, long max_samples,
                            RGB& albedo);

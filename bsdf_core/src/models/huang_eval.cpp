@@ -346,4 +346,56 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint
     return lobes;
 }
 
+std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoint& sp, Vec3 O, size_t count,
+                                                                 double u_node, uint32_t& rng) const {
+    std::array<RGB, kLobeCount> lobes{};
+    if (!sp.valid) return lobes;
+    const Vec3 I = sp.I;
+    const double cto = cos_theta(O);
+    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
+    std::vector<Node> computed;
+    const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
+    if (factors_[0] > 0.0) {
+        const Vec3 wh = normalize(I + O);
+        if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
+        double integral = 0.0;
+        for (const Node& n : have_nodes ? sp.r_nodes : computed) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+    }
+    if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
+    if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);
+    const std::vector<Node>& nodes = have_nodes ? sp.residual_nodes : computed;
+    double total = 0.0;
+    for (const Node& n : nodes) total += n.weight;
+    count = std::max<size_t>(count, 1);
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    std::array<double, 9> f{}, acc{};
+    // Systematic selection: positions (u_node + j) / count of the cumulative Simpson weight.
+    size_t pick = 0;
+    double below = nodes[0].weight;
+    for (size_t j = 0; j < count; ++j) {
+        const double target = (u_node + double(j)) / double(count) * total;
+        while (pick + 1 < nodes.size() && below <= target) below += nodes[++pick].weight;
+        const double gamma = h_to_gamma(nodes[pick].h, I);
+        // weight / (count x probability): each position picks node k with probability weight_k / total.
+        const double w = total / double(count) * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
+        const double a = lcg_step_float(rng), b = lcg_step_float(rng);
+        const double r1 = std::sqrt(a), ang1 = kTwoPi * b;
+        if (factors_[1] > 0.0) {
+            residual_point(sp, O, gamma, r1, ang1, 0, 0, 0, w, final_scale, trrt_scale, f);
+            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
+        }
+        if (factors_[2] > 0.0) {
+            const double c = lcg_step_float(rng), d = lcg_step_float(rng);
+            residual_point(sp, O, gamma, r1, ang1, std::sqrt(c), kTwoPi * d, 1, w, final_scale, trrt_scale, f);
+            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
+        }
+    }
+    lobes[1] = RGB(acc[0], acc[1], acc[2]);
+    lobes[2] = RGB(acc[3], acc[4], acc[5]);
+    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+    return lobes;
+}
+
 }  // namespace hairbsdf

@@ -81,9 +81,10 @@ struct HuangHairParams {
     double aspect_ratio = 1.0;  // minor / major axis; > 1 is inverted like Cycles (docs/huang.md §1)
     double r_factor = 1.0, tt_factor = 1.0, trt_factor = 1.0;  // Reflection, Transmission, Secondary Reflection (>= 0)
     HuangQuadrature quadrature = HuangQuadrature::Cycles;
-    double tolerance = 1e-3;   // relative error target of the adaptive TT integration
-    long max_evaluations = 200000;  // cap on TT integrand evaluations per eval
-    long trt_points = 16384;   // quasi-Monte Carlo points per h node of the TRT / TRRT+ integral
+    // The API's defaults (the Python module reads them from here, huang_option_defaults):
+    double tolerance = 1e-2;   // error target relative to the row's total (TT cubature, TRT points, albedo)
+    long max_evaluations = 200000;  // cap on TT integrand evaluations (and on TRT points) per eval
+    long trt_points = 0;       // 0: TRT / TRRT+ points set by tolerance; >= 16: fixed points per h node
     HuangSampler sampler = HuangSampler::Mixture;
     GlassAlbedoTable glass_albedo_table = GlassAlbedoTable::Cycles4;  // Cycles 4.x or 5.x energy compensation
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading
@@ -163,6 +164,12 @@ public:
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
     std::array<RGB, kLobeCount> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
+    // Cycles' stochastic eval over a subset of its residual nodes: R by its Simpson sum, the residual
+    // at `count` nodes chosen systematically by their Simpson weight (positions (u_node + j) / count
+    // of the cumulative weight), each divided by its expected count. Over u_node and rng_state its
+    // expectation is eval_cycles_stochastic's, at a cost set by count (the albedo estimator).
+    std::array<RGB, kLobeCount> eval_cycles_node_subset(const ShadingPoint& sp, Vec3 O, size_t count, double u_node,
+                                                        uint32_t& rng_state) const;
     // The mixture density in the local frame.
     double pdf_local(const ShadingPoint& sp, Vec3 O) const;
     Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }
