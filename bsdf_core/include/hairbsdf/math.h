@@ -316,11 +316,10 @@ inline double log_bessel_i0(double x) {
 // Cycles' approximations (docs/cycles.md §4.3): the first 10 terms of the power series
 // (k = 0..9; Cycles stops early only where a term no longer changes a float sum) and the
 // asymptotic log branch above x = 12.
-inline double cycles_bessel_i0(double x) {
-    const double q = 0.25 * x * x;
-    // sum_k q^k / (k!)^2 in Horner form.
-    double sum = 1.0 / 131681894400.0;  // 1 / (9!)^2
-    sum = sum * q + 1.0 / 1625702400.0;
+// The series in q = x^2 / 4: sum_k q^k / (k!)^2 in Horner form, for double or Double2 lanes.
+template <class Real>
+HAIRBSDF_ALWAYS_INLINE Real cycles_bessel_i0_of_quarter_square(Real q) {
+    Real sum = q * (1.0 / 131681894400.0) + 1.0 / 1625702400.0;  // 1 / (9!)^2, 1 / (8!)^2
     sum = sum * q + 1.0 / 25401600.0;
     sum = sum * q + 1.0 / 518400.0;
     sum = sum * q + 1.0 / 14400.0;
@@ -330,6 +329,7 @@ inline double cycles_bessel_i0(double x) {
     sum = sum * q + 1.0;
     return sum * q + 1.0;
 }
+inline double cycles_bessel_i0(double x) { return cycles_bessel_i0_of_quarter_square(0.25 * x * x); }
 inline double cycles_log_bessel_i0(double x) {
     if (x > 12.0) return x + 0.5 * (1.0 / (8.0 * x) - std::log(kTwoPi) - std::log(x));
     return std::log(cycles_bessel_i0(x));

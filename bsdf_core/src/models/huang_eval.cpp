@@ -309,6 +309,22 @@ double HuangHair::pdf(const ShadingPoint& sp, Vec3 wi) const {
 
 // --- Cycles' stochastic eval ------------------------------------------------------------------
 
+void HuangHair::add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double weight, double final_scale,
+                                  double trrt_scale, uint32_t& rng, std::array<double, 9>& acc) const {
+    std::array<double, 9> f{};
+    const double a = lcg_step_float(rng), b = lcg_step_float(rng);
+    const double r1 = std::sqrt(a), angle1 = kTwoPi * b;
+    if (factors_[1] > 0.0) {
+        residual_point(sp, O, gamma, r1, angle1, 0, 0, 0, weight, final_scale, trrt_scale, f);
+        for (size_t k = 0; k < 9; ++k) acc[k] += f[k];
+    }
+    if (factors_[2] > 0.0) {
+        const double c = lcg_step_float(rng), d = lcg_step_float(rng);
+        residual_point(sp, O, gamma, r1, angle1, std::sqrt(c), kTwoPi * d, 1, weight, final_scale, trrt_scale, f);
+        for (size_t k = 0; k < 9; ++k) acc[k] += f[k];
+    }
+}
+
 std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
@@ -324,21 +340,11 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
     const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
-    std::array<double, 9> f{}, acc{};
+    std::array<double, 9> acc{};
     for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep)) {
         const double gamma = h_to_gamma(n.h, I);
         const double w = n.weight * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
-        const double a = lcg_step_float(rng), b = lcg_step_float(rng);
-        const double r1 = std::sqrt(a), ang1 = kTwoPi * b;
-        if (factors_[1] > 0.0) {
-            residual_point(sp, O, gamma, r1, ang1, 0, 0, 0, w, final_scale, trrt_scale, f);
-            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
-        }
-        if (factors_[2] > 0.0) {
-            const double c = lcg_step_float(rng), d = lcg_step_float(rng);
-            residual_point(sp, O, gamma, r1, ang1, std::sqrt(c), kTwoPi * d, 1, w, final_scale, trrt_scale, f);
-            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
-        }
+        add_residual_node(sp, O, gamma, w, final_scale, trrt_scale, rng, acc);
     }
     lobes[1] = RGB(acc[0], acc[1], acc[2]);
     lobes[2] = RGB(acc[3], acc[4], acc[5]);
@@ -370,7 +376,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoin
     count = std::max<size_t>(count, 1);
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
     const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
-    std::array<double, 9> f{}, acc{};
+    std::array<double, 9> acc{};
     // Systematic selection: positions (u_node + j) / count of the cumulative Simpson weight.
     size_t pick = 0;
     double below = nodes[0].weight;
@@ -380,17 +386,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoin
         const double gamma = h_to_gamma(nodes[pick].h, I);
         // weight / (count x probability): each position picks node k with probability weight_k / total.
         const double w = total / double(count) * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
-        const double a = lcg_step_float(rng), b = lcg_step_float(rng);
-        const double r1 = std::sqrt(a), ang1 = kTwoPi * b;
-        if (factors_[1] > 0.0) {
-            residual_point(sp, O, gamma, r1, ang1, 0, 0, 0, w, final_scale, trrt_scale, f);
-            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
-        }
-        if (factors_[2] > 0.0) {
-            const double c = lcg_step_float(rng), d = lcg_step_float(rng);
-            residual_point(sp, O, gamma, r1, ang1, std::sqrt(c), kTwoPi * d, 1, w, final_scale, trrt_scale, f);
-            for (int k = 0; k < 9; ++k) acc[size_t(k)] += f[size_t(k)];
-        }
+        add_residual_node(sp, O, gamma, w, final_scale, trrt_scale, rng, acc);
     }
     lobes[1] = RGB(acc[0], acc[1], acc[2]);
     lobes[2] = RGB(acc[3], acc[4], acc[5]);

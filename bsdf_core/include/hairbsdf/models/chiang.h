@@ -449,16 +449,7 @@ private:
         const Double2 inv_v = pair_inv_v_[pair];
         const Double2 a = cos_theta_i * cos_theta_o * inv_v;
         const Double2 b = sin_theta_i * sin_theta_o * inv_v;
-        const Double2 q = 0.25 * a * a;  // cycles_bessel_i0 on both lanes
-        Double2 i0 = q * (1.0 / 131681894400.0) + 1.0 / 1625702400.0;
-        i0 = i0 * q + 1.0 / 25401600.0;
-        i0 = i0 * q + 1.0 / 518400.0;
-        i0 = i0 * q + 1.0 / 14400.0;
-        i0 = i0 * q + 1.0 / 576.0;
-        i0 = i0 * q + 1.0 / 36.0;
-        i0 = i0 * q + 1.0 / 4.0;
-        i0 = i0 * q + 1.0;
-        i0 = i0 * q + 1.0;
+        const Double2 i0 = cycles_bessel_i0_of_quarter_square(0.25 * a * a);  // on both lanes
         const Double2 add = pair_add_[pair];
         const auto asym = a > pair_asym_limit_[pair];
         const Double2 exponent = asym ? a + 1.0 / (16.0 * a) - b + add : add - b;

@@ -227,6 +227,10 @@ private:
     void residual_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
                         double angle2, int kind, double weight, double final_scale, double trrt_scale,
                         std::array<double, 9>& f) const;
+    // One residual node of Cycles' stochastic eval: TT and (TRT, TRRT+) at mesonormal gamma, their
+    // disk points drawn from rng in Cycles' order, times `weight`, added to acc.
+    void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double weight, double final_scale,
+                           double trrt_scale, uint32_t& rng, std::array<double, 9>& acc) const;
     RGB trrt_series(double t, double r, RGB a) const;
     // Cycles' composite Simpson nodes over [lo, hi]: an even count of steps of at most step x alpha
     // (the steps divided by simpson_refinement_).
