@@ -19,26 +19,30 @@ HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
 # Energy-compensation tables of Cycles 4.x or 5.x (GlassAlbedoTable, docs/huang.md §3, docs/blender5.md).
 HUANG_GLASS_ALBEDO_TABLES = {"4.x": 0, "5.x": 1}
 
-# Blender 4.5 node defaults (docs/cycles.md §1). Offset is in radians.
-PRINCIPLED_HAIR_DEFAULTS = {
-    "color": (0.017513, 0.005763, 0.002059),
-    "melanin": 0.8,
-    "melanin_redness": 1.0,
-    "tint": (1.0, 1.0, 1.0),
-    "absorption_coefficient": (0.245531, 0.52, 1.365),
-    "roughness": 0.3,
-    "radial_roughness": 0.3,
-    "coat": 0.0,
-    "ior": 1.55,
-    "offset": 0.0349066,
-    "random_color": 0.0,
-    "random_roughness": 0.0,
-    "random": 0.0,
-}
+
+def _node_defaults(hair_model: str) -> dict:
+    """The Principled Hair node's Blender 4.5 defaults (docs/cycles.md §1; offset in radians) for
+    `hair_model` ("CHIANG" or "HUANG"), read from the scene schema's input rows, whose defaults are
+    the C++ PrincipledHairInputs struct's: the one place they are written."""
+    prefix = "materials[].closures[].inputs."
+    out = {}
+    for row in _core.scene_schema():
+        key = row["path"][len(prefix):]
+        if not row["path"].startswith(prefix) or key == "random":
+            continue
+        if hair_model in row["hair_models"].split():
+            text = row["default"].strip("()")
+            values = tuple(float(v) for v in text.split(","))
+            out[key] = values if row["kind"] == "vector" else values[0]
+    # The socket's own value; a scene's unlinked Random means the per-curve hash instead.
+    out["random"] = 0.0
+    return out
+
+
+PRINCIPLED_HAIR_DEFAULTS = _node_defaults("CHIANG")
 # Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
-HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS)
-HUANG_DEFAULTS.update({"aspect_ratio": 0.85, "reflection": 1.0, "transmission": 1.0, "secondary_reflection": 1.0})
+HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults("HUANG"))
 _COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 
 
