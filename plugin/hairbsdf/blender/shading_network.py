@@ -134,6 +134,7 @@ class ShadingNetwork:
         self.temps = 0
         self._outputs: dict = {}      # (node pointer, output identifier) -> Value
         self._dynamic: set = set()    # temp indices written by hit-dependent instructions
+        self._registers_at = None     # ((instructions, constants), registers) of the last VM run
         self.uses_intercept = False
         self.attribute_names: set = set()
 
@@ -285,6 +286,19 @@ class ShadingNetwork:
         return {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
                 "registers": n_const + self.temps}
 
+    def _registers(self) -> np.ndarray:
+        """Every register after one VM run with a zero hit context; rerun only when the program
+        grew (instructions and constants are only appended)."""
+        size = (len(self.instructions), len(self.constants))
+        if self._registers_at is None or self._registers_at[0] != size:
+            from hairbsdf import _render
+            n_attr = max(len(self.attributes.names), 1)
+            registers = _render.eval_program(self._program(), 0.0, 0.0, 0.0, 1.0,
+                                             np.zeros((1, n_attr, 4), np.float32),
+                                             images=self.attributes.images.images)[0]
+            self._registers_at = (size, registers)
+        return self._registers_at[1]
+
     def constant_value(self, value: Value):
         """The value of a Value that does not depend on the hit, for what must be a number at export
         (closure weights, the world's inputs): read from the constants, or, when instructions
@@ -292,11 +306,7 @@ class ShadingNetwork:
         if value.reg.kind == "k":
             v = self.constants[value.reg.index:value.reg.index + value.width]
         else:
-            from hairbsdf import _render
-            n_attr = max(len(self.attributes.names), 1)
-            registers = _render.eval_program(self._program(), 0.0, 0.0, 0.0, 1.0,
-                                             np.zeros((1, n_attr, 4), np.float32),
-                                             images=self.attributes.images.images)[0]
+            registers = self._registers()
             start = len(self.constants) + value.reg.index
             v = [float(x) for x in registers[start:start + value.width]]
         return v[0] if value.width == 1 else tuple(v)
