@@ -20,13 +20,13 @@ HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
 HUANG_GLASS_ALBEDO_TABLES = {"4.x": 0, "5.x": 1}
 
 
-def _node_defaults(hair_model: str) -> dict:
+def _node_defaults(schema: list, hair_model: str) -> dict:
     """The Principled Hair node's Blender 4.5 defaults (docs/cycles.md §1; offset in radians) for
     `hair_model` ("CHIANG" or "HUANG"), read from the scene schema's input rows, whose defaults are
     the C++ PrincipledHairInputs struct's: the one place they are written."""
     prefix = "materials[].closures[].inputs."
     out = {}
-    for row in _core.scene_schema():
+    for row in schema:
         key = row["path"][len(prefix):]
         if not row["path"].startswith(prefix) or key == "random":
             continue
@@ -39,10 +39,12 @@ def _node_defaults(hair_model: str) -> dict:
     return out
 
 
-PRINCIPLED_HAIR_DEFAULTS = _node_defaults("CHIANG")
+_SCENE_SCHEMA = _core.scene_schema()
+PRINCIPLED_HAIR_DEFAULTS = _node_defaults(_SCENE_SCHEMA, "CHIANG")
 # Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
-HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults("HUANG"))
+HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults(_SCENE_SCHEMA, "HUANG"))
+del _SCENE_SCHEMA
 _COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 
 
