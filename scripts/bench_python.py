@@ -22,6 +22,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("-n", type=int, default=2_000_000, help="batch size")
     parser.add_argument("--per-row-only", action="store_true", help="only the per-row inputs' table")
+    parser.add_argument("--cpu-rows-only", action="store_true",
+                        help="only one line: 1 thread, M rows per CPU-second, best of 5, of the float64 batch calls "
+                             "and the float32 kernel eval (to compare two builds as ratios)")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     n = args.n
@@ -35,6 +38,9 @@ def main():
     h, u = rng.uniform(-1, 1, n), rng.random((n, 3))
     hair = hairbsdf.principled_hair(parametrization="melanin", melanin=0.5)
     core = hair._core  # the C++ batch call, without the Python argument checks
+    if args.cpu_rows_only:
+        cpu_rows(n, hair, wo, wi, h, u)
+        return
     print("| threads | eval M/s (API) | eval M/s (C++ batch) | sample M/s | pdf M/s |")
     print("|---|---|---|---|---|")
     for threads in (1, 2):
@@ -45,6 +51,17 @@ def main():
         pdf = rate(lambda: core.pdf(wo, wi, h), n) / 1e6
         print(f"| {threads} | {api:.2f} | {batch:.2f} | {sample:.2f} | {pdf:.2f} |")
     kernels(n, rng)
+
+
+def cpu_rows(n, hair, wo, wi, h, u):
+    """One line of M rows per CPU-second on 1 thread, best of 5: the float64 batch calls through the core's
+    thread pool and point cache, and the float32 kernel eval on the same rows."""
+    core = hair._core
+    hairbsdf.set_num_threads(1)
+    f32 = [a.astype(np.float32) for a in (wo, wi, h)]
+    calls = {"eval": lambda: core.eval(wo, wi, h), "pdf": lambda: core.pdf(wo, wi, h),
+             "sample": lambda: core.sample(wo, h, u), "kernel_eval": lambda: hair.eval(*f32)}
+    print(" ".join(f"{name}={rate(fn, n, 5, time.process_time) / 1e6:.3f}" for name, fn in calls.items()))
 
 
 def kernels(n, rng):
