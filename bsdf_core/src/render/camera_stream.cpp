@@ -1,18 +1,17 @@
 // Camera rays as one coherent stream; see render/camera_stream.h.
 #include "hairbsdf/render/camera_stream.h"
 
-#include <vector>
-
 namespace hairbsdf::render {
 
 void trace_row_stream(const PreparedScene& s, int row, int x0, int x1, int s0, int s1, PathScratch& scratch,
                       PathCounters& counters, const std::function<void(int, const PathResult&)>& emit) {
     const size_t count = size_t(x1 - x0) * size_t(s1 - s0);
-    std::vector<Sampler> samplers;
-    std::vector<Ray> rays;
-    std::vector<Hit> hits(count);
-    samplers.reserve(count);
-    rays.reserve(count);
+    std::vector<Sampler>& samplers = scratch.stream_samplers;
+    std::vector<Ray>& rays = scratch.stream_rays;
+    std::vector<Hit>& hits = scratch.stream_hits;
+    samplers.clear();
+    rays.clear();
+    hits.resize(count);
     for (int x = x0; x < x1; ++x) {
         const uint64_t pixel = uint64_t(row) * uint64_t(s.camera.width()) + uint64_t(x);
         for (int k = s0; k < s1; ++k) {

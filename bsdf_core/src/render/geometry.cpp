@@ -311,7 +311,8 @@ void Geometry::intersect_stream(const Ray* rays, Hit* hits, size_t count) const 
     QueryContext ctx;
     rtcInitIntersectContext(&ctx.rtc);
     ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    std::vector<RTCRayHit> stream(count);
+    thread_local std::vector<RTCRayHit> stream;  // grows to the longest row, then is reused
+    stream.resize(count);
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);
         stream[i].ray.id = unsigned(i);

@@ -77,6 +77,10 @@ struct PathScratch {
     std::vector<float> registers;   // the hit material's shading program
     std::vector<float> light_registers;  // an emissive triangle's program at a light sample
     std::vector<float> attributes;  // RGBA of each curve attribute at the hit
+    // A camera-ray stream's row (integrator.camera_ray_stream): kept so that rows reuse the storage.
+    std::vector<Sampler> stream_samplers;
+    std::vector<Ray> stream_rays;
+    std::vector<Hit> stream_hits;
 };
 
 // The camera sample of pixel (column, row), row 0 at the top: filter offsets, camera ray, path.
