@@ -4,7 +4,9 @@ centre in both renderers) every pixel is one texture lookup. Cycles and HAIRBSDF
 scene in one process; they must agree per pixel (median relative error <= 1e-4, p99 <= 2e-3, the
 fibre goniometer's limits). Cases: Linear and Closest interpolation, a Mapping node (rotation,
 scale, location; Point and Texture types) on Texture Coordinate > Generated, views of the horizon,
-the u = 0 seam with the zenith, and the nadir, and a Mix Shader that weights the texture and adds a uniform colour.
+the u = 0 seam with the zenith, and the nadir, and a Mix Shader that weights the texture and adds a uniform colour;
+the same Mix Shader muted (Blender's internal link passes its first shader input) and with its uniform
+Background muted (a muted Background has no shader input to pass, so that input is empty).
 The texture is a 32 x 16 float EXR with gradients and a checker, written by the test."""
 
 import numpy as np
@@ -73,7 +75,9 @@ def set_case(case):
         mapping.inputs["Scale"].default_value = (1.0, 1.4, 0.8)
         nt.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
         nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
-    if case == "mix":
+    mix.mute = case == "mix_muted"
+    const_bg.mute = case == "mix_background_muted"
+    if case.startswith("mix"):
         for link in list(nt.links):
             if link.to_node == out_node:
                 nt.links.remove(link)
@@ -100,7 +104,7 @@ for case in ARGS["cases"]:
 emit({"version": bpy.app.version_string, "cases": out})
 '''
 
-CASES = ["linear", "closest", "mapping_point", "mapping_texture", "mix"]
+CASES = ["linear", "closest", "mapping_point", "mapping_texture", "mix", "mix_muted", "mix_background_muted"]
 
 
 def test_environment_texture_matches_cycles_per_pixel(run_blender, engine_kind, renderer_available):
