@@ -10,6 +10,7 @@ import scene_lib as lib
 import catalog
 hairbsdf.blender.register()
 out = sys.argv[1]
+os.makedirs(out, exist_ok=True)
 cases = [("swatch", None), ("fiber_gonio", "front"), ("fiber_gonio", "back"), ("fiber_gonio_huang", "huang_front"),
          ("mixed", None), ("huang_ellipse", None), ("shading_network", None), ("furnace", None)]
 for name, variant in cases:
