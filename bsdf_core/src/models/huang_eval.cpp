@@ -309,46 +309,72 @@ double HuangHair::pdf(const ShadingPoint& sp, Vec3 wi) const {
 
 // --- Cycles' stochastic eval ------------------------------------------------------------------
 
-void HuangHair::add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double weight, double final_scale,
-                                  double trrt_scale, uint32_t& rng, std::array<double, 9>& acc) const {
-    std::array<double, 9> f{};
+// One entry state per node serves TT and TRT (they share the entry visible normal); the numbers are
+// drawn in Cycles' order whether or not the entry succeeds.
+void HuangHair::add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double sin_gamma, double cos_gamma,
+                                  double weight, double final_scale, double trrt_scale, uint32_t& rng,
+                                  std::array<double, 9>& acc) const {
     const double a = lcg_step_float(rng), b = lcg_step_float(rng);
     const double r1 = std::sqrt(a), angle1 = kTwoPi * b;
-    if (factors_[1] > 0.0) {
-        residual_point(sp, O, gamma, r1, angle1, 0, 0, 0, weight, final_scale, trrt_scale, f);
-        for (size_t k = 0; k < 9; ++k) acc[k] += f[k];
+    const bool tt = factors_[1] > 0.0, trt = factors_[2] > 0.0;
+    double c = 0.0, d = 0.0;
+    if (trt) {
+        c = lcg_step_float(rng);
+        d = lcg_step_float(rng);
     }
-    if (factors_[2] > 0.0) {
-        const double c = lcg_step_float(rng), d = lcg_step_float(rng);
-        residual_point(sp, O, gamma, r1, angle1, std::sqrt(c), kTwoPi * d, 1, weight, final_scale, trrt_scale, f);
-        for (size_t k = 0; k < 9; ++k) acc[k] += f[k];
+    EntryState e;
+    if (!entry_state(sp, gamma, sin_gamma, cos_gamma, r1, angle1, e)) return;
+    if (tt) {
+        const RGB v = (weight * factors_[1] * final_scale) * tt_exit(e, O);
+        acc[0] += v.r, acc[1] += v.g, acc[2] += v.b;
+    }
+    if (trt) {
+        std::array<double, 9> f{};
+        trt_from_entry(e, O, std::sqrt(c), kTwoPi * d, weight, final_scale, trrt_scale, f);
+        for (size_t k = 3; k < 9; ++k) acc[k] += f[k];
     }
 }
 
+void HuangHair::add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
+                                   std::array<RGB, kLobeCount>& lobes) const {
+    const Vec3 I = sp.I;
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    std::array<double, 9> acc{};
+    for (const Node& n : nodes) {
+        const double gamma = h_to_gamma(sp, n.h);
+        const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
+        const double w = n.weight * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
+        add_residual_node(sp, O, gamma, sin_gamma, cos_gamma, w, final_scale, trrt_scale, rng, acc);
+    }
+    lobes[1] = RGB(acc[0], acc[1], acc[2]);
+    lobes[2] = RGB(acc[3], acc[4], acc[5]);
+    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+}
+
+// The Simpson nodes are the shading point's (prepare made them) unless it has none (Converged quadrature).
 std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
     const double cto = cos_theta(O);
     if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
-    const Vec3 wh = normalize(I + O);
+    const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
     if (factors_[0] > 0.0) {
+        const Vec3 wh = normalize(I + O);
         double integral = 0.0;
-        for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        if (have_nodes) {
+            for (const Node& n : sp.r_nodes) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        } else {
+            for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
+        }
         lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
-    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
-    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
-    std::array<double, 9> acc{};
-    for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep)) {
-        const double gamma = h_to_gamma(n.h, I);
-        const double w = n.weight * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
-        add_residual_node(sp, O, gamma, w, final_scale, trrt_scale, rng, acc);
-    }
-    lobes[1] = RGB(acc[0], acc[1], acc[2]);
-    lobes[2] = RGB(acc[3], acc[4], acc[5]);
-    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+    if (have_nodes)
+        add_residual_nodes(sp, O, sp.residual_nodes, rng, lobes);
+    else
+        add_residual_nodes(sp, O, simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep), rng, lobes);
     return lobes;
 }
 
@@ -383,10 +409,11 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoin
     for (size_t j = 0; j < count; ++j) {
         const double target = (u_node + double(j)) / double(count) * total;
         while (pick + 1 < nodes.size() && below <= target) below += nodes[++pick].weight;
-        const double gamma = h_to_gamma(nodes[pick].h, I);
+        const double gamma = h_to_gamma(sp, nodes[pick].h);
+        const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
         // weight / (count x probability): each position picks node k with probability weight_k / total.
-        const double w = total / double(count) * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
-        add_residual_node(sp, O, gamma, w, final_scale, trrt_scale, rng, acc);
+        const double w = total / double(count) * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
+        add_residual_node(sp, O, gamma, sin_gamma, cos_gamma, w, final_scale, trrt_scale, rng, acc);
     }
     lobes[1] = RGB(acc[0], acc[1], acc[2]);
     lobes[2] = RGB(acc[3], acc[4], acc[5]);

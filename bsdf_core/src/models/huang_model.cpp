@@ -23,6 +23,8 @@ HuangHair::HuangHair(const HuangHairParams& params)
     e2_ = 1.0 - b_ * b_;
     eta_ = params.eta;
     inv_eta_ = 1.0 / eta_;
+    z_eta_ = huang::energy_scale_z(eta_);
+    z_inv_eta_ = huang::energy_scale_z(inv_eta_);
     factors_ = {std::max(params.r_factor, 0.0), std::max(params.tt_factor, 0.0), std::max(params.trt_factor, 0.0)};
 }
 
@@ -34,24 +36,14 @@ double HuangHair::h_to_gamma(double h_div_r, Vec3 w) const {
 }
 
 double HuangHair::dgamma_dh(double sin_phi, double cos_phi, double gamma) const {
-    const double d = b_ == 1.0 ? std::cos(gamma) : cos_phi * std::cos(gamma) + b_ * sin_phi * std::sin(gamma);
-    return d != 0.0 ? 1.0 / d : 0.0;
+    return dgamma_dh_sc(sin_phi, cos_phi, std::sin(gamma), std::cos(gamma));
 }
 
 Vec3 HuangHair::mesonormal(double tilt, double gamma) const {
-    const double st = std::sin(tilt), ct = std::cos(tilt);
-    double sp = std::sin(gamma), cp = std::cos(gamma);
-    if (b_ != 1.0 && std::fabs(cp) >= 1e-6) {
-        const double n = std::sqrt(cp * cp + b_ * b_ * sp * sp);
-        sp = b_ * sp / n;
-        cp = cp / n;
-    }
-    return {sp * ct, st, cp * ct};
+    return mesonormal_sc(std::sin(tilt), std::cos(tilt), std::sin(gamma), std::cos(gamma));
 }
 
-double HuangHair::arc_length(double gamma) const {
-    return e2_ == 0.0 ? 1.0 : std::sqrt(1.0 - e2_ * sqr(std::sin(gamma)));
-}
+double HuangHair::arc_length(double gamma) const { return arc_length_sc(std::sin(gamma)); }
 
 RGB HuangHair::absorption(double path, double cos_t) const {
     const RGB s = params_.sigma_a;
@@ -88,6 +80,7 @@ void HuangHair::set_frame(const ShadingContext& ctx, ShadingPoint& sp) const {
     sp.sin_phi_i = ct > 0 ? I.x / ct : 0.0;
     sp.cos_phi_i = ct > 0 ? I.z / ct : 1.0;
     sp.r = e2_ == 0.0 ? 1.0 : std::sqrt(std::max(1.0 - e2_ * I.x * I.x / std::max(I.x * I.x + I.z * I.z, 1e-300), 0.0));
+    sp.gamma_base = b_ == 1.0 ? 0.0 : std::atan2(I.z, -b_ * I.x);
     sp.h = ctx.h;
     sp.transparent = !(std::fabs(ctx.h) < sp.r);
 }
@@ -149,20 +142,26 @@ std::vector<HuangHair::Node> HuangHair::simpson_nodes(double lo, double hi, doub
 
 // --- R lobe (docs/cycles.md §5.3) ----------------------------------------------------------------
 
-double HuangHair::r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const {
-    const Vec3 wm = mesonormal(tilt_, gamma);
+double HuangHair::r_integrand_sc(const ShadingPoint& sp, Vec3 O, Vec3 wh, double sin_gamma, double cos_gamma) const {
+    const Vec3 wm = mesonormal_sc(sin_tilt_, cos_tilt_, sin_gamma, cos_gamma);
     const Vec3 macro{wm.x, 0.0, wm.z};
     const Vec3 I = sp.I;
     if (!visible(I, O, macro, wh)) return 0.0;
     const double cos_mi = dot(wm, I);
-    return ggx::D(alpha2_, dot(wm, wh)) * ggx::G2(alpha2_, cos_mi, dot(wm, O)) * arc_length(gamma) *
-           huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi, eta_);
+    return ggx::D(alpha2_, dot(wm, wh)) * ggx::G2(alpha2_, cos_mi, dot(wm, O)) * arc_length_sc(sin_gamma) *
+           energy_scale_entering(cos_mi);
 }
 
+double HuangHair::r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const {
+    return r_integrand_sc(sp, O, wh, std::sin(gamma), std::cos(gamma));
+}
+
+// One sine and cosine of gamma per node, shared by the mesonormal, the arc length and d gamma / dh.
 double HuangHair::r_integrand(const ShadingPoint& sp, Vec3 O, Vec3 wh, double h) const {
-    const double gamma = h_to_gamma(h, sp.I);
-    const double v = r_integrand_gamma(sp, O, wh, gamma);
-    return v == 0.0 ? 0.0 : v * dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
+    const double gamma = h_to_gamma(sp, h);
+    const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
+    const double v = r_integrand_sc(sp, O, wh, sin_gamma, cos_gamma);
+    return v == 0.0 ? 0.0 : v * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
 }
 
 }  // namespace hairbsdf

@@ -11,11 +11,15 @@ RGB HuangHair::trrt_series(double t, double r, RGB a) const {
     return {ch(a.r), ch(a.g), ch(a.b)};
 }
 
-bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const {
+// The caller gives sin and cos of gamma (one per node, shared with d gamma / dh); the angles of the
+// ellipse are taken from vectors (atan2(b x, z) for atan2(b sin phi, cos phi)), so one sine and cosine
+// of gmt serve its two mesonormals, the path length and the exit's arc length.
+bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double sin_gamma, double cos_gamma, double r1,
+                            double angle1, EntryState& e) const {
     const Vec3 I = sp.I;
     e.gamma = gamma;
-    e.wmi = mesonormal(tilt_, gamma);
-    const Vec3 wmi_ = mesonormal(0.0, gamma);
+    e.wmi = mesonormal_sc(sin_tilt_, cos_tilt_, sin_gamma, cos_gamma);
+    const Vec3 wmi_ = mesonormal_sc(0.0, 1.0, sin_gamma, cos_gamma);
     e.cos_mi1 = dot(I, e.wmi);
     if (!(e.cos_mi1 > 0.0) || !(dot(I, wmi_) > 0.0)) return false;
     Vec3 s1, t1v;
@@ -26,28 +30,30 @@ bool HuangHair::entry_state(const ShadingPoint& sp, double gamma, double r1, dou
     double cos_t1 = 0.0;
     const double f1 = ggx::fresnel(cos_hi1, eta_, &cos_t1);
     if (!(f1 < 1.0)) return false;  // total internal reflection: nothing enters
-    e.t1 = 1.0 - f1;
-    e.scale1 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, e.cos_mi1, eta_);
     e.wt = ggx::refract(I, wh1, cos_t1, inv_eta_);
     e.mwt = -1.0 * e.wt;
-    const double phi_t = dir_phi(e.wt);
-    e.phi_t_b = b_ == 1.0 ? phi_t : std::atan2(b_ * std::sin(phi_t), std::cos(phi_t));
-    e.gmt = 2.0 * e.phi_t_b - gamma;
-    e.wmt = mesonormal(-tilt_, e.gmt);
-    e.wmt_ = mesonormal(0.0, e.gmt);
     e.cos_mo1 = dot(e.mwt, e.wmi);
-    e.cos_mi2 = dot(e.mwt, e.wmt);
     if (!visible(I, e.mwt, e.wmi, wh1) || !visible(I, e.mwt, wmi_, wh1)) return false;
+    e.t1 = 1.0 - f1;
+    e.scale1 = energy_scale_entering(e.cos_mi1);
+    const double phi_t = b_ == 1.0 ? dir_phi(e.wt) : 0.0;
+    e.phi_t_b = b_ == 1.0 ? phi_t : std::atan2(b_ * e.wt.x, e.wt.z);
+    e.gmt = 2.0 * e.phi_t_b - gamma;
+    e.sin_gmt = std::sin(e.gmt);
+    e.cos_gmt = std::cos(e.gmt);
+    e.wmt = mesonormal_sc(-sin_tilt_, cos_tilt_, e.sin_gmt, e.cos_gmt);
+    e.wmt_ = mesonormal_sc(0.0, 1.0, e.sin_gmt, e.cos_gmt);
+    e.cos_mi2 = dot(e.mwt, e.wmt);
     e.g1o = ggx::G2_over_G1(alpha2_, e.cos_mi1, e.cos_mo1);
     double path_t;
     if (b_ == 1.0) {
         path_t = -2.0 * std::cos(gamma - phi_t);
-    } else {
-        const double gx = std::sin(gamma) - std::sin(e.gmt + kPi), gz = b_ * (std::cos(gamma) - std::cos(e.gmt + kPi));
+    } else {  // the chord from gamma to gmt + pi: sin(gmt + pi) = -sin(gmt), cos(gmt + pi) = -cos(gmt)
+        const double gx = sin_gamma + e.sin_gmt, gz = b_ * (cos_gamma + e.cos_gmt);
         path_t = std::sqrt(gx * gx + gz * gz);
     }
     e.a_t = absorption(path_t, cos_theta(e.wt));
-    e.scale2 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, e.cos_mi2, inv_eta_);
+    e.scale2 = energy_scale_leaving(e.cos_mi2);
     return true;
 }
 
@@ -68,7 +74,7 @@ RGB HuangHair::tt_exit(const EntryState& e, Vec3 O) const {
     const double cos_mo2 = -dot(O, e.wmt);
     const double t2 = (1.0 - ggx::fresnel(cos_hi2, inv_eta_)) * e.scale2;
     const double scalar = e.t1 * e.scale1 * t2 * ggx::D(alpha2_, cos_mh2) * e.g1o * ggx::G2(alpha2_, e.cos_mi2, cos_mo2) /
-                          e.cos_mo1 * e.cos_mi1 * cos_hi2 * cos_ho2 * inv_len * inv_len * arc_length(e.gmt);
+                          e.cos_mo1 * e.cos_mi1 * cos_hi2 * cos_ho2 * inv_len * inv_len * arc_length_sc(e.sin_gmt);
     const RGB v = scalar * e.a_t;
     return isfinite(v) ? v : RGB();
 }
@@ -90,11 +96,12 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     }
     if (!visible(e.mwt, mwtr, e.wmt, wh2) || !visible(e.mwt, mwtr, e.wmt_, wh2)) return {};
     trrt = series;
-    const double phi_tr = dir_phi(wtr);
-    const double phi_tr_b = b_ == 1.0 ? phi_tr : std::atan2(b_ * std::sin(phi_tr), std::cos(phi_tr));
+    const double phi_tr = b_ == 1.0 ? dir_phi(wtr) : 0.0;
+    const double phi_tr_b = b_ == 1.0 ? phi_tr : std::atan2(b_ * wtr.x, wtr.z);
     const double gmtr = e.gamma - 2.0 * (e.phi_t_b - phi_tr_b) + kPi;
-    const Vec3 wmtr = mesonormal(-tilt_, gmtr);
-    const Vec3 wmtr_ = mesonormal(0.0, gmtr);
+    const double sin_gmtr = std::sin(gmtr), cos_gmtr = std::cos(gmtr);
+    const Vec3 wmtr = mesonormal_sc(-sin_tilt_, cos_tilt_, sin_gmtr, cos_gmtr);
+    const Vec3 wmtr_ = mesonormal_sc(0.0, 1.0, sin_gmtr, cos_gmtr);
     const Vec3 wh3u = wtr + inv_eta_ * O;
     const double len3 = length(wh3u);
     if (!(len3 > 1e-7)) return {};  // degenerate half vector (IOR ~ 1), as in tt_exit
@@ -106,12 +113,12 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     const double cos_hi3 = dot(wh3, wtr);
     const double cos_ho3 = dot(wh3, mO);
     const double cos_mi3 = dot(wmtr, wtr);
-    const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi3, inv_eta_);
+    const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * energy_scale_leaving(cos_mi3);
     double path_tr;
     if (b_ == 1.0) {
         path_tr = 2.0 * std::fabs(std::cos(phi_tr - e.gmt));
     } else {
-        const double gx = std::sin(gmtr) - std::sin(e.gmt), gz = b_ * (std::cos(gmtr) - std::cos(e.gmt));
+        const double gx = sin_gmtr - e.sin_gmt, gz = b_ * (cos_gmtr - e.cos_gmt);
         path_tr = std::sqrt(gx * gx + gz * gz);
     }
     const RGB a_tr = absorption(path_tr, cos_theta(wtr));
@@ -119,7 +126,7 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     const double scalar = e.t1 * e.scale1 * r2f * e.scale2 * t3 * ggx::D(alpha2_, cos_mh3) * e.g1o *
                           ggx::G2_over_G1(alpha2_, e.cos_mi2, cos_mo2) * ggx::G2(alpha2_, cos_mi3, dot(wmtr, mO)) /
                           (e.cos_mo1 * cos_mo2) * e.cos_mi1 * e.cos_mi2 * cos_hi3 * cos_ho3 * inv_len3 * inv_len3 *
-                          arc_length(gmtr);
+                          arc_length_sc(sin_gmtr);
     const RGB v = scalar * (e.a_t * a_tr);
     return isfinite(v) ? v : RGB();
 }
@@ -137,6 +144,11 @@ void HuangHair::residual_point(const ShadingPoint& sp, Vec3 O, double gamma, dou
         return;
     }
     if (!(factors_[2] > 0.0)) return;
+    trt_from_entry(e, O, r2, angle2, weight, final_scale, trrt_scale, f);
+}
+
+void HuangHair::trt_from_entry(const EntryState& e, Vec3 O, double r2, double angle2, double weight,
+                               double final_scale, double trrt_scale, std::array<double, 9>& f) const {
     Vec3 s2, t2v;
     make_orthonormals(e.wmt, s2, t2v);
     const Vec3 wh2 = vndf_sample(e.mwt, e.wmt, s2, t2v, alpha_, r2, angle2);
@@ -172,8 +184,7 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
     };
     // Proposal for the exit: the mesonormal where the specular internal reflection leaves.
     const Vec3 wtr0 = -1.0 * ggx::reflect(e.wt, e.wmt);
-    const double phi_tr0 = dir_phi(wtr0);
-    const double phi_tr0_b = b_ == 1.0 ? phi_tr0 : std::atan2(b_ * std::sin(phi_tr0), std::cos(phi_tr0));
+    const double phi_tr0_b = b_ == 1.0 ? dir_phi(wtr0) : std::atan2(b_ * wtr0.x, wtr0.z);
     const Vec3 out_normal = -1.0 * mesonormal(-tilt_, e.gamma - 2.0 * (e.phi_t_b - phi_tr0_b) + kPi);
     Component cb;
     cb.v = O;

@@ -299,7 +299,7 @@ BsdfSample HuangHair::sample_cycles(const ShadingPoint& sp, const std::array<dou
     if (!visible(I, wmi_, wh1)) return out;
     double cos_t1 = 0.0;
     const double r1 = ggx::fresnel(dot(I, wh1), eta_, &cos_t1);
-    const double scale1 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi1, eta_);
+    const double scale1 = energy_scale_entering(cos_mi1);
     const double R = factors_[0] * r1 * scale1 * (visible(wr, wmi_, wh1) ? 1.0 : 0.0) *
                      ggx::G2_over_G1(alpha2_, cos_mi1, dot(wmi, wr));
     RGB TT, TRT, TRRT;
@@ -327,7 +327,7 @@ BsdfSample HuangHair::sample_cycles(const ShadingPoint& sp, const std::array<dou
             const double r2 = ggx::fresnel(dot(mwt, wh2), inv_eta_, &cos_t2);
             const double t1 = (1.0 - r1) * scale1 * ggx::G2_over_G1(alpha2_, cos_mi1, dot(wmi, mwt));
             const double t2 = 1.0 - r2;
-            const double scale2 = huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi2, inv_eta_);
+            const double scale2 = energy_scale_leaving(cos_mi2);
             if (t2 > 0.0) {
                 wtt = ggx::refract(mwt, wh2, cos_t2, eta_);
                 const Vec3 mwtt = -1.0 * wtt;
@@ -351,7 +351,7 @@ BsdfSample HuangHair::sample_cycles(const ShadingPoint& sp, const std::array<dou
                     path_tr = std::sqrt(gx * gx + gz * gz);
                 }
                 const RGB a_tr = absorption(path_tr, cos_theta(wtr));
-                const RGB tr = (t1 * r2 * scale2 * huang::energy_scale(params_.glass_albedo_table, sqrt_alpha_, cos_mi3, inv_eta_) *
+                const RGB tr = (t1 * r2 * scale2 * energy_scale_leaving(cos_mi3) *
                                 ggx::G2_over_G1(alpha2_, cos_mi2, dot(wmt, -1.0 * wtr))) * (a_t * a_tr);
                 const double t3 = 1.0 - r3;
                 if (t3 > 0.0) {

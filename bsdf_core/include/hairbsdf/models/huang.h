@@ -57,13 +57,18 @@ inline double lookup_table_3d(const double (&t)[n][n][n], double x, double y, do
 }
 // 1 / E_glass(sqrt(alpha), mu, eta): the energy compensation of one interface (docs/cycles.md §5.3),
 // from the tables of the chosen Cycles version.
-inline double energy_scale(GlassAlbedoTable table, double sqrt_alpha, double mu, double eta) {
-    const double z = std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0)));
+// energy_scale's coordinate of eta: sqrt(|(eta - 1) / (eta + 1)|).
+inline double energy_scale_z(double eta) { return std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0))); }
+// energy_scale with z = energy_scale_z(eta) computed once per model.
+inline double energy_scale_at(GlassAlbedoTable table, double sqrt_alpha, double mu, double eta, double z) {
     const int which = eta < 1.0 ? 1 : 0;
     const double e = table == GlassAlbedoTable::Cycles5
                          ? lookup_table_3d(kGgxGlassAlbedo5[which], sqrt_alpha, safe_sqrt(mu), z)
                          : lookup_table_3d(kGgxGlassAlbedo[which], sqrt_alpha, mu, z);
     return 1.0 / e;
+}
+inline double energy_scale(GlassAlbedoTable table, double sqrt_alpha, double mu, double eta) {
+    return energy_scale_at(table, sqrt_alpha, mu, eta, energy_scale_z(eta));
 }
 }  // namespace huang
 
@@ -138,6 +143,7 @@ public:
         bool valid = false;      // a non-empty integration interval
         double h_lo = 0, h_hi = 0;  // r-normalised, clamped to +-0.999
         double norm = 0;         // 1 / (cos theta_I dh)
+        double gamma_base = 0;   // h_to_gamma's h-independent angle atan2(I.z, -b I.x) (ellipses)
         std::vector<Node> r_nodes, residual_nodes;  // Cycles' Simpson nodes (Cycles quadrature)
         // Sampling mixture (lobe order R, TT, TRT, TRRT+, uniform).
         std::array<double, 5> lobe_probability{};
@@ -220,6 +226,33 @@ public:
     double arc_length(double gamma) const;
 
 private:
+    // h_to_gamma(h, sp.I) from the point's gamma_base (one acos per node, no atan2).
+    double h_to_gamma(const ShadingPoint& sp, double h_div_r) const {
+        if (b_ == 1.0) return -safe_asin(h_div_r);
+        return sp.gamma_base - std::acos(clamp(-h_div_r, -1.0, 1.0));
+    }
+    // dgamma_dh and mesonormal from sin and cos of gamma (and of the tilt), computed once by the caller.
+    double dgamma_dh_sc(double sin_phi, double cos_phi, double sin_gamma, double cos_gamma) const {
+        const double d = b_ == 1.0 ? cos_gamma : cos_phi * cos_gamma + b_ * sin_phi * sin_gamma;
+        return d != 0.0 ? 1.0 / d : 0.0;
+    }
+    Vec3 mesonormal_sc(double sin_tilt, double cos_tilt, double sin_gamma, double cos_gamma) const {
+        if (b_ != 1.0 && std::fabs(cos_gamma) >= 1e-6) {
+            const double n = std::sqrt(cos_gamma * cos_gamma + b_ * b_ * sin_gamma * sin_gamma);
+            sin_gamma = b_ * sin_gamma / n;
+            cos_gamma = cos_gamma / n;
+        }
+        return {sin_gamma * cos_tilt, sin_tilt, cos_gamma * cos_tilt};
+    }
+    // huang::energy_scale at the model's roughness entering (eta) or leaving (1 / eta) the fibre.
+    double energy_scale_entering(double mu) const {
+        return huang::energy_scale_at(params_.glass_albedo_table, sqrt_alpha_, mu, eta_, z_eta_);
+    }
+    double energy_scale_leaving(double mu) const {
+        return huang::energy_scale_at(params_.glass_albedo_table, sqrt_alpha_, mu, inv_eta_, z_inv_eta_);
+    }
+    double arc_length_sc(double sin_gamma) const { return e2_ == 0.0 ? 1.0 : std::sqrt(1.0 - e2_ * sqr(sin_gamma)); }
+    double r_integrand_sc(const ShadingPoint& sp, Vec3 O, Vec3 wh, double sin_gamma, double cos_gamma) const;
     struct Residual;  // integrand of the adaptive residual integration
     // TT (kind 0) or TRT and TRRT+ (kind 1) at mesonormal parameter gamma for the entry visible
     // normal at disk point (r1, angle1) and the internal one at (r2, angle2), times `weight`;
@@ -229,19 +262,30 @@ private:
                         std::array<double, 9>& f) const;
     // One residual node of Cycles' stochastic eval: TT and (TRT, TRRT+) at mesonormal gamma, their
     // disk points drawn from rng in Cycles' order, times `weight`, added to acc.
-    void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double weight, double final_scale,
-                           double trrt_scale, uint32_t& rng, std::array<double, 9>& acc) const;
+    void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double sin_gamma, double cos_gamma,
+                           double weight, double final_scale, double trrt_scale, uint32_t& rng,
+                           std::array<double, 9>& acc) const;
+    // eval_cycles_stochastic's residual: every node of `nodes`, into lobes 1..3.
+    void add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
+                            std::array<RGB, kLobeCount>& lobes) const;
     RGB trrt_series(double t, double r, RGB a) const;
     // Cycles' composite Simpson nodes over [lo, hi]: an even count of steps of at most step x alpha
     // (the steps divided by simpson_refinement_).
     std::vector<Node> simpson_nodes(double lo, double hi, double step) const;
     // The path up to the second interface for the entry visible normal at disk point (r1, angle1).
     struct EntryState {
-        double gamma, cos_mi1, t1, scale1, phi_t_b, gmt, cos_mo1, cos_mi2, g1o, scale2;
+        double gamma, cos_mi1, t1, scale1, phi_t_b, gmt, sin_gmt, cos_gmt, cos_mo1, cos_mi2, g1o, scale2;
         Vec3 wmi, wt, mwt, wmt, wmt_;
         RGB a_t;
     };
-    bool entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const;
+    bool entry_state(const ShadingPoint& sp, double gamma, double r1, double angle1, EntryState& e) const {
+        return entry_state(sp, gamma, std::sin(gamma), std::cos(gamma), r1, angle1, e);
+    }
+    bool entry_state(const ShadingPoint& sp, double gamma, double sin_gamma, double cos_gamma, double r1,
+                     double angle1, EntryState& e) const;
+    // TRT and TRRT+ for the internal visible normal at disk point (r2, angle2), times weight, into f[3..8].
+    void trt_from_entry(const EntryState& e, Vec3 O, double r2, double angle2, double weight, double final_scale,
+                        double trrt_scale, std::array<double, 9>& f) const;
     RGB tt_exit(const EntryState& e, Vec3 O) const;
     RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
@@ -265,6 +309,7 @@ private:
     double tan_tilt_, sin_tilt_, cos_tilt_;
     double b_, e2_;
     double eta_, inv_eta_;
+    double z_eta_, z_inv_eta_;  // huang::energy_scale_z of eta_ and inv_eta_
     std::array<double, 3> factors_;
     LongitudinalLobe trrt_m_;        // Cycles' M with v = 4 alpha (truncated Bessel series)
     LongitudinalLobe trrt_sampler_;  // exact M with v = 4 alpha: the TRRT+ sampling density
