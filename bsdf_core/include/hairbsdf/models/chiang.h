@@ -329,13 +329,33 @@ public:
         }
         u_lobe = vt.lobe_weight[p] > 0 ? u_lobe / vt.lobe_weight[p] : 0.5;
 
-        const LobeDirection d = longitudinal
-                                    ? sample_lobe_direction(vt, p, longitudinal->theta, longitudinal->azimuth, u[0])
-                                    : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
+        const double u_theta = longitudinal ? longitudinal->theta : u_lobe;
+        const double u_azimuth = longitudinal ? longitudinal->azimuth : u[1];
+        const bool in_float = vt.in_float;
+        if (in_float && params_.tilt_convention == TiltConvention::Blender42) {
+            // sample_lobe_direction's numbers with its two logs (the longitudinal sampler's and the trimmed
+            // logistic's) in one lane pair, and the two sin/cos (the sampler's azimuth, the direction's phi) in
+            // another: the same values.
+            const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
+            const double u_theta_clamped = clamp(u_theta, 1e-5, 1.0);
+            const double cdf_minus_pi = p < 3 ? logistic_cdf_minus_pi_[p] : 0.0;
+            const double logistic_arg = p < 3 ? 1.0 / (u[0] * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0 : 1.0;
+            const Double2 logs = log_float_accuracy(
+                Double2{u_theta_clamped + (1.0 - u_theta_clamped) * exp_minus_2_over_v_[p], logistic_arg});
+            const double fac = 1.0 + params_.v_sample[p] * logs[0];
+            const double phi =
+                p < 3 ? vt.azimuth_center[p] + clamp(-params_.s[p] * logs[1], -kPi, kPi) : kTwoPi * u[0];
+            const SinCosPair2 sc = sincos_accurate(Double2{kTwoPi * u_azimuth, phi});
+            const double sin_theta_i = clamp(-fac * o.sin + cos_from_sin(fac) * sc.cos[0] * o.cos, -1.0, 1.0);
+            const double cos_theta_i = cos_from_sin(sin_theta_i);
+            const Vec3 wi =
+                sin_theta_i * frame.x + (cos_theta_i * sc.sin[1]) * frame.y - (cos_theta_i * sc.cos[1]) * frame.z;
+            return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, true), p);
+        }
+        const LobeDirection d = sample_lobe_direction(vt, p, u_theta, u_azimuth, u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         // frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi) with phi_o = -pi/2: cos(phi - pi/2) = sin(phi),
         // sin(phi - pi/2) = -cos(phi).
-        const bool in_float = vt.in_float;
         const SinCosPair sc = sincos_in(in_float, phi);
         const Vec3 wi = sin_theta_i * frame.x + (cos_theta_i * sc.sin) * frame.y - (cos_theta_i * sc.cos) * frame.z;
         return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, in_float), p);
@@ -453,7 +473,7 @@ private:
         const Double2 add = pair_add_[pair];
         const auto asym = a > pair_asym_limit_[pair];
         const Double2 exponent = asym ? a + 1.0 / (16.0 * a) - b + add : add - b;
-        const Double2 root = {std::sqrt(kTwoPi * a[0]), std::sqrt(kTwoPi * a[1])};
+        const Double2 root = sqrt2(kTwoPi * a);
         const Double2 factor = asym ? 1.0 / root : i0 * pair_mul_[pair];
         return exp_float_accuracy(exponent) * factor;
     }
