@@ -179,9 +179,8 @@ inline Double2 sqrt2(Double2 x) {
 #endif
 }
 // exp_float_accuracy on both lanes at once; lanes outside (-708, 709) or NaN take the scalar form.
-inline Double2 exp_float_accuracy(Double2 x) {
-    if (!(x[0] > -708.0 && x[0] < 709.0 && x[1] > -708.0 && x[1] < 709.0))
-        return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
+HAIRBSDF_ALWAYS_INLINE Double2 exp_float_accuracy(Double2 x) {
+    if (!all_lanes((x > -708.0) & (x < 709.0))) return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
     constexpr double kRound = 6755399441055744.0;
     const Double2 shifted = x * 46.16624130844683 + kRound;  // its low bits hold k
     const Double2 k = shifted - kRound;
