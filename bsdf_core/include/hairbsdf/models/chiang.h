@@ -7,6 +7,25 @@
 
 namespace hairbsdf {
 
+// The scalar path's instruction set (prepare, eval and sample of ChiangHair below): its AVX2 + FMA build where
+// the CPU has both, else the baseline build (x86-64's SSE2). set_chiang_scalar_avx2(false) selects the
+// baseline (the tests compare the two); set_chiang_scalar_avx2(true) takes AVX2 only where the CPU has it.
+// Returns the build in use.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define HAIRBSDF_SCALAR_AVX2 __attribute__((target("avx2,fma")))
+bool chiang_scalar_avx2_supported();  // src/models/chiang_avx2.cpp
+inline std::atomic<bool> g_chiang_scalar_avx2{chiang_scalar_avx2_supported()};
+inline bool chiang_scalar_avx2() { return g_chiang_scalar_avx2.load(std::memory_order_relaxed); }
+inline bool set_chiang_scalar_avx2(bool on) {
+    g_chiang_scalar_avx2.store(on && chiang_scalar_avx2_supported(), std::memory_order_relaxed);
+    return chiang_scalar_avx2();
+}
+#else
+#define HAIRBSDF_SCALAR_AVX2
+inline bool chiang_scalar_avx2() { return false; }
+inline bool set_chiang_scalar_avx2(bool) { return false; }
+#endif
+
 // Chiang's roughness mapping, from the user's roughnesses to the model's numbers.
 // The mappings below are written once, over any number type T (double here, SIMD float batches in
 // the per-row batch kernels, docs/simd.md); the double functions are these templates.
@@ -231,7 +250,13 @@ public:
         FibreFrame frame;
         ViewTerms view;
     };
+    // prepare, eval and sample run the AVX2 + FMA build of their bodies (the *_baseline functions below) where
+    // the machine has both (chiang_scalar_avx2(), src/models/chiang_avx2.cpp); the same formulas, FMA-rounded.
     ShadingPoint prepare(const ShadingContext& ctx) const {
+        if (chiang_scalar_avx2()) return prepare_avx2(*this, ctx);
+        return prepare_baseline(ctx);
+    }
+    HAIRBSDF_ALWAYS_INLINE ShadingPoint prepare_baseline(const ShadingContext& ctx) const {
         const FibreFrame frame(ctx.tangent, ctx.wo);
         return {frame, view_terms(frame, ctx)};
     }
@@ -299,6 +324,10 @@ public:
     }
 
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
+        if (chiang_scalar_avx2()) return eval_avx2(*this, sp, wi);
+        return eval_baseline(sp, wi);
+    }
+    HAIRBSDF_ALWAYS_INLINE BsdfEval eval_baseline(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
         const bool in_float = sp.view.in_float;
@@ -316,6 +345,11 @@ public:
     }
     BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u,
                       const LongitudinalNumbers* longitudinal = nullptr) const {
+        if (chiang_scalar_avx2()) return sample_avx2(*this, sp, u, longitudinal);
+        return sample_baseline(sp, u, longitudinal);
+    }
+    HAIRBSDF_ALWAYS_INLINE BsdfSample sample_baseline(const ShadingPoint& sp, const std::array<double, 3>& u,
+                                                      const LongitudinalNumbers* longitudinal) const {
         BsdfSample out;
         const FibreFrame& frame = sp.frame;
         const ViewTerms& vt = sp.view;
@@ -462,6 +496,15 @@ public:
     }
 
 private:
+    // The AVX2 + FMA builds of prepare, eval and sample (src/models/chiang_avx2.cpp): each inlines the whole
+    // *_baseline body into one function compiled for that instruction set, so that no inline function of the
+    // headers is emitted for it (callers without AVX2 never reach AVX2 code).
+    HAIRBSDF_SCALAR_AVX2 static ShadingPoint prepare_avx2(const ChiangHair& model, const ShadingContext& ctx);
+    HAIRBSDF_SCALAR_AVX2 static BsdfEval eval_avx2(const ChiangHair& model, const ShadingPoint& sp, Vec3 wi);
+    HAIRBSDF_SCALAR_AVX2 static BsdfSample sample_avx2(const ChiangHair& model, const ShadingPoint& sp,
+                                                       const std::array<double, 3>& u,
+                                                       const LongitudinalNumbers* longitudinal);
+
     // M_p of the lobe pair `pair` (0: R and TT, 1: TRT and TRRT+) at accuracy `cycles` in float-accuracy maths,
     // branch-free per lane: Cycles' series I0(a) exp(add - b) mul, or above the lane's limit its asymptote.
     HAIRBSDF_ALWAYS_INLINE Double2 mp_pair(int pair, double sin_theta_i, double cos_theta_i, Double2 sin_theta_o,
