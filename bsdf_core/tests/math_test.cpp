@@ -151,15 +151,11 @@ TEST(FloatAccuracyMaths, TwoLaneExpEqualsTheScalarForm) {
     EXPECT_TRUE(std::isnan(exp_float_accuracy(Double2{NAN, 0.0})[0]));
 }
 
-// The two-lane asin, log and sin/cos (Chiang's prepare and sample) give the scalar forms' values bit for bit,
-// per lane, over the scalar tests' ranges; edge lanes (asin at +-1, log out of range or NaN) too.
-TEST(FloatAccuracyMaths, TwoLaneAsinLogSincosEqualTheScalarForms) {
+// The two-lane log and sin/cos (Chiang's sample) give the scalar forms' values bit for bit, per lane, over the
+// scalar tests' ranges; edge lanes (log out of range or NaN) too.
+TEST(FloatAccuracyMaths, TwoLaneLogSincosEqualTheScalarForms) {
     auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
     int differ = 0;
-    for (double x = -1.0; x <= 1.0; x += 1.0 / 65536.0) {
-        const Double2 a = asin_float_accuracy(Double2{x, -0.75 * x});
-        differ += !same(a[0], asin_float_accuracy(x)) + !same(a[1], asin_float_accuracy(-0.75 * x));
-    }
     for (double e = -1020.0; e < 1020.0; e += 0.0731) {
         const double x = std::exp2(e), y = std::exp2(-0.5 * e) * 1.37;
         const Double2 l = log_float_accuracy(Double2{x, y});
@@ -172,9 +168,6 @@ TEST(FloatAccuracyMaths, TwoLaneAsinLogSincosEqualTheScalarForms) {
                   !same(sc.cos[1], s1.cos);
     }
     EXPECT_EQ(differ, 0);
-    EXPECT_EQ(asin_float_accuracy(Double2{1.0, -1.0})[0], 0.5 * kPi);
-    EXPECT_EQ(asin_float_accuracy(Double2{1.0, -1.0})[1], -0.5 * kPi);
-    EXPECT_TRUE(std::isnan(asin_float_accuracy(Double2{NAN, 0.5})[0]));
     const Double2 l = log_float_accuracy(Double2{0.0, 2.0});
     EXPECT_EQ(l[0], -HUGE_VAL);
     EXPECT_EQ(l[1], log_float_accuracy(2.0));

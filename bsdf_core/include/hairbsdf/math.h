@@ -287,31 +287,9 @@ inline SinCosPair sincos_accurate(double x) {
         default: return {-cos_r, sin_r};
     }
 }
-// Two-lane forms of asin, log and sincos above (Double2): per lane the same operations in the same order as
-// the scalar functions, so each lane equals the scalar result bit for bit. For the scalar paths' independent
-// pairs (asin of h and of sin gamma_t; the sampler's two logs and two sin/cos).
-inline Double2 asin_float_accuracy(Double2 x) {
-    UInt2 bits, sign;
-    std::memcpy(&bits, &x, sizeof bits);
-    sign = bits & 0x8000000000000000ull;
-    bits ^= sign;
-    Double2 ax;
-    std::memcpy(&ax, &bits, sizeof ax);
-    const Int2 outer = ax > 0.5;
-    const Double2 t = outer ? sqrt2(0.5 * (1.0 - ax)) : ax;
-    const Double2 z = t * t;
-    Double2 p = z * 0.033805387066399885 + 0.01707810772821376;
-    p = p * z + 0.03111609434873313;
-    p = p * z + 0.044598039020755036;
-    p = p * z + 0.07500098732409591;
-    p = p * z + 0.1666666631714249;
-    Double2 a = t + t * z * p;
-    a = outer ? 0.5 * kPi - 2.0 * a : a;
-    std::memcpy(&bits, &a, sizeof bits);
-    bits |= sign;  // copysign: a is >= 0 (or NaN)
-    std::memcpy(&a, &bits, sizeof a);
-    return a;
-}
+// Two-lane forms of log and sincos above (Double2): per lane the same operations in the same order as the
+// scalar functions, so each lane equals the scalar result bit for bit. For the sampler's independent pairs
+// (its two logs and two sin/cos).
 inline Double2 log_float_accuracy(Double2 x) {
     if (!all_lanes((x >= 2.2250738585072014e-308) & (x <= 1.7976931348623157e308)))
         return Double2{log_float_accuracy(x[0]), log_float_accuracy(x[1])};
