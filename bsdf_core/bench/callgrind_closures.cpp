@@ -2,7 +2,9 @@
 // `direct` the model's own prepare + eval at the same inputs. scripts/bench --callgrind counts
 // each loop's instructions under callgrind (only inside run_sum / run_direct); the ratio is
 // ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `sample` runs the model's own
-// prepare + sample (run_sample). `kernel_eval`, `kernel_pdf` and
+// prepare + sample (run_sample). These three run the scalar path's dispatched build (AVX2 + FMA where the CPU,
+// or valgrind, has them: chiang_scalar_avx2); a third argument `baseline` runs the baseline (SSE2) build.
+// `kernel_eval`, `kernel_pdf` and
 // `kernel_sample` run the float32 batch kernels (docs/simd.md) over the same rows in one call
 // (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512). `rows_eval`,
 // `rows_pdf` and `rows_sample` do the same with per-row inputs (roughness, radial roughness, coat,
@@ -82,11 +84,12 @@ int main(int argc, char** argv) {
                                   std::strcmp(op_name, "sample") == 0)))) {
         std::fprintf(stderr,
                      "usage: %s sum|direct|sample|kernel_eval|kernel_pdf|kernel_sample|rows_eval|rows_pdf|rows_sample "
-                     "[calls]\n",
+                     "[calls] [baseline]\n",
                      argv[0]);
         return 2;
     }
     const size_t calls = argc > 2 ? size_t(std::atol(argv[2])) : 10000;
+    if (argc > 3 && std::strcmp(argv[3], "baseline") == 0) set_chiang_scalar_avx2(false);
     std::mt19937_64 rng(1);
     std::normal_distribution<double> g;
     std::uniform_real_distribution<double> uni;
@@ -139,6 +142,7 @@ int main(int argc, char** argv) {
     const double acc = std::strcmp(argv[1], "sum") == 0      ? run_sum(sum, in)
                        : std::strcmp(argv[1], "sample") == 0 ? run_sample(model, in)
                                                              : run_direct(model, in);
-    std::printf("%s %zu calls, checksum %.17g\n", argv[1], calls, acc);
+    std::printf("%s %zu calls on the %s build, checksum %.17g\n", argv[1], calls,
+                chiang_scalar_avx2() ? "avx2" : "baseline", acc);
     return 0;
 }

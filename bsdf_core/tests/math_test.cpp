@@ -150,3 +150,26 @@ TEST(FloatAccuracyMaths, TwoLaneExpEqualsTheScalarForm) {
     EXPECT_EQ(exp_float_accuracy(Double2{0.0, 800.0})[1], HUGE_VAL);
     EXPECT_TRUE(std::isnan(exp_float_accuracy(Double2{NAN, 0.0})[0]));
 }
+
+// The two-lane log and sin/cos (Chiang's sample) give the scalar forms' values bit for bit, per lane, over the
+// scalar tests' ranges; edge lanes (log out of range or NaN) too.
+TEST(FloatAccuracyMaths, TwoLaneLogSincosEqualTheScalarForms) {
+    auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+    int differ = 0;
+    for (double e = -1020.0; e < 1020.0; e += 0.0731) {
+        const double x = std::exp2(e), y = std::exp2(-0.5 * e) * 1.37;
+        const Double2 l = log_float_accuracy(Double2{x, y});
+        differ += !same(l[0], log_float_accuracy(x)) + !same(l[1], log_float_accuracy(y));
+    }
+    for (double x = -4.0 * kPi; x < 4.0 * kPi; x += 1.0 / 4096.0) {
+        const SinCosPair2 sc = sincos_accurate(Double2{x, 0.37 - x});
+        const SinCosPair s0 = sincos_accurate(x), s1 = sincos_accurate(0.37 - x);
+        differ += !same(sc.sin[0], s0.sin) + !same(sc.cos[0], s0.cos) + !same(sc.sin[1], s1.sin) +
+                  !same(sc.cos[1], s1.cos);
+    }
+    EXPECT_EQ(differ, 0);
+    const Double2 l = log_float_accuracy(Double2{0.0, 2.0});
+    EXPECT_EQ(l[0], -HUGE_VAL);
+    EXPECT_EQ(l[1], log_float_accuracy(2.0));
+    EXPECT_TRUE(std::isnan(log_float_accuracy(Double2{-1.0, 1.0})[0]));
+}

@@ -161,10 +161,26 @@ inline double exp_float_accuracy(double x) {
 // Two doubles in one SSE2 register (GCC/Clang vector extension): the scalar paths' lobe pairs.
 typedef double Double2 __attribute__((vector_size(16)));
 typedef uint64_t UInt2 __attribute__((vector_size(16)));
+typedef int64_t Int2 __attribute__((vector_size(16)));
+// Whether every lane of a comparison's mask is set (one movmskpd where SSE2 is there).
+inline bool all_lanes(Int2 mask) {
+#if defined(__SSE2__)
+    return __builtin_ia32_movmskpd(Double2(mask)) == 3;
+#else
+    return mask[0] && mask[1];
+#endif
+}
+// sqrt of both lanes (one sqrtpd where SSE2 is there; correctly rounded, as std::sqrt).
+inline Double2 sqrt2(Double2 x) {
+#if defined(__SSE2__)
+    return __builtin_ia32_sqrtpd(x);
+#else
+    return Double2{std::sqrt(x[0]), std::sqrt(x[1])};
+#endif
+}
 // exp_float_accuracy on both lanes at once; lanes outside (-708, 709) or NaN take the scalar form.
-inline Double2 exp_float_accuracy(Double2 x) {
-    if (!(x[0] > -708.0 && x[0] < 709.0 && x[1] > -708.0 && x[1] < 709.0))
-        return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
+HAIRBSDF_ALWAYS_INLINE Double2 exp_float_accuracy(Double2 x) {
+    if (!all_lanes((x > -708.0) & (x < 709.0))) return Double2{exp_float_accuracy(x[0]), exp_float_accuracy(x[1])};
     constexpr double kRound = 6755399441055744.0;
     const Double2 shifted = x * 46.16624130844683 + kRound;  // its low bits hold k
     const Double2 k = shifted - kRound;
@@ -270,6 +286,67 @@ inline SinCosPair sincos_accurate(double x) {
         case 2: return {-sin_r, -cos_r};
         default: return {-cos_r, sin_r};
     }
+}
+// Two-lane forms of log and sincos above (Double2): per lane the same operations in the same order as the
+// scalar functions, so each lane equals the scalar result bit for bit. For the sampler's independent pairs
+// (its two logs and two sin/cos).
+inline Double2 log_float_accuracy(Double2 x) {
+    if (!all_lanes((x >= 2.2250738585072014e-308) & (x <= 1.7976931348623157e308)))
+        return Double2{log_float_accuracy(x[0]), log_float_accuracy(x[1])};
+    UInt2 bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    // The exponent relative to sqrt(1/2) plus 1023, from a logical shift (e + 1023 >= 1 for normal x).
+    const UInt2 biased_e = (bits + (0x3FF0000000000000ull - 0x3FE6A09E667F3BCDull)) >> 52;
+    bits -= (biased_e - 1023) << 52;
+    Double2 m;
+    std::memcpy(&m, &bits, sizeof m);
+    // double(e): the integer in the mantissa of 2^52, minus 2^52 + 1023 (exact).
+    const UInt2 e_bits = biased_e | 0x4330000000000000ull;
+    Double2 e;
+    std::memcpy(&e, &e_bits, sizeof e);
+    e = e - (4503599627370496.0 + 1023.0);
+    const Double2 t = (m - 1.0) / (m + 1.0), z = t * t;
+    Double2 p = z * (1.0 / 11.0) + 1.0 / 9.0;
+    p = p * z + 1.0 / 7.0;
+    p = p * z + 1.0 / 5.0;
+    p = p * z + 1.0 / 3.0;
+    return e * 0.6931471805599453 + 2.0 * (t + t * z * p);
+}
+struct SinCosPair2 {
+    Double2 sin, cos;
+};
+inline SinCosPair2 sincos_accurate(Double2 x) {
+    constexpr double kRound = 6755399441055744.0;
+    const Double2 shifted = x * 0.6366197723675814 + kRound;  // its low bits hold n
+    const Double2 n = shifted - kRound;
+    const Double2 r = (x - n * 1.5707963267948966) - n * 6.123233995736766e-17;
+    const Double2 z = r * r;
+    Double2 ps = z * (-1.0 / 6227020800.0) + 1.0 / 39916800.0;
+    ps = ps * z - 1.0 / 362880.0;
+    ps = ps * z + 1.0 / 5040.0;
+    ps = ps * z - 1.0 / 120.0;
+    ps = ps * z + 1.0 / 6.0;
+    const Double2 sin_r = r - r * z * ps;
+    Double2 pc = z * (1.0 / 87178291200.0) - 1.0 / 479001600.0;
+    pc = pc * z + 1.0 / 3628800.0;
+    pc = pc * z - 1.0 / 40320.0;
+    pc = pc * z + 1.0 / 720.0;
+    pc = pc * z - 1.0 / 24.0;
+    pc = pc * z + 0.5;
+    const Double2 cos_r = 1.0 - z * pc;
+    // The quadrant n mod 4: odd swaps sin and cos; sin is negated for n = 2, 3, cos for n = 1, 2.
+    UInt2 q;
+    std::memcpy(&q, &shifted, sizeof q);
+    const Int2 odd = Int2(q & 1) != 0;
+    Double2 s = odd ? cos_r : sin_r, c = odd ? sin_r : cos_r;
+    UInt2 sb, cb;
+    std::memcpy(&sb, &s, sizeof sb);
+    std::memcpy(&cb, &c, sizeof cb);
+    sb ^= (q & 2) << 62;
+    cb ^= ((q + 1) & 2) << 62;
+    std::memcpy(&s, &sb, sizeof s);
+    std::memcpy(&c, &cb, sizeof c);
+    return {s, c};
 }
 // exp, asin (clamped to [-1, 1]) and atan2 to float accuracy or better where `in_float` (the inlined
 // forms above), else glibc's double functions.

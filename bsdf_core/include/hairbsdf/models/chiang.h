@@ -7,6 +7,25 @@
 
 namespace hairbsdf {
 
+// The scalar path's instruction set (prepare, eval and sample of ChiangHair below): its AVX2 + FMA build where
+// the CPU has both, else the baseline build (x86-64's SSE2). set_chiang_scalar_avx2(false) selects the
+// baseline (the tests compare the two); set_chiang_scalar_avx2(true) takes AVX2 only where the CPU has it.
+// Returns the build in use.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define HAIRBSDF_SCALAR_AVX2 __attribute__((target("avx2,fma")))
+bool chiang_scalar_avx2_supported();  // src/models/chiang_avx2.cpp
+inline std::atomic<bool> g_chiang_scalar_avx2{chiang_scalar_avx2_supported()};
+inline bool chiang_scalar_avx2() { return g_chiang_scalar_avx2.load(std::memory_order_relaxed); }
+inline bool set_chiang_scalar_avx2(bool on) {
+    g_chiang_scalar_avx2.store(on && chiang_scalar_avx2_supported(), std::memory_order_relaxed);
+    return chiang_scalar_avx2();
+}
+#else
+#define HAIRBSDF_SCALAR_AVX2
+inline bool chiang_scalar_avx2() { return false; }
+inline bool set_chiang_scalar_avx2(bool) { return false; }
+#endif
+
 // Chiang's roughness mapping, from the user's roughnesses to the model's numbers.
 // The mappings below are written once, over any number type T (double here, SIMD float batches in
 // the per-row batch kernels, docs/simd.md); the double functions are these templates.
@@ -231,7 +250,13 @@ public:
         FibreFrame frame;
         ViewTerms view;
     };
+    // prepare, eval and sample run the AVX2 + FMA build of their bodies (the *_baseline functions below) where
+    // the machine has both (chiang_scalar_avx2(), src/models/chiang_avx2.cpp); the same formulas, FMA-rounded.
     ShadingPoint prepare(const ShadingContext& ctx) const {
+        if (chiang_scalar_avx2()) return prepare_avx2(*this, ctx);
+        return prepare_baseline(ctx);
+    }
+    HAIRBSDF_ALWAYS_INLINE ShadingPoint prepare_baseline(const ShadingContext& ctx) const {
         const FibreFrame frame(ctx.tangent, ctx.wo);
         return {frame, view_terms(frame, ctx)};
     }
@@ -299,6 +324,10 @@ public:
     }
 
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
+        if (chiang_scalar_avx2()) return eval_avx2(*this, sp, wi);
+        return eval_baseline(sp, wi);
+    }
+    HAIRBSDF_ALWAYS_INLINE BsdfEval eval_baseline(const ShadingPoint& sp, Vec3 wi) const {
         if (!sp.view.valid) return {};
         const double sin_theta_i = sp.frame.sin_theta(wi);
         const bool in_float = sp.view.in_float;
@@ -316,6 +345,11 @@ public:
     }
     BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u,
                       const LongitudinalNumbers* longitudinal = nullptr) const {
+        if (chiang_scalar_avx2()) return sample_avx2(*this, sp, u, longitudinal);
+        return sample_baseline(sp, u, longitudinal);
+    }
+    HAIRBSDF_ALWAYS_INLINE BsdfSample sample_baseline(const ShadingPoint& sp, const std::array<double, 3>& u,
+                                                      const LongitudinalNumbers* longitudinal) const {
         BsdfSample out;
         const FibreFrame& frame = sp.frame;
         const ViewTerms& vt = sp.view;
@@ -329,13 +363,33 @@ public:
         }
         u_lobe = vt.lobe_weight[p] > 0 ? u_lobe / vt.lobe_weight[p] : 0.5;
 
-        const LobeDirection d = longitudinal
-                                    ? sample_lobe_direction(vt, p, longitudinal->theta, longitudinal->azimuth, u[0])
-                                    : sample_lobe_direction(vt, p, u_lobe, u[1], u[0]);
+        const double u_theta = longitudinal ? longitudinal->theta : u_lobe;
+        const double u_azimuth = longitudinal ? longitudinal->azimuth : u[1];
+        const bool in_float = vt.in_float;
+        if (in_float && params_.tilt_convention == TiltConvention::Blender42) {
+            // sample_lobe_direction's numbers with its two logs (the longitudinal sampler's and the trimmed
+            // logistic's) in one lane pair, and the two sin/cos (the sampler's azimuth, the direction's phi) in
+            // another: the same values.
+            const SinCos o = p < 3 ? vt.tilted[p] : SinCos{vt.sin_theta_o, vt.cos_theta_o};
+            const double u_theta_clamped = clamp(u_theta, 1e-5, 1.0);
+            const double cdf_minus_pi = p < 3 ? logistic_cdf_minus_pi_[p] : 0.0;
+            const double logistic_arg = p < 3 ? 1.0 / (u[0] * (1.0 - 2.0 * cdf_minus_pi) + cdf_minus_pi) - 1.0 : 1.0;
+            const Double2 logs = log_float_accuracy(
+                Double2{u_theta_clamped + (1.0 - u_theta_clamped) * exp_minus_2_over_v_[p], logistic_arg});
+            const double fac = 1.0 + params_.v_sample[p] * logs[0];
+            const double phi =
+                p < 3 ? vt.azimuth_center[p] + clamp(-params_.s[p] * logs[1], -kPi, kPi) : kTwoPi * u[0];
+            const SinCosPair2 sc = sincos_accurate(Double2{kTwoPi * u_azimuth, phi});
+            const double sin_theta_i = clamp(-fac * o.sin + cos_from_sin(fac) * sc.cos[0] * o.cos, -1.0, 1.0);
+            const double cos_theta_i = cos_from_sin(sin_theta_i);
+            const Vec3 wi =
+                sin_theta_i * frame.x + (cos_theta_i * sc.sin[1]) * frame.y - (cos_theta_i * sc.cos[1]) * frame.z;
+            return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, true), p);
+        }
+        const LobeDirection d = sample_lobe_direction(vt, p, u_theta, u_azimuth, u[0]);
         const double sin_theta_i = d.sin_theta_i, cos_theta_i = d.cos_theta_i, phi = d.phi;
         // frame.direction(sin_theta_i, cos_theta_i, vt.phi_o + phi) with phi_o = -pi/2: cos(phi - pi/2) = sin(phi),
         // sin(phi - pi/2) = -cos(phi).
-        const bool in_float = vt.in_float;
         const SinCosPair sc = sincos_in(in_float, phi);
         const Vec3 wi = sin_theta_i * frame.x + (cos_theta_i * sc.sin) * frame.y - (cos_theta_i * sc.cos) * frame.z;
         return sample_from_eval(wi, eval_local(vt, sin_theta_i, cos_theta_i, phi, in_float), p);
@@ -442,6 +496,15 @@ public:
     }
 
 private:
+    // The AVX2 + FMA builds of prepare, eval and sample (src/models/chiang_avx2.cpp): each inlines the whole
+    // *_baseline body into one function compiled for that instruction set, so that no inline function of the
+    // headers is emitted for it (callers without AVX2 never reach AVX2 code).
+    HAIRBSDF_SCALAR_AVX2 static ShadingPoint prepare_avx2(const ChiangHair& model, const ShadingContext& ctx);
+    HAIRBSDF_SCALAR_AVX2 static BsdfEval eval_avx2(const ChiangHair& model, const ShadingPoint& sp, Vec3 wi);
+    HAIRBSDF_SCALAR_AVX2 static BsdfSample sample_avx2(const ChiangHair& model, const ShadingPoint& sp,
+                                                       const std::array<double, 3>& u,
+                                                       const LongitudinalNumbers* longitudinal);
+
     // M_p of the lobe pair `pair` (0: R and TT, 1: TRT and TRRT+) at accuracy `cycles` in float-accuracy maths,
     // branch-free per lane: Cycles' series I0(a) exp(add - b) mul, or above the lane's limit its asymptote.
     HAIRBSDF_ALWAYS_INLINE Double2 mp_pair(int pair, double sin_theta_i, double cos_theta_i, Double2 sin_theta_o,
@@ -453,7 +516,7 @@ private:
         const Double2 add = pair_add_[pair];
         const auto asym = a > pair_asym_limit_[pair];
         const Double2 exponent = asym ? a + 1.0 / (16.0 * a) - b + add : add - b;
-        const Double2 root = {std::sqrt(kTwoPi * a[0]), std::sqrt(kTwoPi * a[1])};
+        const Double2 root = sqrt2(kTwoPi * a);
         const Double2 factor = asym ? 1.0 / root : i0 * pair_mul_[pair];
         return exp_float_accuracy(exponent) * factor;
     }
