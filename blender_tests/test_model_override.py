@@ -42,6 +42,22 @@ out = {"none": [p.name for p in hair.hairbsdf.params]}
 # the menu: the zoo's tables' names and titles between None and Plugin
 out["menu"] = [list(i[:2]) for i in mo.OVERRIDES]
 out["zoo"] = [list(m[:2]) for m in hairbsdf.zoo.zoo_models()]
+# the harness's principled_inputs: Roughness from a Math node on constants (0.2 x 1.5) is the scene
+# loader's folded number; Melanin from Hair Info > Intercept stays a register
+comp = bpy.data.materials.new("Computed"); comp.use_nodes = True
+cnt = comp.node_tree
+for n in list(cnt.nodes): cnt.nodes.remove(n)
+cout = cnt.nodes.new("ShaderNodeOutputMaterial")
+cph = cnt.nodes.new("ShaderNodeBsdfHairPrincipled"); cph.parametrization = "MELANIN"
+if hasattr(cph, "model"): cph.model = "CHIANG"
+cm = cnt.nodes.new("ShaderNodeMath"); cm.operation = "MULTIPLY"
+cm.inputs[0].default_value = 0.2; cm.inputs[1].default_value = 1.5
+cnt.links.new(cm.outputs[0], fg.node_input(cph, "Roughness"))
+cinfo = cnt.nodes.new("ShaderNodeHairInfo")
+cnt.links.new(cinfo.outputs["Intercept"], fg.node_input(cph, "Melanin"))
+cnt.links.new(cph.outputs[0], cout.inputs["Surface"])
+out["computed_inputs"] = mo.principled_inputs(comp)
+out["plain_inputs"] = mo.principled_inputs(hair)
 
 def closures(name):
     desc, rep = export_scene(bpy.context.evaluated_depsgraph_get(), render=True)
@@ -93,6 +109,12 @@ def test_override_exports_and_renders(run_blender, blender_kind, renderer_availa
     need_renderer(blender_kind, renderer_available)
     r = run_blender(blender_kind, OVERRIDE_SCENE, args={"kk": str(kk_plugin)}).result
     assert r["none"] == []
+    computed, plain = r["computed_inputs"], r["plain_inputs"]
+    assert computed["model"] == "CHIANG" and computed["parametrization"] == "MELANIN"
+    assert computed["roughness"] == pytest.approx(0.3, rel=1e-6)  # folded by the loader (folded_material)
+    assert set(computed["melanin"]) == {"register"} and computed["random"] is None
+    assert set(computed) == set(plain)
+    assert plain["melanin"] == pytest.approx(0.5) and plain["roughness"] == pytest.approx(0.3)
     assert r["menu"] == [["NONE", "None"], *r["zoo"], ["plugin", "Plugin"]]
     assert [m[0] for m in r["zoo"]] == ["kajiya_kay", "epic", "scheuermann", "marschner", "deon", "yan_fur"]
     # the items are the schema, at its defaults

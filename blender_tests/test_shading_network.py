@@ -2,7 +2,8 @@
 shading VM, against Blender and Cycles.
 
 * test_compiler_*: node trees built with bpy are compiled; constant networks give registers
-  whose values are the same at every hit (the scene loader folds them), hit-dependent ones a
+  whose values are the same at every hit (the scene loader folds them; so do Mix Shader factors,
+  as closure weights, and the world's Strength), hit-dependent ones a
   program whose evaluation (hairbsdf._render.eval_program) is checked against formulas written
   here from Blender's node definitions, and unsupported nodes are warned by name with the socket value used.
 * test_emission_networks_match_cycles_per_pixel: the strongest check. Straight strands whose
@@ -106,12 +107,44 @@ for blend in blends:
     nt.links.new(info.outputs["Intercept"], sock(mix.inputs, "Factor_Float"))
     nt.links.new(sock(mix.outputs, "Result_Color"), e.inputs["Color"])
 
+# 5. closure weights: Mix Shader(Fac = Intercept) of a Diffuse and Mix Shader(Fac = 0.25 x 2, a Math node
+#    on constants) of Principled Hair and Emission: every weight a register, none warned
+m5, nt, h = new_mat("MixWeights")
+out = [n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial"][0]
+d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+e = nt.nodes.new("ShaderNodeEmission")
+inner = nt.nodes.new("ShaderNodeMixShader")
+fm = nt.nodes.new("ShaderNodeMath"); fm.operation = "MULTIPLY"
+fm.inputs[0].default_value = 0.25; fm.inputs[1].default_value = 2.0
+nt.links.new(fm.outputs[0], inner.inputs["Fac"])
+nt.links.new(h.outputs[0], inner.inputs[1]); nt.links.new(e.outputs[0], inner.inputs[2])
+outer = nt.nodes.new("ShaderNodeMixShader")
+info = nt.nodes.new("ShaderNodeHairInfo")
+nt.links.new(info.outputs["Intercept"], outer.inputs["Fac"])
+nt.links.new(d.outputs[0], outer.inputs[1]); nt.links.new(inner.outputs[0], outer.inputs[2])
+nt.links.new(outer.outputs[0], out.inputs["Surface"])
+
+# 6. the world: Background Strength = 0.75 x 2 (Math), Color (0.2, 0.4, 0.6): a register of the
+#    world's program
+from hairbsdf.blender.export_world import export_world
+w = bpy.data.worlds.new("WProgram"); bpy.context.scene.world = w; w.use_nodes = True
+wnt = w.node_tree
+bg = [n for n in wnt.nodes if n.bl_idname == "ShaderNodeBackground"][0]
+bg.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
+ws = wnt.nodes.new("ShaderNodeMath"); ws.operation = "MULTIPLY"
+ws.inputs[0].default_value = 0.75; ws.inputs[1].default_value = 2.0
+wnt.links.new(ws.outputs[0], bg.inputs["Strength"])
+wrep = Report()
+world = export_world(bpy.context.scene, wrep)
+wp = world["program"]
+world_out = {"color": world["color"], "registers": _render.eval_program(wp)[0].tolist(), "warnings": wrep.warnings}
+
 rep = Report()
 table = MaterialTable(rep)
 res = {}
 x = np.linspace(-0.25, 1.25, 13).astype(np.float32)   # intercept values, beyond 0..1 on purpose
 rnd = np.linspace(0.0, 1.0, 13).astype(np.float32)
-for mat in [m1, m2, m3] + [bpy.data.materials["Blend_" + b] for b in blends]:
+for mat in [m1, m2, m3, m5] + [bpy.data.materials["Blend_" + b] for b in blends]:
     d = table.materials[table.index(mat)]
     entry = {"closures": d["closures"], "program": None, "eval": None}
     if "program" in d:
@@ -120,7 +153,7 @@ for mat in [m1, m2, m3] + [bpy.data.materials["Blend_" + b] for b in blends]:
                             "registers": int(p["registers"])}
         entry["eval"] = _render.eval_program(p, rnd, x, 1.5, 1.0).tolist()
     res[mat.name] = entry
-emit({"version": list(bpy.app.version), "materials": res, "warnings": rep.warnings,
+emit({"version": list(bpy.app.version), "materials": res, "warnings": rep.warnings, "world": world_out,
       "x": x.tolist(), "random": rnd.tolist(), "needs": [list(n[0:1]) + [sorted(n[1])] for n in table.needs]})
 '''
 
@@ -232,6 +265,22 @@ def test_compiler_folds_evaluates_and_warns(run_blender, engine_kind, renderer_a
                                    err_msg=blend)
     needs = r["needs"]
     assert [True, []] in needs  # some material reads the intercept, none an attribute
+
+    # 5. closure weights from Mix Shader factors: registers, (1 - t) for the Diffuse and t x (1 - 0.5),
+    #    t x 0.5 for the hair and the emission, t = Intercept clamped (the Mix Shader's clamp)
+    mw = mats["MixWeights"]
+    assert [c["type"] for c in mw["closures"]] == ["diffuse", "principled_hair", "emission"]
+    regs = np.asarray(mw["eval"])
+    t = np.clip(x, 0, 1)[:, None]
+    for c, want in zip(mw["closures"], (1 - t, t * 0.5, t * 0.5)):
+        k = _register(c["weight"])
+        np.testing.assert_allclose(regs[:, k:k + 3], np.repeat(want, 3, axis=1), rtol=1e-6, atol=1e-7)
+    assert "MixWeights" not in warnings
+    # 6. the world's colour: a register of its program, (0.2, 0.4, 0.6) x 1.5
+    world = r["world"]
+    k = _register(world["color"])
+    np.testing.assert_allclose(world["registers"][k:k + 3], [0.3, 0.6, 0.9], rtol=1e-6)
+    assert not world["warnings"], world["warnings"]
 
 
 # ---------------------------------------------------------------------------- per pixel
@@ -389,6 +438,34 @@ nt.links.new(sock(md.outputs, "Result_Color"), sock(ml.inputs, "A_Color"))
 nt.links.new(sock(ml.outputs, "Result_Color"), e.inputs["Color"])
 networks.append(m)
 
+# g. closure weights per hit: Mix Shader(Fac = Map Range(Intercept) x Random) of the emission
+#    above (a ColorRamp on Intercept) and a Mix Shader (Fac = 0.3 x 2 from a Math node on constants:
+#    folded by the loader) of a green and a blue Emission of strength 1.5
+m, nt, e = emission_material("MixShaderPerHit")
+out_node = [n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial"][0]
+info = nt.nodes.new("ShaderNodeHairInfo")
+rp = ramp_node(nt, "LINEAR", [(0.0, (0.9, 0.2, 0.1)), (1.0, (0.2, 0.3, 0.8))])
+nt.links.new(info.outputs["Intercept"], rp.inputs["Fac"]); nt.links.new(rp.outputs["Color"], e.inputs["Color"])
+green = nt.nodes.new("ShaderNodeEmission"); green.inputs["Color"].default_value = (0.1, 0.8, 0.2, 1.0)
+blue = nt.nodes.new("ShaderNodeEmission"); blue.inputs["Color"].default_value = (0.1, 0.2, 0.9, 1.0)
+green.inputs["Strength"].default_value = blue.inputs["Strength"].default_value = 1.5
+inner = nt.nodes.new("ShaderNodeMixShader")
+fm = nt.nodes.new("ShaderNodeMath"); fm.operation = "MULTIPLY"
+fm.inputs[0].default_value = 0.3; fm.inputs[1].default_value = 2.0
+nt.links.new(fm.outputs[0], inner.inputs["Fac"])
+nt.links.new(green.outputs[0], inner.inputs[1]); nt.links.new(blue.outputs[0], inner.inputs[2])
+outer = nt.nodes.new("ShaderNodeMixShader")
+mr = nt.nodes.new("ShaderNodeMapRange"); mr.inputs["From Min"].default_value = 0.1
+mr.inputs["From Max"].default_value = 0.9; mr.clamp = False  # the Mix Shader clamps the Fac
+nt.links.new(info.outputs["Intercept"], mr.inputs["Value"])
+fr = nt.nodes.new("ShaderNodeMath"); fr.operation = "MULTIPLY_ADD"
+fr.inputs[2].default_value = 0.2
+nt.links.new(mr.outputs["Result"], fr.inputs[0]); nt.links.new(info.outputs["Random"], fr.inputs[1])
+nt.links.new(fr.outputs[0], outer.inputs["Fac"])
+nt.links.new(e.outputs[0], outer.inputs[1]); nt.links.new(inner.outputs[0], outer.inputs[2])
+nt.links.new(outer.outputs[0], out_node.inputs["Surface"])
+networks.append(m)
+
 # Strands: per material a Curves object with 3 straight horizontal strands (different Random),
 # 7 keys from x = -0.9 to 0.9, radius 0.02, stacked in z.
 rows = []
@@ -396,7 +473,7 @@ z = 0.9
 for m in networks:
     lines = [[(-0.9 + 1.8 * i / 6, 0.0, z - 0.09 * k) for i in range(7)] for k in range(3)]
     lib.curves_from_polylines(scene, m.name, lines, 0.02, m)
-    z -= 0.3
+    z -= 0.25
 n_attr = 0
 if V >= (4, 0, 0):
     # f. attributes (4.x: Curves.add_curves): a point-domain colour and a curve-domain float
@@ -441,7 +518,7 @@ emit({"version": bpy.app.version_string, "covered": int(covered.sum()),
 
 def test_emission_networks_match_cycles_per_pixel(run_blender, engine_kind, renderer_available):
     need_renderer(engine_kind, renderer_available)
-    r = run_blender(engine_kind, EMISSION, args={"w": 240, "h": 200}).result
+    r = run_blender(engine_kind, EMISSION, args={"w": 240, "h": 240}).result
     record(f"shading_network_emission_{ENGINE_KINDS[engine_kind]}", r)
     summary = (f"{r['version']}: {r['covered']} covered pixels, median {r['median']:.1e} p99 {r['p99']:.1e} "
                f"max {r['max']:.1e}, mean Cycles {r['cycles_mean']:.5f} ours {r['ours_mean']:.5f}, "

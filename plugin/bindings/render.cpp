@@ -81,12 +81,12 @@ void copy_values(const py::dict& d, const char* name, std::vector<T>& dst) {
 
 py::dict dict_at(const py::dict& d, const char* name) { return py::reinterpret_borrow<py::dict>(d[name]); }
 
-void read_environment(const py::dict& t, EnvironmentDesc& env) {
+void read_environment(const py::dict& t, EnvironmentDesc& env, int32_t& weight_register) {
     const auto px = checked_array<float>(t, "pixels");
     env.height = int(px.shape(0));
     env.width = int(px.shape(1));
     env.pixels.assign(px.data(), px.data() + px.size());
-    bindings::read_fields("world.texture", t, env);
+    bindings::read_fields("world.texture", t, env, [&](int, int reg) { weight_register = reg; });
 }
 
 void read_curves(const py::dict& scene, SceneDesc& out) {
@@ -135,11 +135,11 @@ void read_images(const py::dict& scene, SceneDesc& out) {
         out.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
 }
 
-ShadingProgram read_program(const py::dict& d) {
+ShadingProgram read_program(const py::dict& d, const std::string& path = "materials[].program") {
     ShadingProgram p;
     copy_values(d, "code", p.code);
     copy_values(d, "constants", p.constants);
-    bindings::read_fields("materials[].program", d, p);
+    bindings::read_fields(path, d, p);
     return p;
 }
 
@@ -188,21 +188,23 @@ ClosureDesc read_closure(const py::dict& c, const std::string& key) {
     return cd;
 }
 
+MaterialDesc read_material(const py::dict& m, const std::string& key) {
+    MaterialDesc md;
+    bindings::read_fields("materials[]", m, md);
+    if (m.contains("program")) md.program = read_program(dict_at(m, "program"));
+    size_t j = 0;
+    for (py::handle ch : py::reinterpret_borrow<py::list>(m["closures"]))
+        md.closures.push_back(
+            read_closure(py::reinterpret_borrow<py::dict>(ch), key + "['closures'][" + std::to_string(j++) + "]"));
+    return md;
+}
+
 void read_materials(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("materials")) return;
     size_t i = 0;
-    for (py::handle mh : py::reinterpret_borrow<py::list>(scene["materials"])) {
-        const std::string key = "scene['materials'][" + std::to_string(i++) + "]";
-        const py::dict m = py::reinterpret_borrow<py::dict>(mh);
-        MaterialDesc md;
-        bindings::read_fields("materials[]", m, md);
-        if (m.contains("program")) md.program = read_program(dict_at(m, "program"));
-        size_t j = 0;
-        for (py::handle ch : py::reinterpret_borrow<py::list>(m["closures"]))
-            md.closures.push_back(read_closure(py::reinterpret_borrow<py::dict>(ch),
-                                               key + "['closures'][" + std::to_string(j++) + "]"));
-        out.materials.push_back(std::move(md));
-    }
+    for (py::handle mh : py::reinterpret_borrow<py::list>(scene["materials"]))
+        out.materials.push_back(read_material(py::reinterpret_borrow<py::dict>(mh),
+                                              "scene['materials'][" + std::to_string(i++) + "]"));
 }
 
 void read_camera(const py::dict& scene, SceneDesc& out) {
@@ -265,8 +267,10 @@ SceneDesc scene_from_dict(py::handle scene_dict) {
     read_lights(scene, out);
     if (scene.contains("world")) {
         const py::dict world = dict_at(scene, "world");
-        bindings::read_fields("world", world, out);
-        if (world.contains("texture")) read_environment(dict_at(world, "texture"), out.world_texture);
+        bindings::read_fields("world", world, out, [&](int, int reg) { out.world_color_register = reg; });
+        if (world.contains("program")) out.world_program = read_program(dict_at(world, "program"), "world.program");
+        if (world.contains("texture"))
+            read_environment(dict_at(world, "texture"), out.world_texture, out.world_texture_weight_register);
     }
     read_integrator(scene, out);
     return out;
@@ -424,6 +428,61 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
     return out;
 }
 
+// The keys under `path` of a folded closure (or its Principled Hair inputs, `source`): the bound
+// fields as numbers, and {"register": k} for an input still linked to the folded program.
+py::dict folded_keys(const std::string& path, const std::string& type, std::type_index owner, const void* source,
+                     const std::vector<ClosureDesc::Link>& links) {
+    py::dict out = bindings::fields_as_python(path, type, owner, source);
+    for (const bindings::SceneKey* k : bindings::rows_under(path, type))
+        for (const ClosureDesc::Link& l : links)
+            if (k->register_link && k->link_input == int(l.input) && k->field && k->field.owner == owner) {
+                py::dict reg;
+                reg["register"] = l.reg;
+                const std::string name = std::string(k->path).substr(path.size() + 1);
+                out[name.c_str()] = reg;
+            }
+    return out;
+}
+
+// folded_material(material, attribute_count=0, images=None) -> {"closures", "registers", "warnings"}:
+// one exported material as the scene loader makes it (repair_programs: its program checked and
+// folded, closures of weight 0 dropped). Each closure holds its keys as numbers; an input that
+// still depends on the hit is {"register": k} of the folded program (`registers` slots, 0: none);
+// Principled Hair's `random` is None where it is the curve's.
+py::dict py_folded_material(py::handle material, int attribute_count, py::handle images) {
+    if (attribute_count < 0) throw py::value_error("attribute_count: must be >= 0, got " + std::to_string(attribute_count));
+    const py::dict checked = bindings::check_value("materials[]", material, "material");
+    SceneDesc scene;
+    scene.materials.push_back(read_material(checked, "material"));
+    if (!images.is_none())
+        for (py::handle h : bindings::check_value("images", images, "images"))
+            scene.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
+    scene.curves.attributes.resize(size_t(attribute_count));
+    std::vector<std::string> warnings;
+    repair_programs(scene, warnings);
+    const MaterialDesc& md = scene.materials[0];
+    py::list closures;
+    for (const ClosureDesc& c : md.closures) {
+        const std::string closure_path = "materials[].closures[]";
+        const std::string type = py::str(bindings::fields_as_python(closure_path, "", typeid(ClosureDesc), &c)["type"]);
+        py::dict d = folded_keys(closure_path, type, typeid(ClosureDesc), &c, c.links);
+        if (c.type == ClosureDesc::Type::PrincipledHair) {
+            py::dict inputs =
+                folded_keys(closure_path + ".inputs", "", typeid(PrincipledHairInputs), &c.hair, c.links);
+            if (c.random_from_curve) inputs["random"] = py::none();
+            d["inputs"] = inputs;
+        }
+        closures.append(d);
+    }
+    py::dict out;
+    out["closures"] = closures;
+    out["registers"] = md.program.register_count;
+    py::list w;
+    for (const std::string& s : warnings) w.append(s);
+    out["warnings"] = w;
+    return out;
+}
+
 // eval_hit_bsdf(scene, material, wo, wi, h, normal, random, seed, blur) -> (value (N, 3), pdf (N,),
 // lobes (N, 6, 3)): the engine's BSDF at N hits on a fibre along +x (the fibre frame of the Python
 // API), set up and evaluated by the integrator's own code (render::Bsdf). Row i seeds a stochastic
@@ -504,6 +563,12 @@ PYBIND11_MODULE(_render, m) {
           "Runs a material's shading program (docs/shading_vm.md) for M hit contexts (numbers or (M,) arrays; "
           "attributes (M, A, 4) RGBA; images: the scene's `images` list). Returns the registers, "
           "(M, program['registers']) float32.");
+    m.def("folded_material", &py_folded_material, py::arg("material"), py::arg("attribute_count") = 0,
+          py::arg("images") = py::none(),
+          "One exported material (docs/scene_desc.md `materials[]`) as the scene loader folds it: "
+          "{'closures': [closure keys as numbers, {'register': k} where an input still depends on the hit], "
+          "'registers': the folded program's size (0: none), 'warnings': [...]}. attribute_count: the curve "
+          "attributes its program may read; images: the scene's `images`.");
     m.def("shading_vm_instruction_set", &py_shading_vm_instruction_set,
           "The shading VM's opcodes, their argument counts and its enums under Blender's identifiers "
           "(render/shading_vm.h); the exporter's compiler derives its numbers from this.");

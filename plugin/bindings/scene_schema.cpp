@@ -96,6 +96,25 @@ std::string text_of(const SceneKey& k, E value) {
     return enum_name(k, long(value));
 }
 
+py::object value_of(const SceneKey&, double x) { return py::float_(x); }
+py::object value_of(const SceneKey&, int x) { return py::int_(x); }
+py::object value_of(const SceneKey&, uint32_t x) { return py::int_(x); }
+py::object value_of(const SceneKey& k, bool b) {
+    return k.kind == K::Enum ? py::object(py::str(enum_name(k, long(b)))) : py::object(py::bool_(b));
+}
+py::object value_of(const SceneKey&, const std::string& s) { return py::str(s); }
+py::object value_of(const SceneKey&, const RGB& c) { return py::make_tuple(c.r, c.g, c.b); }
+template <size_t N>
+py::object value_of(const SceneKey&, const std::array<double, N>& m) {
+    py::tuple t(N);
+    for (size_t i = 0; i < N; ++i) t[i] = py::float_(m[i]);
+    return std::move(t);
+}
+template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+py::object value_of(const SceneKey& k, E value) {
+    return py::str(enum_name(k, long(value)));
+}
+
 // Fluent rows for the table below.
 struct Row {
     SceneKey k;
@@ -133,6 +152,9 @@ struct Row {
         k.field.owner = typeid(S);
         k.field.assign = [get](const SceneKey& row, void* owner, py::handle v) {
             assign(row, get(*static_cast<S*>(owner)), v);
+        };
+        k.field.value = [get](const SceneKey& row, const void* owner) {
+            return value_of(row, get(*static_cast<S*>(const_cast<void*>(owner))));
         };
         k.field.default_text = [get](const SceneKey& row) {
             S initial{};
@@ -227,7 +249,8 @@ std::vector<SceneKey> make_schema() {
                                      {"cycles_hair", Closure::Type::CyclesHair},
                                      {"hair_model", Closure::Type::Model}})
             .required().field(&Closure::type),
-        Row("materials[].closures[].weight", K::Vector, "RGB weight").columns(3).field(&Closure::weight),
+        Row("materials[].closures[].weight", K::Vector, "RGB weight (Mix Shader factors)").columns(3)
+            .linkable(In::Weight).field(&Closure::weight),
         Row("materials[].closures[].model", K::Enum, "Principled Hair's model")
             .choices<Closure::HairModel>({{"CHIANG", Closure::HairModel::Chiang}, {"HUANG", Closure::HairModel::Huang}})
             .only(kHairTypes).field(&Closure::hair_model),
@@ -295,13 +318,13 @@ std::vector<SceneKey> make_schema() {
             .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
             .only("cycles_hair").field(&Closure::transmission),
         Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3)
-            .only("cycles_hair").field(&Closure::color),
+            .only("cycles_hair").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians")
-            .only("cycles_hair").field(&Closure::offset),
+            .only("cycles_hair").linkable(In::Offset).field(&Closure::offset),
         Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .field(&Closure::roughness_u),
+            .linkable(In::RoughnessU).field(&Closure::roughness_u),
         Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .field(&Closure::roughness_v),
+            .linkable(In::RoughnessV).field(&Closure::roughness_v),
         Row("materials[].closures[].color", K::Vector, "the diffuse / emission colour").columns(3)
             .only("diffuse emission").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
@@ -371,14 +394,19 @@ std::vector<SceneKey> make_schema() {
 
         Row("world", K::Dict, "the background; absent: black"),
         Row("world.color", K::Vector, "uniform background radiance (colour x strength)").columns(3)
-            .field(&R::SceneDesc::world),
+            .linkable(In::Color).field(&R::SceneDesc::world),
+        Row("world.program", K::Dict, "nodes computing the world's inputs, run once (docs/shading_vm.md)"),
+        Row("world.program.code", K::Array, "as a material's program").array("int32", 0).required(),
+        Row("world.program.constants", K::Array, "as a material's program").array("float32", 0).required(),
+        Row("world.program.registers", K::Int, "as a material's program").range(0, 1 << 20).required()
+            .field(&R::ShadingProgram::register_count),
         Row("world.mis", K::Bool, "World > Settings > Sampling").field(&R::SceneDesc::world_mis),
         Row("world.map_resolution", K::Int, "the light tree's importance map, res x res/2; 0: automatic")
             .range(0, 65536).field(&R::SceneDesc::world_map_resolution),
         Row("world.texture", K::Dict, "one equirectangular Environment Texture, added to the colour"),
         Row("world.texture.pixels", K::Image, "scene-linear RGB, row 0 the zenith").array("float32", 3).required(),
         Row("world.texture.weight", K::Vector, "Background strength x Mix / Add weights").columns(3).required()
-            .field(&R::EnvironmentDesc::weight),
+            .linkable(In::Weight).field(&R::EnvironmentDesc::weight),
         Row("world.texture.interpolation", K::Enum, "the lookup").choices<bool>({{"LINEAR", false}, {"CLOSEST", true}})
             .field(&R::EnvironmentDesc::closest),
         Row("world.texture.srgb_encoded", K::Bool, "pixels are sRGB-encoded, decoded after the lookup")
@@ -772,7 +800,7 @@ private:
     void check_rules(const std::string& path, py::dict& out, const std::string& key) {
         if (path == "curves") check_curves(out, key);
         else if (path == "meshes") check_meshes(out, key);
-        else if (path == "materials[].program") check_program(out, key);
+        else if (path == "materials[].program" || path == "world.program") check_program(out, key);
         else if (path == "materials[].closures[]") check_hair_model(out, key);
     }
 
@@ -934,6 +962,13 @@ void read_fields(const std::string& path, const py::dict& checked, std::type_ind
             k->field.assign(*k, target, v);
         }
     }
+}
+
+py::dict fields_as_python(const std::string& path, const std::string& type, std::type_index owner, const void* source) {
+    py::dict out;
+    for (const SceneKey* k : rows_under(path, type))
+        if (k->field && k->field.owner == owner) out[leaf(k->path).c_str()] = k->field.value(*k, source);
+    return out;
 }
 
 py::object check_value(const std::string& path, py::handle value, const std::string& key) {

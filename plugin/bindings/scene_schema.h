@@ -27,6 +27,8 @@ struct SceneField {
     std::type_index owner = typeid(void);  // the struct that holds the field
     // Copies a value check_scene accepted into the field of *owner (an S*).
     std::function<void(const SceneKey&, void* owner, pybind11::handle value)> assign;
+    // The field's value in *owner (an S*) as check_scene writes it (a number, a tuple, an enum's name).
+    std::function<pybind11::object(const SceneKey&, const void* owner)> value;
     // The field's initial value in a default-constructed S, as the docs write it.
     std::function<std::string(const SceneKey&)> default_text;
     explicit operator bool() const { return bool(assign); }
@@ -111,6 +113,11 @@ void read_fields(const std::string& path, const pybind11::dict& checked, S& targ
                  const std::function<void(int input, int reg)>& link = {}) {
     read_fields(path, checked, typeid(S), &target, link);
 }
+
+// The bound keys of the dict at `path` for this "type", read back from `source` (an `owner`): the
+// inverse of read_fields, for what the loader made of a scene (hairbsdf._render.folded_material).
+pybind11::dict fields_as_python(const std::string& path, const std::string& type, std::type_index owner,
+                                const void* source);
 
 // The table as Python data: a list of dicts, one per row (keys as SceneKey's fields).
 pybind11::list scene_schema_as_python();

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -71,51 +72,143 @@ void repair_closures(SceneDesc& s, std::vector<std::string>& warnings) {
 
 int link_width(const ClosureDesc::Link& l) {
     using In = ClosureDesc::Input;
-    return (l.input == In::Color || l.input == In::Tint || l.input == In::AbsorptionCoefficient) ? 3 : 1;
+    return (l.input == In::Color || l.input == In::Tint || l.input == In::AbsorptionCoefficient ||
+            l.input == In::Weight)
+               ? 3
+               : 1;
+}
+
+// The inputs a closure reads once per render, not per hit: the legacy Hair BSDF's (its model is
+// built once). A link on one must fold; a hit-dependent one takes its value at the zero hit.
+bool input_varies_per_hit(const ClosureDesc& c, const ClosureDesc::Link& l) {
+    return c.type != ClosureDesc::Type::CyclesHair || l.input == ClosureDesc::Input::Weight;
 }
 
 // A closure input whose register does not depend on the hit takes its value, as a hit would
 // read it (shading.h's register_value: a non-finite value reads 0).
 void set_folded_input(ClosureDesc& c, const ClosureDesc::Link& l, const float* values) {
-    if (c.type == ClosureDesc::Type::PrincipledHair)
+    using In = ClosureDesc::Input;
+    if (l.input == In::Weight)
+        c.weight = register_rgb(values, l.reg);
+    else if (c.type == ClosureDesc::Type::PrincipledHair)
         apply_links({l}, values, c.hair, c.random_from_curve);
-    else if (l.input == ClosureDesc::Input::Color)
+    else if (l.input == In::Color)
         c.color = register_rgb(values, l.reg);
-    else if (l.input == ClosureDesc::Input::Strength)
+    else if (l.input == In::Strength)
         c.strength = register_value(values, l.reg);
+    else if (l.input == In::Offset)
+        c.offset = register_value(values, l.reg);
+    else if (l.input == In::RoughnessU)
+        c.roughness_u = register_value(values, l.reg);
+    else if (l.input == In::RoughnessV)
+        c.roughness_v = register_value(values, l.reg);
 }
+
+bool is_zero(const RGB& w) { return w.r == 0 && w.g == 0 && w.b == 0; }
+
+// A zero-hit context: Hair Info and attributes 0, the scene's images.
+struct ZeroHit {
+    std::vector<float> attributes;
+    ShadingHitContext ctx;
+    ZeroHit(int attribute_count, const std::vector<ShadingImage>& images)
+        : attributes(size_t(std::max(attribute_count, 1)) * 4, 0.0f) {
+        ctx.is_strand = 1.0f;
+        ctx.attributes = attributes.data();
+        ctx.attribute_count = attribute_count;
+        ctx.images = images.data();
+        ctx.image_count = int(images.size());
+    }
+};
 
 // Constant folding (docs/shading_vm.md), the one place it happens: the program runs once with a
 // zero hit; inputs that do not depend on the hit become constants, the program keeps the
 // instructions the others need, and a material left with none has no program (the renderer then
-// builds its closures once).
-void fold_material_program(MaterialDesc& m, const std::vector<ShadingImage>& images, int attribute_count) {
+// builds its closures once). A closure whose weight folds to 0 is dropped, as the exporter drops
+// one with a constant weight of 0.
+void fold_material_program(MaterialDesc& m, const std::vector<ShadingImage>& images, int attribute_count,
+                           std::vector<std::string>& warnings) {
     std::vector<std::pair<int32_t, int32_t>> outputs;
     for (const ClosureDesc& c : m.closures)
         for (const ClosureDesc::Link& l : c.links) outputs.push_back({l.reg, link_width(l)});
-    const std::vector<float> attributes(size_t(std::max(attribute_count, 1)) * 4, 0.0f);
-    ShadingHitContext zero_hit;
-    zero_hit.is_strand = 1.0f;
-    zero_hit.attributes = attributes.data();
-    zero_hit.attribute_count = attribute_count;
-    zero_hit.images = images.data();
-    zero_hit.image_count = int(images.size());
-    FoldedProgram folded = fold_program(m.program, zero_hit, outputs);
+    const ZeroHit zero_hit(attribute_count, images);
+    FoldedProgram folded = fold_program(m.program, zero_hit.ctx, outputs);
     if (!folded.folded) return;
+    std::vector<ClosureDesc> closures;
+    size_t fixed = 0;
     for (ClosureDesc& c : m.closures) {
         std::vector<ClosureDesc::Link> kept;
+        bool weight_folded = false;
         for (ClosureDesc::Link l : c.links) {
             const auto first = folded.dynamic.begin() + l.reg;
-            if (std::any_of(first, first + link_width(l), [](char d) { return d; })) {
+            const bool dynamic = std::any_of(first, first + link_width(l), [](char d) { return d; });
+            if (dynamic && input_varies_per_hit(c, l)) {
                 l.reg = folded.slot[size_t(l.reg)];
                 kept.push_back(l);
             } else {
+                fixed += dynamic;
                 set_folded_input(c, l, folded.values.data());
+                weight_folded |= l.input == ClosureDesc::Input::Weight;
             }
         }
         c.links = std::move(kept);
+        if (!(weight_folded && is_zero(c.weight))) closures.push_back(std::move(c));
     }
-    m.program = std::move(folded.program);
+    if (fixed)
+        warnings.push_back("materials: '" + m.name + "': " + plural(fixed, "legacy Hair BSDF input") +
+                           " depending on the hit read at a zero hit (they are read once per render)");
+    m.closures = std::move(closures);
+    bool any_link = false;
+    for (const ClosureDesc& c : m.closures) any_link |= !c.links.empty();
+    // The program keeps what the kept links read; with none left it has nothing to do.
+    m.program = any_link ? std::move(folded.program) : ShadingProgram{};
+}
+
+// The world's program (its colour and texture weight computed by nodes) runs once, at a zero hit;
+// the world has no attributes (they read 0) and no per-hit inputs.
+void fold_world_program(SceneDesc& s, const std::vector<ShadingImage>& images, std::vector<std::string>& warnings) {
+    if (s.world_program.empty() && s.world_color_register < 0 && s.world_texture_weight_register < 0) return;
+    std::vector<std::pair<int32_t, int32_t>> outputs;
+    std::string problem;
+    for (int32_t reg : {s.world_color_register, s.world_texture_weight_register})
+        if (reg >= 0) {
+            outputs.push_back({reg, 3});
+            if (reg + 3 > s.world_program.register_count)
+                problem = "an input names register " + std::to_string(reg) + " outside the program's " +
+                          std::to_string(s.world_program.register_count) + " registers";
+        }
+    try {
+        validate_program(s.world_program, std::numeric_limits<int>::max(), int(images.size()));
+    } catch (const std::invalid_argument& e) {
+        problem = e.what();
+    }
+    if (!problem.empty()) {
+        warnings.push_back("world: " + problem + "; the program is ignored (black)");
+        if (s.world_color_register >= 0) s.world = RGB(0.0);
+        if (s.world_texture_weight_register >= 0) s.world_texture.weight = RGB(0.0);
+    } else {
+        ShadingHitContext zero_hit;
+        zero_hit.is_strand = 1.0f;
+        zero_hit.images = images.data();
+        zero_hit.image_count = int(images.size());
+        const FoldedProgram folded = fold_program(s.world_program, zero_hit, outputs);
+        std::vector<float> values = folded.values;
+        if (!folded.folded) {  // not one the exporter writes: run it as it is
+            values.assign(size_t(s.world_program.register_count), 0.0f);
+            run_program(s.world_program, zero_hit, values.data());
+        } else {
+            for (const auto& [reg, width] : outputs)
+                if (std::any_of(folded.dynamic.begin() + reg, folded.dynamic.begin() + reg + width, [](char d) { return d; }))
+                    problem = "an input depends on the hit; its value at a zero hit is used";
+            if (!problem.empty()) warnings.push_back("world: " + problem);
+        }
+        if (s.world_color_register >= 0) s.world = register_rgb(values.data(), s.world_color_register);
+        if (s.world_texture_weight_register >= 0)
+            s.world_texture.weight = register_rgb(values.data(), s.world_texture_weight_register);
+    }
+    // A texture whose weight folds to 0 adds nothing (the exporter leaves out one of constant weight 0).
+    if (s.world_texture_weight_register >= 0 && is_zero(s.world_texture.weight)) s.world_texture = EnvironmentDesc{};
+    s.world_program = ShadingProgram{};
+    s.world_color_register = s.world_texture_weight_register = -1;
 }
 
 // Images: a bad size empties the image (it reads 0), NaN/Inf texels read 0.
@@ -476,9 +569,10 @@ void repair_programs(SceneDesc& s, std::vector<std::string>& warnings) {
             m.program = ShadingProgram{};
             for (ClosureDesc& c : m.closures) c.links.clear();
         } else if (!m.program.empty()) {
-            fold_material_program(m, images, attribute_count);
+            fold_material_program(m, images, attribute_count, warnings);
         }
     }
+    fold_world_program(s, images, warnings);
 }
 
 std::vector<std::string> repair_scene(SceneDesc& s) {

@@ -58,7 +58,10 @@ void apply_links(const std::vector<ClosureDesc::Link>& links, const float* r, Pr
             case In::Reflection: in.reflection = register_value(r, l.reg); break;
             case In::Transmission: in.transmission = register_value(r, l.reg); break;
             case In::SecondaryReflection: in.secondary_reflection = register_value(r, l.reg); break;
-            case In::Strength: break;
+            case In::Strength:
+            case In::Weight:
+            case In::RoughnessU:
+            case In::RoughnessV: break;
         }
     }
 }
@@ -67,10 +70,11 @@ RGB MaterialShader::emission(const float* registers) const {
     RGB e = emission_;
     if (!registers) return e;
     for (const EmissionClosure& l : linked_emission_) {
+        const RGB weight = l.weight_register >= 0 ? l.weight * register_rgb(registers, l.weight_register) : l.weight;
         const RGB color = l.color_register >= 0 ? register_rgb(registers, l.color_register) : l.model.color();
         const double strength =
             l.strength_register >= 0 ? register_value(registers, l.strength_register) : l.model.strength();
-        e += Emission(color, strength).radiance(l.weight);
+        e += Emission(color, strength).radiance(weight);
     }
     return e;
 }
@@ -80,6 +84,17 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
     : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler),
       huang_glass_albedo_table_(huang_glass_albedo_table) {
     const bool with_program = !desc.program.empty();
+    // The register of a closure's per-hit input (-1: none).
+    auto linked = [with_program](const ClosureDesc& c, ClosureDesc::Input input) {
+        if (with_program)
+            for (const ClosureDesc::Link& l : c.links)
+                if (l.input == input) return l.reg;
+        return int32_t(-1);
+    };
+    // Below Cycles' cutoff: left out, unless the weight is computed per hit (checked there).
+    auto negligible = [&](const ClosureDesc& c, const RGB& w) {
+        return linked(c, ClosureDesc::Input::Weight) < 0 && std::fabs(average(w)) < kClosureWeightCutoff;
+    };
     // The closures by kind, in the order the sum keeps them (the pick order: it changes the noise only).
     std::vector<MaterialClosure> hair, cycles_hair, diffuse, models;
     auto room = [&] {
@@ -88,9 +103,10 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
     for (const ClosureDesc& c : desc.closures) {
         switch (c.type) {
             case ClosureDesc::Type::PrincipledHair: {
-                if (std::fabs(average(c.weight)) < kClosureWeightCutoff) break;
+                if (negligible(c, c.weight)) break;
                 MaterialClosure h;
                 h.weight = c.weight;
+                h.weight_register = linked(c, ClosureDesc::Input::Weight);
                 h.hair = c.hair;
                 h.random_from_curve = c.random_from_curve;
                 if (with_program) h.links = c.links;
@@ -111,7 +127,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
             }
             case ClosureDesc::Type::CyclesHair: {
                 const RGB w = c.weight * c.color;  // Cycles: the node's Color is the closure weight
-                if (std::fabs(average(w)) < kClosureWeightCutoff) break;
+                if (negligible(c, w)) break;
                 CyclesHairParams p;
                 p.component = c.transmission ? CyclesHairComponent::Transmission : CyclesHairComponent::Reflection;
                 p.color = RGB(1.0);
@@ -120,6 +136,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 p.roughness_v = c.roughness_v;
                 MaterialClosure m;
                 m.weight = w;
+                m.weight_register = linked(c, ClosureDesc::Input::Weight);
                 m.model = std::make_shared<const HairModel>(std::in_place_type<CyclesHair>, p);
                 if (room()) cycles_hair.push_back(std::move(m));
                 break;
@@ -129,8 +146,9 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                 if (with_program)
                     for (const ClosureDesc::Link& l : c.links)
                         if (l.input == ClosureDesc::Input::Color) d.color_register = l.reg;
+                d.weight_register = linked(c, ClosureDesc::Input::Weight);
                 d.weight = d.color_register >= 0 ? c.weight : c.weight * c.color;
-                if (std::fabs(average(d.weight)) < kClosureWeightCutoff) break;
+                if (negligible(c, d.weight)) break;
                 d.model = std::make_shared<const HairModel>(std::in_place_type<DiffuseBsdf>);
                 if (room()) diffuse.push_back(std::move(d));
                 break;
@@ -141,18 +159,20 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
                     for (const ClosureDesc::Link& k : c.links) {
                         if (k.input == ClosureDesc::Input::Color) l.color_register = k.reg;
                         if (k.input == ClosureDesc::Input::Strength) l.strength_register = k.reg;
+                        if (k.input == ClosureDesc::Input::Weight) l.weight_register = k.reg;
                     }
-                if (l.color_register >= 0 || l.strength_register >= 0)
+                if (l.color_register >= 0 || l.strength_register >= 0 || l.weight_register >= 0)
                     linked_emission_.push_back(l);
                 else
                     emission_ += l.model.radiance(l.weight);
                 break;
             }
             case ClosureDesc::Type::Model: {  // render/model_closure.h
-                if (std::fabs(average(c.weight)) < kClosureWeightCutoff || !room()) break;
+                if (negligible(c, c.weight) || !room()) break;
                 const ModelClosure built = build_model_closure(c, "material '" + desc.name + "'");
                 MaterialClosure m;
                 m.weight = built.weight;
+                m.weight_register = linked(c, ClosureDesc::Input::Weight);
                 m.model = built.model;
                 models.push_back(std::move(m));
                 break;
@@ -179,7 +199,10 @@ void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, dou
     for (const MaterialShader::MaterialClosure& m : material.closures()) {
         const size_t slot = sum_.count;
         RGB weight = m.weight;
-        if (m.color_register >= 0) weight = g.registers ? m.weight * register_rgb(g.registers, m.color_register) : RGB(0.0);
+        if (m.weight_register >= 0) weight = g.registers ? weight * register_rgb(g.registers, m.weight_register) : RGB(0.0);
+        if (m.color_register >= 0) weight = g.registers ? weight * register_rgb(g.registers, m.color_register) : RGB(0.0);
+        // Cycles' bsdf_alloc leaves out a closure below its cutoff at the hit
+        if (m.weight_register >= 0 && std::fabs(average(weight)) < kClosureWeightCutoff) continue;
         const HairModel* model = m.model.get();
         if (!model) {  // Principled Hair with per-hit inputs
             PrincipledHairInputs in = m.hair;

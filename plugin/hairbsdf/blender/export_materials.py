@@ -6,7 +6,9 @@ Supported (everything else is reported with a warning naming the node and socket
   * Hair BSDF (Cycles' legacy node, both components; a linked Tangent is warned about and
     the curve tangent used);
   * Diffuse BSDF, Principled BSDF (rendered as a diffuse of its Base Color), Emission;
-  * Mix Shader with a constant Fac and Add Shader, folded into closure weights;
+  * Mix Shader and Add Shader, folded into closure weights: a Fac computed by nodes makes the
+    weight a register of the material's program (per hit where the Fac depends on the hit, as
+    Cycles mixes closures);
   * linked closure inputs: the node network feeding them is compiled into the material's
     shading program (shading_network.py, docs/shading_vm.md), which the scene loader folds
     where it does not depend on the hit; Hair Info > Random straight into the Principled Hair's
@@ -24,7 +26,7 @@ import functools
 import os
 
 from ._common import luminance_weights, blender_version, find_socket, rgb
-from .shading_network import AttributeTable, ShadingNetwork
+from .shading_network import AttributeTable, ShadingNetwork, Value
 
 GREY = (0.8, 0.8, 0.8)
 DEFAULT_MATERIAL_NAME = "__default__"
@@ -50,6 +52,11 @@ def _mul(w, f):
     return tuple(a * f for a in w)
 
 
+def _as_weight(weight):
+    """A closure's weight: a tuple, or the Value of the register computing it (resolved by finish)."""
+    return weight if isinstance(weight, Value) else tuple(weight)
+
+
 class MaterialTranslator:
     """Translates one node tree at a time, a material's (translate) or the world's
     (export_world.export_world): both walk their shaders with `walk`. Warnings go to `report`
@@ -61,6 +68,7 @@ class MaterialTranslator:
         self.attributes = attributes if attributes is not None else AttributeTable()
         self.network = None
         self.pending = []  # (container, key, Value, kind) resolved by network.finish()
+        self.per_hit_weights = True  # a Mix Shader Fac may depend on the hit (not for the world: no hit)
 
     def begin(self, owner: str) -> None:
         """Starts a node tree: warnings name `owner`, its values compile into a fresh network."""
@@ -96,8 +104,10 @@ class MaterialTranslator:
         self.pending.append((container, key, self.network.input(node, sock, kind), kind))
 
     def value(self, node, ident: str, kind: str, default=None):
-        """Input `ident` of `node` as a constant (closure weights, checks). A network that
-        depends on the hit is reported and the socket value is used."""
+        """Input `ident` of `node` for what is read once per render (the world's inputs, the legacy
+        Hair BSDF's): a number or tuple when it sits in the constants, else the Value that
+        instructions compute (the scene loader folds it). A network that depends on the hit is
+        reported and the socket value is used."""
         sock = find_socket(node.inputs, ident)
         if sock is None:
             return default
@@ -105,9 +115,19 @@ class MaterialTranslator:
         if self.network.is_dynamic(v):
             fallback = self._socket_default(sock, kind, default)
             self.warn(f"'{node.name}' > '{sock.name}' varies per hit, which hairbsdf supports only for closure "
-                      f"inputs; using the socket value {_fmt(fallback)}")
+                      f"inputs and Mix Shader factors; using the socket value {_fmt(fallback)}")
             return fallback
-        return self.network.constant_value(v)
+        constant = self.network.constant_of(v)
+        return v if constant is None else constant
+
+    def per_render(self, node, ident: str, kind: str, container: dict, key: str) -> None:
+        """`container[key]` from input `ident` of `node` (value): a computed one becomes a register
+        of the program (resolved in translate())."""
+        v = self.value(node, ident, kind)
+        if isinstance(v, Value):
+            self.pending.append((container, key, v, kind))
+        elif v is not None:
+            container[key] = v
 
     @staticmethod
     def _socket_default(sock, kind, default):
@@ -167,22 +187,18 @@ class MaterialTranslator:
             return out
         closures = []
         self.walk(src[0], src[1], (1.0, 1.0, 1.0), lambda node, weight: self._shader(node, weight, closures))
-        out["closures"] = [c for c in closures if max(c["weight"]) > 0.0 or min(c["weight"]) < 0.0]
+        # A closure of constant weight 0 is left out here; one of computed weight by the loader.
+        for c in closures:
+            if isinstance(c["weight"], Value):
+                self.pending.append((c, "weight", c["weight"], "color"))
+        out["closures"] = [c for c in closures if isinstance(c["weight"], Value) or max(c["weight"]) > 0.0
+                           or min(c["weight"]) < 0.0]
         kept = {id(c) for c in out["closures"]} | {id(c.get("inputs")) for c in out["closures"]}
         program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
         if program is not None:
             out["program"] = program
         if any(c.get("type") == "emission" for c in out["closures"]):
             out["emission_sampling"] = emission_sampling(material)
-        return out
-
-    def constant_inputs(self, inputs: dict) -> dict:
-        """`inputs` (a closure's, of the last translated material) with each register that does not
-        depend on the hit replaced by its value: for the harness's map_inputs, which reads numbers."""
-        out = dict(inputs)
-        for container, key, value, _ in self.pending:
-            if container is inputs and isinstance(out.get(key), dict) and not self.network.is_dynamic(value):
-                out[key] = self.network.constant_value(value)
         return out
 
     def program_needs(self) -> tuple:
@@ -193,8 +209,9 @@ class MaterialTranslator:
 
     def walk(self, node, out_socket, weight, visit, depth=0):
         """Walks the shader nodes feeding `out_socket` of `node`: muted nodes pass through, Mix
-        Shader (constant Fac) and Add Shader fold into weights, and every other node is handed to
-        `visit(node, weight)` (a material's closures, the world's backgrounds)."""
+        and Add Shader fold into weights, and every other node is handed to `visit(node, weight)`
+        (a material's closures, the world's backgrounds). A weight is a tuple, or a Value of the
+        network where a Mix Shader's Fac is computed by nodes (then every weight below it is)."""
         if depth > MAX_DEPTH:
             self.warn("shader graph too deep; truncated")
             return
@@ -209,13 +226,25 @@ class MaterialTranslator:
                     return
             return
         if t == "ShaderNodeMixShader":
-            fac = self.value(node, "Fac", "float", 0.5)
-            fac = min(max(fac, 0.0), 1.0)  # svm_node_mix_closure clamps
+            sock = find_socket(node.inputs, "Fac")
+            fac = self.network.input(node, sock, "float") if sock is not None else self.network.constant((0.5,))
+            if not self.per_hit_weights and self.network.is_dynamic(fac):
+                fac = self.network.constant((self.value(node, "Fac", "float", 0.5),))  # warned: the socket value
             shaders = [s for s in node.inputs if s.type == "SHADER"]
-            for sock, f in zip(shaders, (1.0 - fac, fac)):
+            constant = self.network.constant_of(fac)
+            if constant is not None and not isinstance(weight, Value):
+                constant = min(max(constant, 0.0), 1.0)  # svm_node_mix_closure clamps
+                for sock, f in zip(shaders, (1.0 - constant, constant)):
+                    src = self._link_source(sock)
+                    if src is not None and f > 0.0:
+                        self.walk(src[0], src[1], _mul(weight, f), visit, depth + 1)
+                return
+            # A computed Fac (per hit where it depends on the hit): the weights are registers.
+            weight = weight if isinstance(weight, Value) else self.network.constant(weight)
+            for sock, f in zip(shaders, self.network.mix_factors(fac)):
                 src = self._link_source(sock)
-                if src is not None and f > 0.0:
-                    self.walk(src[0], src[1], _mul(weight, f), visit, depth + 1)
+                if src is not None:
+                    self.walk(src[0], src[1], self.network.multiply(weight, f), visit, depth + 1)
             return
         if t == "ShaderNodeAddShader":
             for sock in (s for s in node.inputs if s.type == "SHADER"):
@@ -233,7 +262,10 @@ class MaterialTranslator:
             return
         if t == "ShaderNodeBsdfDiffuse":
             rough = self.value(node, "Roughness", "float", 0.0)
-            if rough > 0.0:
+            if isinstance(rough, Value):
+                self.warn(f"'{node.name}': Roughness is computed by nodes; Oren-Nayar roughness is not supported, "
+                          "rendered as Lambert")
+            elif rough > 0.0:
                 self.warn(f"'{node.name}': Oren-Nayar roughness {rough:g} is not supported; rendered as Lambert")
             closures.append(self._linked_diffuse(node, "Color", weight))
             return
@@ -283,11 +315,12 @@ class MaterialTranslator:
         if tangent is not None and tangent.is_linked:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
-        return {"type": "cycles_hair", "weight": tuple(weight), "component": node.component.upper(),
-                "color": self.value(node, "Color", "color", GREY),
-                "offset": self.value(node, "Offset", "float", 0.0),
-                "roughness_u": self.value(node, "RoughnessU", "float", 0.1),
-                "roughness_v": self.value(node, "RoughnessV", "float", 1.0)}
+        c = {"type": "cycles_hair", "weight": _as_weight(weight), "component": node.component.upper(),
+             "color": GREY, "offset": 0.0, "roughness_u": 0.1, "roughness_v": 1.0}
+        for ident, kind, key in (("Color", "color", "color"), ("Offset", "float", "offset"),
+                                 ("RoughnessU", "float", "roughness_u"), ("RoughnessV", "float", "roughness_v")):
+            self.per_render(node, ident, kind, c, key)
+        return c
 
 
 def emission_sampling(material) -> str:
@@ -305,7 +338,7 @@ def _label(node):
 
 
 def _diffuse(weight, color):
-    return {"type": "diffuse", "weight": tuple(weight), "color": tuple(color)}
+    return {"type": "diffuse", "weight": _as_weight(weight), "color": tuple(color)}
 
 
 def _fmt(v):
@@ -375,7 +408,7 @@ def override_closures(material, closures: list, warn) -> list:
             warn("hair model override 'plugin' has no plugin path; the Principled Hair closures are rendered")
             return closures
         model["path"] = path
-    return [dict(model, weight=tuple(c["weight"])) if c.get("type") == "principled_hair" else c for c in closures]
+    return [dict(model, weight=c["weight"]) if c.get("type") == "principled_hair" else c for c in closures]
 
 
 def override_params(settings) -> dict:

@@ -213,7 +213,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
             report.warn(f"the camera is inside {inside} hair strand(s); it sees their inner walls (3D curves "
                         "are open tubes and, as in Cycles 3.6+, not back-face culled)")
     integrator = export_integrator(scene, view_layer, render, settings, report)
-    world = export_world(scene, report)
+    world = export_world(scene, report, materials.attributes.images)
     desc = {
         "version": SCENE_DESC_VERSION,
         "curves": curves,

@@ -1,7 +1,10 @@
 """World export: a uniform background colour (Background/Emission colour x strength, Mix
 and Add Shader folded) plus at most one equirectangular Environment Texture feeding a
 Background / Emission Color (optionally through a Mapping node on Texture Coordinate >
-Generated); other nodes are reported and their socket values used."""
+Generated); other nodes are reported and their socket values used. Inputs computed by nodes
+(a Math node on the Strength, a Mix Shader's Fac) become registers of the world's program,
+which the scene loader runs once (docs/shading_vm.md); inputs that depend on the hit are
+reported and their socket values used."""
 
 from __future__ import annotations
 
@@ -10,12 +13,14 @@ import numpy as np
 from ._common import find_socket, mapping_matrix, rgb
 from .export_materials import MaterialTranslator
 from .images import read_image_rgb
+from .shading_network import AttributeTable, Value
 
 
-def export_world(scene, report) -> dict:
+def export_world(scene, report, images=None) -> dict:
     """The world of docs/scene_desc.md, walked by the materials' translator (MaterialTranslator.walk:
-    one walk of muted nodes, Mix and Add Shader for both). It has its own attribute and image
-    tables: the world is no shading program, and what its inputs read stays out of the scene's."""
+    one walk of muted nodes, Mix and Add Shader for both). It has its own attribute table (the
+    world's inputs never read attributes per hit); `images` is the scene's image table
+    (shading_network.ImageTable) that its program's Image Texture nodes index."""
     world = scene.world
     if world is None:
         return {"color": (0.0, 0.0, 0.0)}
@@ -28,13 +33,16 @@ def export_world(scene, report) -> dict:
         out = None
     if out is None:
         return {"color": (0.0, 0.0, 0.0)}
-    tr = MaterialTranslator(report)
+    tr = MaterialTranslator(report, AttributeTable(images))
     tr.begin(f"World '{world.name}'")
+    tr.per_hit_weights = False
+    net = tr.network
     vol = find_socket(out.inputs, "Volume")
     if vol is not None and tr._link_source(vol) is not None:
         tr.warn("the Volume output is not supported and is ignored")
     src = tr._link_source(find_socket(out.inputs, "Surface"))
     color = [0.0, 0.0, 0.0]
+    computed = []  # Values of the colour terms that nodes compute (summed by the program)
     texture = {}
 
     def background(node, weight):
@@ -43,13 +51,19 @@ def export_world(scene, report) -> dict:
             s = tr.value(node, "Strength", "float", 1.0)
             linked = tr._link_source(find_socket(node.inputs, "Color"))
             if linked is not None and linked[0].bl_idname == "ShaderNodeTexEnvironment" and not linked[0].mute:
-                tex_weight = tuple(w * s for w in weight)
+                if isinstance(weight, Value) or isinstance(s, Value):
+                    tex_weight = net.multiply(_value(net, weight), _value(net, s))
+                else:
+                    tex_weight = tuple(w * s for w in weight)
                 if texture:
                     tr.warn(f"only one Environment Texture is supported; '{linked[0].name}' is ignored")
-                elif any(w != 0 for w in tex_weight):
+                elif isinstance(tex_weight, Value) or any(w != 0 for w in tex_weight):
                     texture.update(_environment_texture(tr, linked[0], linked[1], tex_weight))
                 return
             c = tr.value(node, "Color", "color", (0.05, 0.05, 0.05))
+            if any(isinstance(v, Value) for v in (weight, c, s)):
+                computed.append(net.multiply(net.multiply(_value(net, weight), _value(net, c)), _value(net, s)))
+                return
             for k in range(3):
                 color[k] += weight[k] * c[k] * s
         else:
@@ -59,9 +73,27 @@ def export_world(scene, report) -> dict:
         tr.walk(src[0], src[1], (1.0, 1.0, 1.0), background)
     result = {"color": tuple(float(c) for c in color), "mis": world_mis(world),
               "map_resolution": world_map_resolution(world)}
+    pending = []
+    if computed:
+        total = net.constant(result["color"])
+        for term in computed:
+            total = net.add(total, term)
+        pending.append((result, "color", total, "color"))
     if texture.get("pixels") is not None:
         result["texture"] = texture
+        if isinstance(texture["weight"], Value):
+            pending.append((texture, "weight", texture["weight"], "color"))
+    program = net.finish(pending) if pending else None
+    if program is not None:
+        result["program"] = program
     return result
+
+
+def _value(net, v):
+    """A weight, strength or colour as a Value of the world's network."""
+    if isinstance(v, Value):
+        return v
+    return net.constant(v if isinstance(v, tuple) else (v,))
 
 
 def world_mis(world) -> bool:
@@ -105,7 +137,8 @@ def _environment_texture(tr, node, output, weight) -> dict:
     pixels, srgb_encoded = read_image_rgb(node.image, tr.warn)
     if pixels is None or matrix is None:
         return {}
-    return {"pixels": pixels, "weight": tuple(float(w) for w in weight), "interpolation": interpolation,
+    weight = weight if isinstance(weight, Value) else tuple(float(w) for w in weight)
+    return {"pixels": pixels, "weight": weight, "interpolation": interpolation,
             "srgb_encoded": srgb_encoded, "matrix": matrix}
 
 

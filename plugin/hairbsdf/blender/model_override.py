@@ -208,14 +208,24 @@ def load_mapping(path: str):
 
 
 def principled_inputs(material):
-    """The first Principled Hair closure's inputs as the exporter reads them (the keys of
-    docs/scene_desc.md's principled_hair `inputs`, colours as tuples, `random` None when the
-    per-strand Hair Info > Random is used) plus `model` and `parametrization`; None without one."""
+    """The first Principled Hair closure's inputs as the scene loader reads them (the keys of
+    docs/scene_desc.md's principled_hair `inputs` for its model, colours as tuples, `random` None when
+    the per-strand Hair Info > Random is used) plus `model` and `parametrization`; None without one.
+    Inputs computed by nodes are the loader's folded numbers (`_render.folded_material`); one that
+    depends on the hit stays {"register": k}."""
+    from hairbsdf import _render  # the loader (it loads Embree and TBB): only when asked
+
     translator = MaterialTranslator(ExportReport())
-    for c in translator.translate(material)["closures"]:  # the node's closures: the override is a later step
-        if c.get("type") == "principled_hair":
-            return dict(translator.constant_inputs(c["inputs"]), model=c["model"],
-                        parametrization=c["parametrization"])
+    desc = translator.translate(material)  # the node's closures: the override is a later step
+    exported = {c["model"]: list(c["inputs"]) for c in reversed(desc["closures"]) if c.get("type") == "principled_hair"}
+    if not exported:
+        return None
+    folded = _render.folded_material(desc, attribute_count=len(translator.attributes.names),
+                                     images=translator.attributes.images.images)
+    for c in folded["closures"]:
+        if c.get("type") == "principled_hair":  # the keys the exporter wrote (the node's sockets)
+            inputs = {k: c["inputs"][k] for k in exported[c["model"]]}
+            return dict(inputs, model=c["model"], parametrization=c["parametrization"])
     return None
 
 

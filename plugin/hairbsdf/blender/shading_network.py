@@ -7,7 +7,9 @@ output becomes registers written by one or a few VM instructions. `finish()` wri
 input as a number (a socket value, a Value / RGB node) or a register of the program, which holds
 every instruction: the scene loader folds what does not depend on the hit, once, in C++
 (render/scene.cpp; a material whose inputs all fold has no program there: the renderer's fast
-path). Unsupported nodes are reported with a warning naming them, and the
+path). The exporter's own arithmetic on computed values (closure weights times Mix Shader factors,
+the world's colour x strength sums) is emitted as instructions too (`multiply`, `add`,
+`mix_factors`): nothing here runs the VM. Unsupported nodes are reported with a warning naming them, and the
 socket's own default value is used, as the exporter always did.
 
 Supported: Value, RGB, Hair Info (Random, Intercept, Length, Is Strand), Attribute (Geometry),
@@ -109,11 +111,11 @@ class ImageTable:
 
 class AttributeTable:
     """Scene-wide list of the named curve attributes programs read (index = VM attribute index),
-    and the images they sample (`images`)."""
+    and the images they sample (`images`: a table of its own, or one shared with the scene's materials)."""
 
-    def __init__(self):
+    def __init__(self, images: ImageTable | None = None):
         self.names: list[str] = []
-        self.images = ImageTable()
+        self.images = images if images is not None else ImageTable()
 
     def index(self, name: str) -> int:
         if name not in self.names:
@@ -134,7 +136,6 @@ class ShadingNetwork:
         self.temps = 0
         self._outputs: dict = {}      # (node pointer, output identifier) -> Value
         self._dynamic: set = set()    # temp indices written by hit-dependent instructions
-        self._registers_at = None     # ((instructions, constants), registers) of the last VM run
         self.uses_intercept = False
         self.attribute_names: set = set()
 
@@ -199,6 +200,45 @@ class ShadingNetwork:
         for i, p in enumerate(parts):
             self._emit("COPY", [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)])
         return Value(out, 3)
+
+    # ------------------------------------------------------------------ arithmetic on colours
+    # For values the exporter combines (closure weights times Mix Shader factors, the world's
+    # colour x strength sums) when nodes compute one of them: instructions, folded by the loader.
+    def multiply(self, a: Value, b: Value) -> Value:
+        """a (3 wide) times b (1 or 3 wide), per component, in float as the VM computes."""
+        return self._per_component("MULTIPLY", a, b)
+
+    def add(self, a: Value, b: Value) -> Value:
+        """a + b, both 3 wide."""
+        return self._per_component("ADD", a, b)
+
+    def _per_component(self, operation: str, a: Value, b: Value) -> Value:
+        out = self._temp(3)
+        unused = self.constant((0.0,))
+        for i in range(3):
+            bi = b if b.width == 1 else self.component(b, i)
+            self._emit("MATH", [_vm("math_types")[operation], 0, Reg("t", out.index + i), self.component(a, i).reg,
+                                bi.reg, unused.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+        return Value(out, 3)
+
+    def mix_factors(self, fac: Value) -> tuple:
+        """(1 - t, t) with t = Fac clamped to [0, 1]: the weights of a Mix Shader's two inputs
+        (Cycles' svm_node_mix_closure)."""
+        t = self._temp(1)
+        self._emit("CLAMP", [0, t, fac.reg, self.constant((0.0,)).reg, self.constant((1.0,)).reg],
+                   [(2, 1), (3, 1), (4, 1)], [(1, 1)])
+        rest = self._temp(1)
+        self._emit("MATH", [_vm("math_types")["SUBTRACT"], 0, rest, self.constant((1.0,)).reg, t,
+                            self.constant((0.0,)).reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+        return Value(rest, 1), Value(t, 1)
+
+    def constant_of(self, value: Value):
+        """A value held in the constants (a socket value, a Value / RGB node) as a number or a
+        tuple; None when instructions compute it (the loader folds those)."""
+        if value.reg.kind != "k":
+            return None
+        v = self.constants[value.reg.index:value.reg.index + value.width]
+        return v[0] if value.width == 1 else tuple(v)
 
     # ------------------------------------------------------------------ sockets
     def input(self, node, socket, kind: str, depth=0) -> Value:
@@ -268,8 +308,7 @@ class ShadingNetwork:
         linked = False
         for container, key, value, kind in inputs:
             if value.reg.kind == "k":
-                v = self.constants[value.reg.index:value.reg.index + value.width]
-                container[key] = v[0] if value.width == 1 else tuple(v)
+                container[key] = self.constant_of(value)
             else:
                 container[key] = {"register": n_const + value.reg.index}
                 linked = True
@@ -285,31 +324,6 @@ class ShadingNetwork:
                         w.index if isinstance(w, Reg) else int(w) for w in ins.words)
         return {"code": np.asarray(code, np.int32), "constants": np.asarray(self.constants, np.float32),
                 "registers": n_const + self.temps}
-
-    def _registers(self) -> np.ndarray:
-        """Every register after one VM run with a zero hit context; rerun only when the program
-        grew (instructions and constants are only appended)."""
-        size = (len(self.instructions), len(self.constants))
-        if self._registers_at is None or self._registers_at[0] != size:
-            from hairbsdf import _render
-            n_attr = max(len(self.attributes.names), 1)
-            registers = _render.eval_program(self._program(), 0.0, 0.0, 0.0, 1.0,
-                                             np.zeros((1, n_attr, 4), np.float32),
-                                             images=self.attributes.images.images)[0]
-            self._registers_at = (size, registers)
-        return self._registers_at[1]
-
-    def constant_value(self, value: Value):
-        """The value of a Value that does not depend on the hit, for what must be a number at export
-        (closure weights, the world's inputs): read from the constants, or, when instructions
-        compute it, by running the program once with the VM."""
-        if value.reg.kind == "k":
-            v = self.constants[value.reg.index:value.reg.index + value.width]
-        else:
-            registers = self._registers()
-            start = len(self.constants) + value.reg.index
-            v = [float(x) for x in registers[start:start + value.width]]
-        return v[0] if value.width == 1 else tuple(v)
 
 
 _UNSUPPORTED = object()

@@ -63,7 +63,8 @@ def materialx_limits(desc) -> dict:
         if m.get("program"):
             limits.append("node networks on closure inputs (evaluated per hit by our shading VM)")
         closures = m.get("closures", [])
-        if len(closures) > 1 or any(tuple(c.get("weight", (1, 1, 1))) != (1.0, 1.0, 1.0) for c in closures):
+        weights = [c.get("weight", (1, 1, 1)) for c in closures]  # {"register": k}: a computed Mix Shader weight
+        if len(closures) > 1 or any(isinstance(w, dict) or tuple(w) != (1.0, 1.0, 1.0) for w in weights):
             limits.append("Mix / Add of closures")
         for c in closures:
             t = c.get("type")

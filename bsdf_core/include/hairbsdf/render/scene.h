@@ -108,7 +108,9 @@ struct ClosureDesc {
     enum class Input {
         Color, Melanin, MelaninRedness, Tint, AbsorptionCoefficient, Roughness, RadialRoughness, Coat, Ior,
         Offset, RandomColor, RandomRoughness, Random, AspectRatio, Reflection, Transmission, SecondaryReflection,
-        Strength  // emission; `Color` is the diffuse / emission colour too
+        Strength,  // emission; `Color` is the diffuse / emission / legacy Hair BSDF colour too
+        Weight,    // the closure weight (Mix Shader factors); `weight` above is then 1
+        RoughnessU, RoughnessV  // the legacy Hair BSDF's (`Offset` and `Color` too)
     };
     struct Link {
         Input input;
@@ -241,6 +243,10 @@ struct SceneDesc {
     std::vector<LightDesc> lights;
     RGB world{0.0};
     EnvironmentDesc world_texture;
+    // The world's inputs computed by nodes (docs/shading_vm.md): the loader runs this program once
+    // and sets `world` and world_texture.weight from these registers (-1: the constant above).
+    ShadingProgram world_program;
+    int32_t world_color_register = -1, world_texture_weight_register = -1;
     std::vector<ImageDesc> images;  // read by the shading programs' ImageTexture op
     // World > Settings > Sampling (4.x Method != None, 3.x Multiple Importance). Even on, a
     // world without a texture is not sampled as a light (render/lights.h).

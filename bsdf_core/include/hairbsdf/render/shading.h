@@ -19,6 +19,7 @@
 //     lobe R, TRANSMIT for the others, as Chiang's; Filter Glossy does not blur it.
 // Inputs linked to the material's shading program (render/shading_vm.h) take the program's
 // registers at the hit (ShadingGeometry::registers); a non-finite register value reads as 0.
+// So do closure weights (Mix Shader factors that depend on the hit, as Cycles' SVM mixes them).
 #pragma once
 
 #include <memory>
@@ -52,11 +53,14 @@ public:
         bool random_from_curve = true;
         std::vector<ClosureDesc::Link> links;  // inputs from the shading program
         int32_t color_register = -1;           // diffuse: weight x the program's colour
+        // The weight computed per hit (a Mix Shader factor that depends on the hit): weight x
+        // the program's colour there; a closure below Cycles' weight cutoff at a hit is left out.
+        int32_t weight_register = -1;
     };
     struct EmissionClosure {
         RGB weight;
         Emission model;
-        int32_t color_register = -1, strength_register = -1;  // inputs from the shading program
+        int32_t color_register = -1, strength_register = -1, weight_register = -1;  // from the program
     };
     const std::vector<MaterialClosure>& closures() const { return closures_; }
     // Emission at a hit; `registers`: the program's registers there (nullptr without a program).
