@@ -44,6 +44,15 @@ def principled_hair_inputs(model: str) -> tuple:
                  if k["path"].startswith(prefix) and model in k["hair_models"].split())
 
 
+@functools.cache
+def cycles_hair_defaults() -> dict:
+    """The legacy Hair BSDF node's defaults, for a socket that cannot be read: its table
+    (bsdf_core/include/hairbsdf/params/cycles_hair.h), as hairbsdf.zoo reads it."""
+    from hairbsdf.zoo import CYCLES_HAIR_DEFAULTS  # lazily, as the scene schema
+
+    return CYCLES_HAIR_DEFAULTS
+
+
 def _mul(w, f):
     if isinstance(f, tuple):
         return tuple(a * b for a, b in zip(w, f))
@@ -284,10 +293,10 @@ class MaterialTranslator:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
         return {"type": "cycles_hair", "weight": tuple(weight), "component": node.component.upper(),
-                "color": self.value(node, "Color", "color", GREY),
-                "offset": self.value(node, "Offset", "float", 0.0),
-                "roughness_u": self.value(node, "RoughnessU", "float", 0.1),
-                "roughness_v": self.value(node, "RoughnessV", "float", 1.0)}
+                "color": self.value(node, "Color", "color", cycles_hair_defaults()["color"]),
+                "offset": self.value(node, "Offset", "float", cycles_hair_defaults()["offset"]),
+                "roughness_u": self.value(node, "RoughnessU", "float", cycles_hair_defaults()["roughness_u"]),
+                "roughness_v": self.value(node, "RoughnessV", "float", cycles_hair_defaults()["roughness_v"])}
 
 
 def emission_sampling(material) -> str:
