@@ -164,7 +164,7 @@ def huang_fallback_normal(tangent) -> np.ndarray:
     return b[0] if np.ndim(tangent) == 1 else b
 
 
-def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:
+def absorption_from_color(color, radial_roughness: float = PRINCIPLED_HAIR_DEFAULTS["radial_roughness"]) -> np.ndarray:
     """Direct Coloring: sigma_a = (ln(max(color, 0)) / P(radial_roughness))^2 (Chiang 2016 eq. 9).
     A black channel gives inf (fully absorbing)."""
     c = check.color("color", color)
@@ -172,7 +172,7 @@ def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:
 
 
 def absorption_from_melanin(melanin: float, melanin_redness: float, tint=(1.0, 1.0, 1.0),
-                            radial_roughness: float = 0.3) -> np.ndarray:
+                            radial_roughness: float = PRINCIPLED_HAIR_DEFAULTS["radial_roughness"]) -> np.ndarray:
     """The Melanin parametrization of the node: q = -ln(max(1 - melanin, 1e-4)),
     eumelanin q(1 - redness), pheomelanin q*redness with Cycles' constants, plus the
     Direct Coloring absorption of `tint` (0 for white)."""

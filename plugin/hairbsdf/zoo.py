@@ -205,7 +205,8 @@ def deon_hair(*, melanin: float = DEON_DEFAULTS["melanin"], melanin_redness: flo
 # The node's sockets, Blender's defaults and the allowed ranges: its table (params/cycles_hair.h), which
 # also checks the values (make_model).
 CYCLES_HAIR_DEFAULTS = _defaults("cycles_hair")
-CYCLES_HAIR_COMPONENTS = tuple(next(p["choices"] for p in _core.model_schema("cycles_hair", "") if p["name"] == "component"))
+CYCLES_HAIR_COMPONENTS = tuple(next(p["choices"] for p in _core.model_schema("cycles_hair", "")
+                                    if p["name"] == "component"))
 
 
 @_table_parameters("cycles_hair")

@@ -83,7 +83,8 @@ def docstring_problems(function, schema, source):
     block = _param_docs.parameters_block(schema, source)
     problems = [] if block in doc else [f"{function.__name__}: the generated Parameters block is missing or edited"]
     prose = doc.split(_param_docs.HEADING.split("{")[0])[0]
-    problems += [f"{function.__name__}: {m.group(0)!r} repeats a number of the table" for m in DOC_LITERALS.finditer(prose)]
+    problems += [f"{function.__name__}: {m.group(0)!r} repeats a number of the table"
+                 for m in DOC_LITERALS.finditer(prose)]
     return problems
 
 
