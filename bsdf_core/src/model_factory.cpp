@@ -2,8 +2,10 @@
 // param_table.h); see model_factory.h. Defaults, ranges and their sources: docs/models.md.
 #include "hairbsdf/model_factory.h"
 
+#include <cmath>
 #include <sstream>
 
+#include "hairbsdf/params/cycles_hair.h"
 #include "hairbsdf/params/deon.h"
 #include "hairbsdf/params/epic.h"
 #include "hairbsdf/params/kajiya_kay.h"
@@ -110,6 +112,10 @@ private:
             case ParamKind::Bool:
                 if (!x || !(*x == 0.0 || *x == 1.0)) fail(p, v, "is not allowed; expected a bool (0 or 1)");
                 return {*x, *x, *x};
+            case ParamKind::Int:
+                if (!x || !(*x == std::floor(*x))) fail(p, v, "is not allowed; expected a whole number");
+                if (!(*x >= p.min_value && *x <= p.max_value)) fail(p, v, "is out of range; allowed: " + range_text(p));
+                return {*x, *x, *x};
         }
         fail(p, v, "has an unknown kind");
     }
@@ -139,6 +145,7 @@ void finish(const Values& v, DeonHairParams& p) {
 void finish(const Values&, EpicHairParams&) {}
 void finish(const Values&, MarschnerHairParams&) {}
 void finish(const Values&, YanFurParams&) {}
+void finish(const Values&, CyclesHairParams&) {}
 
 // The checked values set every bound row's field of a default P; then the model's own rules.
 template <class P, class Model>
@@ -167,10 +174,19 @@ const ZooEntry kZoo[] = {entry<KajiyaKayHairParams, KajiyaKayHair>(),   entry<Ep
                          entry<ScheuermannHairParams, ScheuermannHair>(), entry<MarschnerHairParams, MarschnerHair>(),
                          entry<DeonHairParams, DeonHair>(),             entry<YanFurParams, YanFurHair>()};
 
+// Cycles nodes' closures built by name from their tables, outside the zoo (and its menu).
+const ZooEntry kNodeModels[] = {entry<CyclesHairParams, CyclesHair>()};
+
 const ZooEntry& zoo_entry(const std::string& model) {
     for (const ZooEntry& e : kZoo)
         if (model == e.name) return e;
-    throw ModelError("unknown model '" + model + "'; allowed: " + join(zoo_model_names()) + ", plugin");
+    std::vector<std::string> node_models;
+    for (const ZooEntry& e : kNodeModels) {
+        if (model == e.name) return e;
+        node_models.push_back(e.name);
+    }
+    throw ModelError("unknown model '" + model + "'; allowed: " + join(zoo_model_names()) + ", " + join(node_models) +
+                     ", plugin");
 }
 
 }  // namespace

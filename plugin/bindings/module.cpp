@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
 #include <atomic>
 #include <vector>
 
@@ -15,8 +16,10 @@
 #include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/params/cycles_hair.h"
 #include "hairbsdf/params/deon.h"
 #include "hairbsdf/params/epic.h"
+#include "hairbsdf/params/huang.h"
 #include "hairbsdf/params/kajiya_kay.h"
 #include "hairbsdf/params/marschner.h"
 #include "hairbsdf/params/materialx.h"
@@ -197,15 +200,30 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
     return d;
 }
 
+// Huang's options as the indices and numbers of its table's rows (params/huang.h): each bound row
+// writes its field (a choice's index names its enum value through the table).
 HuangHairParams huang_options(HuangHairParams p, int quadrature, int sampler, double tolerance, long max_evaluations,
                               long trt_points, int glass_albedo_table) {
-    p.quadrature = HuangQuadrature(quadrature);
-    p.glass_albedo_table = GlassAlbedoTable(glass_albedo_table);
-    p.sampler = HuangSampler(sampler);
-    p.tolerance = tolerance;
-    p.max_evaluations = max_evaluations;
-    p.trt_points = trt_points;
+    const std::map<std::string, double> given = {{"accuracy", quadrature},
+                                                 {"sampler", sampler},
+                                                 {"tolerance", tolerance},
+                                                 {"max_evaluations", double(max_evaluations)},
+                                                 {"trt_points", double(trt_points)},
+                                                 {"glass_albedo_table", glass_albedo_table}};
+    for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows()) {
+        if (!row.set) continue;  // color_roughness: an input of the node conversion
+        const double x = given.at(row.spec.name);
+        row.set(p, {x, x, x});
+    }
     return p;
+}
+
+// The table's color_roughness choice at `index`.
+HuangColorRoughness huang_color_roughness(int index) {
+    for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows())
+        if (row.spec.name == "color_roughness")
+            return row.spec.choices.at(size_t(index)) == "osl" ? HuangColorRoughness::Osl : HuangColorRoughness::Svm;
+    throw std::logic_error("params/huang.h has no color_roughness row");
 }
 
 ClosureSum principled_huang(int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
@@ -234,7 +252,7 @@ ClosureSum principled_huang(int parametrization, std::array<double, 3> color, do
     in.transmission = transmission;
     in.secondary_reflection = secondary_reflection;
     HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture,
-                                                     HuangColorRoughness(color_roughness));
+                                                     huang_color_roughness(color_roughness));
     return ClosureSum(
         {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points,
                                                         glass_albedo_table))}});
@@ -334,6 +352,7 @@ py::dict table_dict(const P& p) {
             case ParamKind::RGB: d[name] = v; break;
             case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
             case ParamKind::Bool: d[name] = v[0] != 0.0; break;
+            case ParamKind::Int: d[name] = (long long)v[0]; break;
         }
     }
     return d;
@@ -376,6 +395,7 @@ py::list schema_list(const std::vector<ModelParamSpec>& schema) {
             case ParamKind::RGB: d["type"] = "rgb", d["default"] = py::make_tuple(v[0], v[1], v[2]); break;
             case ParamKind::Choice: d["type"] = "choice", d["default"] = p.choices[size_t(v[0])]; break;
             case ParamKind::Bool: d["type"] = "bool", d["default"] = v[0] != 0.0; break;
+            case ParamKind::Int: d["type"] = "int", d["default"] = (long long)v[0]; break;
         }
         d["min"] = p.min_value;
         d["max"] = p.max_value;
@@ -393,27 +413,10 @@ py::dict model_dict(const DiffuseBsdf&) {
 }
 
 py::dict model_dict(const CyclesHair& m) {
-    const CyclesHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "cycles_hair";
-    d["component"] = m.reflection() ? "reflection" : "transmission";
-    d["color"] = std::array<double, 3>{p.color.r, p.color.g, p.color.b};
-    d["offset"] = p.offset;
-    d["roughness_u"] = p.roughness_u;
-    d["roughness_v"] = p.roughness_v;
+    py::dict d = table_dict(m.params());
     d["r1"] = m.r1();  // after Cycles' clamp to [0.001, 1]
     d["r2"] = m.r2();
     return zoo_scales(d, m.angular_scales());
-}
-ClosureSum cycles_hair(bool transmission, std::array<double, 3> color, double offset, double roughness_u,
-                       double roughness_v) {
-    CyclesHairParams p;
-    p.component = transmission ? CyclesHairComponent::Transmission : CyclesHairComponent::Reflection;
-    p.color = rgb_from(color);
-    p.offset = offset;
-    p.roughness_u = roughness_u;
-    p.roughness_v = roughness_v;
-    return ClosureSum({Closure{RGB(1.0), CyclesHair(p)}});
 }
 
 const HuangHair& single_huang(const ClosureSum& c) {
@@ -897,13 +900,12 @@ PYBIND11_MODULE(_core, m) {
                                                  kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
     m.def("principled_huang", &principled_huang);
     m.def("huang_from_params", &huang_from_params);
+    // Huang's options (params/huang.h): the table as model_schema's dicts, and name -> default.
+    m.def("huang_option_schema", [] { return schema_list(param_specs<HuangHairParams>()); });
     m.def("huang_option_defaults", [] {
-        // HuangHairParams' numerical options as the API's defaults (written once, in huang.h).
-        const HuangHairParams p;
         py::dict d;
-        d["tolerance"] = p.tolerance;
-        d["max_evaluations"] = p.max_evaluations;
-        d["trt_points"] = p.trt_points;
+        for (const py::handle row : schema_list(param_specs<HuangHairParams>()))
+            d[py::object(row["name"])] = py::object(row["default"]);
         return d;
     });
     m.def("huang_energy_scale", [](const Array& sqrt_alpha, const Array& mu, double eta, int glass_albedo_table) {
@@ -928,7 +930,6 @@ PYBIND11_MODULE(_core, m) {
         return out;
     });
     m.def("chiang_from_params", &chiang_from_params);
-    m.def("cycles_hair", &cycles_hair);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
     m.def("principled_chiang_params",
           [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 from typing import Iterable
 
@@ -184,17 +185,14 @@ def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False, h
 
 # Huang's `tolerance` (relative error target of its eval and albedo, docs/huang.md §4): the range
 # its constructor and the per-call keyword accept.
-HUANG_TOLERANCE_RANGE = (1e-6, 0.5)
+@functools.cache
+def huang_tolerance_range() -> tuple[float, float]:
+    """Huang's tolerance range: its row in the options table beside C++ HuangHairParams (params/huang.h)."""
+    from . import _core  # lazily: this module is imported before the core is loaded
+
+    return next((p["min"], p["max"]) for p in _core.huang_option_schema() if p["name"] == "tolerance")
 
 
 def huang_tolerance(value) -> float:
-    """Huang's `tolerance`: a number in HUANG_TOLERANCE_RANGE; the error names the range."""
-    return in_range("tolerance", value, *HUANG_TOLERANCE_RANGE)
-
-
-def color_in_range(name: str, value, lo: float, hi: float) -> tuple[float, float, float]:
-    """An RGB triple (or a number for grey) with every channel in [lo, hi]."""
-    c = color(name, value)
-    if any(x < lo or x > hi for x in c):
-        raise ValueError(f"{name}={value!r} is out of range; every channel must lie in [{lo:g}, {hi:g}]")
-    return c
+    """Huang's `tolerance`: a number in huang_tolerance_range(); the error names the range."""
+    return in_range("tolerance", value, *huang_tolerance_range())

@@ -13,7 +13,7 @@ import numpy as np
 
 from . import gonio
 from ._deps import require
-from ._validate import HUANG_TOLERANCE_RANGE
+from ._validate import huang_tolerance_range
 from .gonio import H_NODES
 from .closure import YAN_FUR_LOBES
 from .spec import SpecError, build, format_spec, parse_spec
@@ -286,7 +286,7 @@ def main(argv=None, prog: str = "hairbsdf plot") -> int:
     eval_kw = {}
     if huang:
         tolerance = HUANG_PLOT_TOLERANCE if args.tolerance is None else args.tolerance
-        lo, hi = HUANG_TOLERANCE_RANGE
+        lo, hi = huang_tolerance_range()
         if not lo <= tolerance <= hi:
             ap.error(f"--tolerance={tolerance:g} is out of range; allowed: [{lo:g}, {hi:g}]")
         eval_kw = dict(tolerance=tolerance)

@@ -7,17 +7,23 @@ import numpy as np
 
 from . import _core
 from . import _validate as check
+from ._param_docs import with_parameters
 from .closure import Closure
 
 PARAMETRIZATIONS = {"color": 0, "melanin": 1, "absorption": 2}
 ACCURACIES = {"cycles": 0, "exact": 1}
 TILTS = {"4.2": 0, "3.4": 1}
 MODELS = ("chiang", "huang")
-HUANG_ACCURACIES = {"cycles": 0, "converged": 1}
-HUANG_SAMPLERS = {"mixture": 0, "cycles": 1}
-HUANG_COLOR_ROUGHNESS = {"svm": 0, "osl": 1}
-# Energy-compensation tables of Cycles 4.x or 5.x (GlassAlbedoTable, docs/huang.md §3, docs/blender5.md).
-HUANG_GLASS_ALBEDO_TABLES = {"4.x": 0, "5.x": 1}
+
+# Huang's options (accuracy, sampler, tolerance, max_evaluations, trt_points, color_roughness,
+# glass_albedo_table): their table beside C++ HuangHairParams (params/huang.h) gives the names,
+# choices, defaults and ranges (docs/huang.md §4); a choice is passed to C++ as its index there.
+HUANG_OPTIONS = {p["name"]: p for p in _core.huang_option_schema()}
+HUANG_OPTION_DEFAULTS = {name: p["default"] for name, p in HUANG_OPTIONS.items()}
+HUANG_TOLERANCE = HUANG_OPTION_DEFAULTS["tolerance"]
+HUANG_ACCURACIES, HUANG_SAMPLERS, HUANG_COLOR_ROUGHNESS, HUANG_GLASS_ALBEDO_TABLES = (
+    {c: i for i, c in enumerate(HUANG_OPTIONS[name]["choices"])}
+    for name in ("accuracy", "sampler", "color_roughness", "glass_albedo_table"))
 
 
 def _node_defaults(schema: list, hair_model: str) -> dict:
@@ -62,20 +68,10 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     (see `cycles_curve_random`).
 
     model="huang" (Blender 4.x, docs/huang.md): the same colour keywords plus aspect_ratio,
-    reflection, transmission, secondary_reflection (Blender 4.5 defaults 0.85, 1, 1, 1); coat and
-    radial_roughness are accepted and ignored like in Cycles. Options:
-      accuracy="cycles" (default): the expected value of Cycles' eval (its Simpson nodes in h),
-               "converged": the integral over h converged;
-      sampler="mixture" (default): analytic lobe mixture with an exact pdf; "cycles": Cycles'
-               sampler (its weight, pdf reported as 1: no MIS);
-      tolerance=1e-2: error target relative to the row's total (R + TT + TRT + TRRT+) of eval and
-               albedo, in [1e-6, 0.5] (docs/huang.md §4: cost and error per tolerance); eval,
-               eval_lobes, pdf and albedo also take it per call (`tolerance=`);
-      trt_points=0: TRT / TRRT+ points set by `tolerance`; N >= 16: N fixed quasi-Monte Carlo points
-               per h node (error ~ few % of TRT at 16384, ~N^-1/2);
-      color_roughness="svm" (default) or "osl": the roughness of the colour conversion;
-      glass_albedo_table="4.x" (default) or "5.x": the energy-compensation tables of Cycles 4.x
-               or of Cycles 5.x (docs/blender5.md).
+    reflection, transmission, secondary_reflection (their defaults: Blender 4.5's, as above); coat and
+    radial_roughness are accepted and ignored like in Cycles. Its options are listed below, generated
+    from their table; eval, eval_lobes, pdf and albedo also take `tolerance=` per call (docs/huang.md
+    §4: cost and error per tolerance; fixed trt_points err by a few % of TRT at 16384, ~N^-1/2).
     eval / eval_lobes / pdf / sample take the keyword arrays normal=, pixel_coverage=, near_field=.
     model="chiang": eval / pdf / sample take per-row node inputs, inputs={"roughness": (N,) array, ...}
     (roughness, radial_roughness, coat, random, melanin, absorption_coefficient (N, 3); docs/simd.md).
@@ -109,16 +105,12 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
                          f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
-# Huang's numerical options and their defaults, from C++ HuangHairParams (huang.h): `tolerance` (eval
-# and albedo, relative to the row's total; docs/huang.md §4), `max_evaluations`, `trt_points`.
-HUANG_OPTION_DEFAULTS = _core.huang_option_defaults()
-HUANG_TOLERANCE = HUANG_OPTION_DEFAULTS["tolerance"]
-
-
-def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler="mixture",
-                      tolerance=HUANG_TOLERANCE, max_evaluations=HUANG_OPTION_DEFAULTS["max_evaluations"],
-                      trt_points=HUANG_OPTION_DEFAULTS["trt_points"], color_roughness="svm",
-                      glass_albedo_table="4.x", **inputs) -> Closure:
+def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accuracy"], tilt="4.2",
+                      sampler=HUANG_OPTION_DEFAULTS["sampler"], tolerance=HUANG_TOLERANCE,
+                      max_evaluations=HUANG_OPTION_DEFAULTS["max_evaluations"],
+                      trt_points=HUANG_OPTION_DEFAULTS["trt_points"],
+                      color_roughness=HUANG_OPTION_DEFAULTS["color_roughness"],
+                      glass_albedo_table=HUANG_OPTION_DEFAULTS["glass_albedo_table"], **inputs) -> Closure:
     """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
     if isinstance(parametrization, str):
         parametrization = parametrization.lower()
@@ -130,8 +122,9 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
     check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
     check.choice("glass_albedo_table", glass_albedo_table, HUANG_GLASS_ALBEDO_TABLES)
     tolerance = check.huang_tolerance(tolerance)
-    if not isinstance(max_evaluations, int) or max_evaluations < 1000:
-        raise ValueError("max_evaluations: must be an integer >= 1000")
+    lowest = int(HUANG_OPTIONS["max_evaluations"]["min"])
+    if not isinstance(max_evaluations, int) or max_evaluations < lowest:
+        raise ValueError(f"max_evaluations: must be an integer >= {lowest}")
     if not isinstance(trt_points, int) or isinstance(trt_points, bool) or not (trt_points == 0 or trt_points >= 16):
         raise ValueError(f"trt_points={trt_points!r}: must be 0 (points set by `tolerance`) or an integer >= 16")
     check.keywords("principled_hair(model='huang')", inputs, HUANG_DEFAULTS)
@@ -146,12 +139,15 @@ def _principled_huang(parametrization, *, accuracy="cycles", tilt="4.2", sampler
         HUANG_ACCURACIES[accuracy], HUANG_SAMPLERS[sampler], tolerance, max_evaluations, trt_points,
         HUANG_COLOR_ROUGHNESS[color_roughness], HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table])
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
-    options = {"accuracy": (accuracy, "cycles"), "sampler": (sampler, "mixture"), "tolerance": (tolerance, HUANG_TOLERANCE),
-               "trt_points": (trt_points, HUANG_OPTION_DEFAULTS["trt_points"]), "color_roughness": (color_roughness, "svm"),
-               "glass_albedo_table": (glass_albedo_table, "4.x")}
-    extra = "".join(f", {k}={v!r}" for k, (v, d) in options.items() if v != d)
+    options = {"accuracy": accuracy, "sampler": sampler, "tolerance": tolerance, "trt_points": trt_points,
+               "color_roughness": color_roughness, "glass_albedo_table": glass_albedo_table}
+    extra = "".join(f", {k}={v!r}" for k, v in options.items() if v != HUANG_OPTION_DEFAULTS[k])
     return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"
                          f"{', ' + shown if shown else ''}{extra})")
+
+
+principled_hair = with_parameters(list(HUANG_OPTIONS.values()),
+                                  "bsdf_core/include/hairbsdf/params/huang.h; model=\"huang\" only")(principled_hair)
 
 
 def huang_fallback_normal(tangent) -> np.ndarray:
@@ -168,7 +164,7 @@ def huang_fallback_normal(tangent) -> np.ndarray:
     return b[0] if np.ndim(tangent) == 1 else b
 
 
-def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:
+def absorption_from_color(color, radial_roughness: float = PRINCIPLED_HAIR_DEFAULTS["radial_roughness"]) -> np.ndarray:
     """Direct Coloring: sigma_a = (ln(max(color, 0)) / P(radial_roughness))^2 (Chiang 2016 eq. 9).
     A black channel gives inf (fully absorbing)."""
     c = check.color("color", color)
@@ -176,7 +172,7 @@ def absorption_from_color(color, radial_roughness: float = 0.3) -> np.ndarray:
 
 
 def absorption_from_melanin(melanin: float, melanin_redness: float, tint=(1.0, 1.0, 1.0),
-                            radial_roughness: float = 0.3) -> np.ndarray:
+                            radial_roughness: float = PRINCIPLED_HAIR_DEFAULTS["radial_roughness"]) -> np.ndarray:
     """The Melanin parametrization of the node: q = -ln(max(1 - melanin, 1e-4)),
     eumelanin q(1 - redness), pheomelanin q*redness with Cycles' constants, plus the
     Direct Coloring absorption of `tint` (0 for white)."""

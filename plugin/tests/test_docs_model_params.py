@@ -22,7 +22,7 @@ def numbers(text):
 
 def section(doc, model):
     """The text of the section whose heading names the model's function (`epic_hair`, `yan_fur`)."""
-    name = model if model == "yan_fur" else model + "_hair"
+    name = {"yan_fur": "yan_fur", "cycles_hair": "cycles_hair_bsdf"}.get(model, model + "_hair")
     m = re.search(r"^## [^\n]*`%s`[^\n]*$" % re.escape(name), doc, re.MULTILINE)
     assert m, f"docs/models.md has no section for `{name}`"
     end = doc.find("\n## ", m.end())
@@ -46,8 +46,9 @@ def close(a, b):
     return abs(a - b) <= 1e-3 * max(abs(a), abs(b), 1e-3)
 
 
-def mismatches(doc, model, schema):
-    rows = parameter_rows(section(doc, model))
+def mismatches(doc, model, schema, text=None):
+    """`text`: the part of `doc` holding the table (default: the model's section of docs/models.md)."""
+    rows = parameter_rows(section(doc, model) if text is None else text)
     out = []
     names = [p["name"] for p in schema]
     for extra in sorted(set(rows) - set(names)):
@@ -86,7 +87,8 @@ def mismatches(doc, model, schema):
     return out
 
 
-@pytest.mark.parametrize("model", hairbsdf.zoo_model_names())
+# The zoo and Cycles' legacy Hair BSDF (built by name from its table, params/cycles_hair.h, outside the zoo).
+@pytest.mark.parametrize("model", hairbsdf.zoo_model_names() + ["cycles_hair"])
 def test_docs_parameter_table_matches_the_factory(model):
     problems = mismatches(DOC.read_text(encoding="utf-8"), model, hairbsdf.model_schema(model))
     assert not problems, "\n".join(problems)
@@ -108,3 +110,61 @@ def test_planted_differences_are_caught():
     # a parameter the factory does not have
     extra = doc.replace("| `eta` | 1.55 |", "| `eta` | 1.55 |\n| `ior` | 1.55 |", 1)
     assert any("`ior`" in p for p in mismatches(extra, "marschner", schema))
+
+
+HUANG_DOC = DOC.parent / "huang.md"
+
+
+def huang_options_text(doc):
+    """docs/huang.md's options table: from its heading to the next section."""
+    start = doc.index('### Options of `principled_hair(model="huang")`')
+    return doc[start:doc.index("\n## ", start)]
+
+
+def test_huang_options_table_matches_params_huang_h():
+    """Huang's options (params/huang.h, read through _core.huang_option_schema) against docs/huang.md §2."""
+    doc = HUANG_DOC.read_text(encoding="utf-8")
+    schema = hairbsdf._core.huang_option_schema()
+    problems = mismatches(doc, "huang", schema, huang_options_text(doc))
+    assert not problems, "\n".join(problems)
+    changed = [dict(p, default=2e-2) if p["name"] == "tolerance" else p for p in schema]
+    assert any("tolerance: default 0.02" in p for p in mismatches(doc, "huang", changed, huang_options_text(doc)))
+
+
+PRINCIPLED_DOC = DOC.parent / "principled_hair.md"
+
+
+def principled_default_mismatches(doc, defaults):
+    """docs/principled_hair.md's "Inputs and defaults" table against `defaults` (PRINCIPLED_HAIR_DEFAULTS, the
+    scene schema's rows, i.e. C++ PrincipledHairInputs): every keyword has a row, and a row's default cell starts
+    with its keywords' values in order."""
+    start = doc.index("## Inputs and defaults")
+    text = doc[start:doc.index("\n## ", start)]
+    out, seen = [], set()
+    for line in text.splitlines():
+        m = re.match(r"^\| ((?:`\w+`(?:, )?)+) \|([^|]*)\|", line)
+        if not m:
+            continue
+        names = re.findall(r"`(\w+)`", m.group(1))
+        want = []
+        for name in names:
+            seen.add(name)
+            if name not in defaults:
+                out.append(f"the docs list `{name}`, principled_hair has no such keyword")
+                continue
+            want += list(defaults[name]) if isinstance(defaults[name], tuple) else [defaults[name]]
+        got = numbers(m.group(2))[:len(want)]
+        if len(got) != len(want) or not all(close(a, b) for a, b in zip(got, want)):
+            out.append(f"{', '.join(names)}: the docs say {m.group(2).strip()!r}, the defaults are {want}")
+    out += [f"`{name}` has no row in docs/principled_hair.md" for name in sorted(set(defaults) - seen)]
+    return out
+
+
+def test_principled_hair_defaults_table_matches_the_scene_schema():
+    doc = PRINCIPLED_DOC.read_text(encoding="utf-8")
+    defaults = hairbsdf.PRINCIPLED_HAIR_DEFAULTS
+    assert not principled_default_mismatches(doc, defaults)
+    changed = dict(defaults, ior=1.6)
+    assert any(p.startswith("ior:") for p in principled_default_mismatches(doc, changed))
+    assert any("`coat` has no row" in p
+               for p in principled_default_mismatches(doc.replace("| `coat` | 0 | all |\n", ""), defaults))

@@ -23,14 +23,16 @@ struct ZooModel {
 };
 const std::vector<ZooModel>& zoo_models();
 
-// The schema of a zoo model; ModelError for an unknown name (the message lists the names).
+// The schema of a zoo model, or of "cycles_hair" (Cycles' legacy Hair BSDF node, params/cycles_hair.h:
+// built by name like a zoo model but not one of zoo_model_names); ModelError for an unknown name
+// (the message lists the names).
 const std::vector<ModelParamSpec>& zoo_model_schema(const std::string& model);
 // A plugin's schema (hairbsdf/plugin.h) in the same form: FLOAT -> Float, RGB -> RGB.
 std::vector<ModelParamSpec> plugin_model_schema(const PluginLibrary& library);
 // The schema of `model` ("plugin": of the plugin at `path`, loaded if needed).
 std::vector<ModelParamSpec> model_schema(const std::string& model, const std::string& path = "");
 
-// A zoo model from named values; parameters not given take their defaults. ModelError names
+// A zoo model (or "cycles_hair") from named values; parameters not given take their defaults. ModelError names
 // an unknown model or parameter, a value of the wrong type, or one out of range (and what is
 // allowed).
 HairModel make_zoo_model(const std::string& model, const ModelParams& params);

@@ -24,7 +24,8 @@ enum class ParamKind {
     Float,   // one number in [min_value, max_value]
     RGB,     // three numbers, each in [min_value, max_value]; a number gives grey
     Choice,  // one of `choices`, given by name; default_value[0] is the default's index
-    Bool     // 0 or 1 (Python: False / True)
+    Bool,    // 0 or 1 (Python: False / True)
+    Int      // a whole number in [min_value, max_value] (Python: int)
 };
 
 struct ModelParamSpec {

@@ -46,6 +46,15 @@ def principled_hair_inputs(model: str) -> tuple:
                  if k["path"].startswith(prefix) and model in k["hair_models"].split())
 
 
+@functools.cache
+def cycles_hair_defaults() -> dict:
+    """The legacy Hair BSDF node's defaults, for a socket that cannot be read: its table
+    (bsdf_core/include/hairbsdf/params/cycles_hair.h), as hairbsdf.zoo reads it."""
+    from hairbsdf.zoo import CYCLES_HAIR_DEFAULTS  # lazily, as the scene schema
+
+    return CYCLES_HAIR_DEFAULTS
+
+
 def _mul(w, f):
     if isinstance(f, tuple):
         return tuple(a * b for a, b in zip(w, f))
@@ -315,8 +324,9 @@ class MaterialTranslator:
         if tangent is not None and tangent.is_linked:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
+        defaults = cycles_hair_defaults()
         c = {"type": "cycles_hair", "weight": _as_weight(weight), "component": node.component.upper(),
-             "color": GREY, "offset": 0.0, "roughness_u": 0.1, "roughness_v": 1.0}
+             **{key: defaults[key] for key in ("color", "offset", "roughness_u", "roughness_v")}}
         for ident, kind, key in (("Color", "color", "color"), ("Offset", "float", "offset"),
                                  ("RoughnessU", "float", "roughness_u"), ("RoughnessV", "float", "roughness_v")):
             self.per_render(node, ident, kind, c, key)

@@ -88,6 +88,20 @@ ParamRow<P> flag(const char* name, bool P::*field, const char* description) {
         [field](P& p, const ParamValue& v) { p.*field = v[0] != 0.0; });
 }
 
+// The largest whole number an Int row holds exactly (a double's 2^53).
+constexpr double kMaxInteger = 9007199254740992.0;
+
+template <class P>
+ParamRow<P> integer(const char* name, long P::*field, double lo, double hi, const char* description) {
+    return bound<P>(
+        spec(name, ParamKind::Int, lo, hi, description),
+        [field](const P& p) {
+            const double x = double(p.*field);
+            return ParamValue{x, x, x};
+        },
+        [field](P& p, const ParamValue& v) { p.*field = long(v[0]); });
+}
+
 // An enum field chosen by name: `choices` pairs each name with its value, in the schema's order.
 template <class P, class E>
 ParamRow<P> choice(const char* name, E P::*field, std::vector<std::pair<std::string, E>> choices, const char* description) {

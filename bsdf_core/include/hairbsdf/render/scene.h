@@ -100,9 +100,11 @@ struct ClosureDesc {
     std::string model_name;
     std::string model_path;
     ModelParams model_params;
-    // cycles_hair (the legacy Hair BSDF node): component, Offset in radians, RoughnessU / V.
+    // cycles_hair (the legacy Hair BSDF node): component, Offset in radians, RoughnessU / V; defaults
+    // the node's, as CyclesHairParams holds them (models/cycles_hair.h).
     bool transmission = false;
-    double offset = 0.0, roughness_u = 0.1, roughness_v = 1.0;
+    double offset = CyclesHairParams{}.offset, roughness_u = CyclesHairParams{}.roughness_u,
+           roughness_v = CyclesHairParams{}.roughness_v;
     // Inputs driven by the material's shading program: the input takes the register's value
     // (3 consecutive registers for a colour) at each hit instead of the constant above.
     enum class Input {

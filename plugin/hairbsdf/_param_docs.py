@@ -1,0 +1,43 @@
+"""Docstring sections generated from a parameter table (the dicts of hairbsdf.model_schema), so that
+a constructor's prose says what each parameter means and the numbers (defaults, ranges, choices) are
+written once, in the table (plugin/tests/test_model_tables.py checks the docstrings)."""
+
+from __future__ import annotations
+
+HEADING = "Parameters (generated from the table, {}):"
+
+
+def _number(x) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def parameters_block(schema: list, source: str) -> str:
+    """One line per table row: name, range or choices, default, meaning."""
+    lines = [HEADING.format(source)]
+    for p in schema:
+        if p["type"] == "choice":
+            allowed = "one of " + ", ".join(repr(c) for c in p["choices"])
+        elif p["type"] == "bool":
+            allowed = "True or False"
+        elif p["type"] == "int":
+            allowed = f"a whole number in [{int(p['min'])}, {int(p['max'])}]"
+        else:
+            allowed = ("RGB (or grey), each channel " if p["type"] == "rgb" else "") + \
+                f"in [{_number(p['min'])}, {_number(p['max'])}]"
+        d = p["default"]
+        if p["optional"]:
+            default = "derived unless given"
+        elif isinstance(d, tuple):
+            default = "(" + ", ".join(_number(x) for x in d) + ")"
+        else:
+            default = repr(d) if isinstance(d, str) else _number(d)
+        lines.append(f"    {p['name']}: {allowed}; default {default}. {p['description']}")
+    return "\n".join(lines)
+
+
+def with_parameters(schema: list, source: str):
+    """A decorator appending parameters_block(schema, source) to the function's docstring."""
+    def decorate(function):
+        function.__doc__ = (function.__doc__ or "").rstrip() + "\n\n" + parameters_block(schema, source) + "\n"
+        return function
+    return decorate
