@@ -55,7 +55,9 @@ TEST(BatchRows, ParallelForCoversEveryRowOnceOnAtMostTheSetThreads) {
                 std::set<std::thread::id> ids;
                 std::mutex lock;
                 parallel_for(n, min_chunk, [&](size_t b, size_t e) {
-                    if (n > 0) EXPECT_LT(b, e);  // n = 0: one empty call
+                    if (n > 0) {  // n = 0: one empty call
+                        EXPECT_LT(b, e);
+                    }
                     for (size_t i = b; i < e; ++i) ++seen[i];  // chunks are disjoint: no race
                     std::lock_guard<std::mutex> g(lock);
                     ids.insert(std::this_thread::get_id());

@@ -21,6 +21,22 @@ PrincipledHairInputs white_hair(double roughness, double radial_roughness, doubl
 
 ClosureSum single(const ChiangHairParams& p) { return ClosureSum({Closure{RGB(1.0), ChiangHair(p)}}); }
 
+// Melanin hair with random roughnesses, offset and (every third row) coat; row i picks the accuracy and the
+// tilt convention, so that consecutive rows cover all four.
+ChiangHairParams random_chiang_params(std::mt19937_64& rng, long i) {
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    PrincipledHairInputs in;
+    in.parametrization = Parametrization::Melanin;
+    in.melanin = uni(rng);
+    in.roughness = 0.05 + 0.95 * uni(rng);
+    in.radial_roughness = 0.05 + 0.95 * uni(rng);
+    in.coat = i % 3 == 0 ? uni(rng) : 0.0;
+    in.offset = 0.1 * (uni(rng) - 0.5);
+    const Accuracy acc = i % 2 ? Accuracy::Exact : Accuracy::Cycles;
+    const TiltConvention tilt = i % 4 < 2 ? TiltConvention::Blender42 : TiltConvention::Blender34;
+    return chiang_params_from_principled(in, acc, tilt);
+}
+
 ShadingContext fibre_context(Vec3 wo, double h) {
     ShadingContext ctx;
     ctx.wo = wo;
@@ -105,16 +121,7 @@ TEST(ChiangHair, SampleIsConsistentWithEvalAndPdf) {
     const long n = test::scaled(20000);
     int checked = 0;
     for (long i = 0; i < n; ++i) {
-        PrincipledHairInputs in;
-        in.parametrization = Parametrization::Melanin;
-        in.melanin = uni(rng);
-        in.roughness = 0.05 + 0.95 * uni(rng);
-        in.radial_roughness = 0.05 + 0.95 * uni(rng);
-        in.coat = i % 3 == 0 ? uni(rng) : 0.0;
-        in.offset = 0.1 * (uni(rng) - 0.5);
-        const Accuracy acc = i % 2 ? Accuracy::Exact : Accuracy::Cycles;
-        const TiltConvention tilt = i % 4 < 2 ? TiltConvention::Blender42 : TiltConvention::Blender34;
-        const ClosureSum bsdf = single(chiang_params_from_principled(in, acc, tilt));
+        const ClosureSum bsdf = single(random_chiang_params(rng, i));
         const ShadingContext ctx = fibre_context(test::random_unit(rng), 2 * uni(rng) - 1);
         const BsdfSample s = bsdf.sample(ctx, {uni(rng), uni(rng), uni(rng)});
         if (s.lobe < 0) continue;
@@ -319,16 +326,7 @@ TEST(ChiangHair, ScalarAvx2BuildMatchesTheBaseline) {
     };
     std::vector<Row> rows;
     for (int i = 0; i < 4000; ++i) {
-        PrincipledHairInputs in;
-        in.parametrization = Parametrization::Melanin;
-        in.melanin = uni(rng);
-        in.roughness = 0.05 + 0.95 * uni(rng);
-        in.radial_roughness = 0.05 + 0.95 * uni(rng);
-        in.coat = i % 3 == 0 ? uni(rng) : 0.0;
-        in.offset = 0.1 * (uni(rng) - 0.5);
-        const Accuracy acc = i % 2 ? Accuracy::Exact : Accuracy::Cycles;
-        const TiltConvention tilt = i % 4 < 2 ? TiltConvention::Blender42 : TiltConvention::Blender34;
-        rows.push_back(Row{ChiangHair(chiang_params_from_principled(in, acc, tilt)),
+        rows.push_back(Row{ChiangHair(random_chiang_params(rng, i)),
                            fibre_context(test::random_unit(rng), 2 * uni(rng) - 1), test::random_unit(rng),
                            {uni(rng), uni(rng), uni(rng)}, i % 5 == 0});
     }

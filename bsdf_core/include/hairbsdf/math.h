@@ -257,6 +257,25 @@ inline double log_float_accuracy(double x) {
     p = p * z + 1.0 / 3.0;
     return double(e) * 0.6931471805599453 + 2.0 * (t + t * z * p);
 }
+// sin r and cos r for |r| <= pi/4 from their Taylor series to r^13 and r^14 (Horner in z = r^2), for a double
+// or per lane of a Double2 (the same operations, so the lanes equal the scalar form bit for bit).
+template <class T>
+HAIRBSDF_ALWAYS_INLINE void sincos_taylor(T r, T& sin_r, T& cos_r) {
+    const T z = r * r;
+    T ps = z * (-1.0 / 6227020800.0) + 1.0 / 39916800.0;
+    ps = ps * z - 1.0 / 362880.0;
+    ps = ps * z + 1.0 / 5040.0;
+    ps = ps * z - 1.0 / 120.0;
+    ps = ps * z + 1.0 / 6.0;
+    sin_r = r - r * z * ps;
+    T pc = z * (1.0 / 87178291200.0) - 1.0 / 479001600.0;
+    pc = pc * z + 1.0 / 3628800.0;
+    pc = pc * z - 1.0 / 40320.0;
+    pc = pc * z + 1.0 / 720.0;
+    pc = pc * z - 1.0 / 24.0;
+    pc = pc * z + 0.5;
+    cos_r = 1.0 - z * pc;
+}
 // sin and cos of x together to about 1e-15 absolute for |x| up to a few turns, inlined (the sampled
 // direction must stay a unit vector to 1e-12): x = n pi/2 + r with |r| <= pi/4 (pi/2 in two parts), sin r
 // and cos r from their Taylor series to r^13 and r^14, then the quadrant n mod 4.
@@ -264,22 +283,8 @@ inline SinCosPair sincos_accurate(double x) {
     constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
     const double n = (x * 0.6366197723675814 + kRound) - kRound;  // x / (pi/2), rounded
     const double r = (x - n * 1.5707963267948966) - n * 6.123233995736766e-17;
-    const double z = r * r;
-    double ps = -1.0 / 6227020800.0;
-    ps = ps * z + 1.0 / 39916800.0;
-    ps = ps * z - 1.0 / 362880.0;
-    ps = ps * z + 1.0 / 5040.0;
-    ps = ps * z - 1.0 / 120.0;
-    ps = ps * z + 1.0 / 6.0;
-    const double sin_r = r - r * z * ps;
-    double pc = 1.0 / 87178291200.0;
-    pc = pc * z - 1.0 / 479001600.0;
-    pc = pc * z + 1.0 / 3628800.0;
-    pc = pc * z - 1.0 / 40320.0;
-    pc = pc * z + 1.0 / 720.0;
-    pc = pc * z - 1.0 / 24.0;
-    pc = pc * z + 0.5;
-    const double cos_r = 1.0 - z * pc;
+    double sin_r, cos_r;
+    sincos_taylor(r, sin_r, cos_r);
     switch (int64_t(n) & 3) {
         case 0: return {sin_r, cos_r};
         case 1: return {cos_r, -sin_r};
@@ -320,20 +325,8 @@ inline SinCosPair2 sincos_accurate(Double2 x) {
     const Double2 shifted = x * 0.6366197723675814 + kRound;  // its low bits hold n
     const Double2 n = shifted - kRound;
     const Double2 r = (x - n * 1.5707963267948966) - n * 6.123233995736766e-17;
-    const Double2 z = r * r;
-    Double2 ps = z * (-1.0 / 6227020800.0) + 1.0 / 39916800.0;
-    ps = ps * z - 1.0 / 362880.0;
-    ps = ps * z + 1.0 / 5040.0;
-    ps = ps * z - 1.0 / 120.0;
-    ps = ps * z + 1.0 / 6.0;
-    const Double2 sin_r = r - r * z * ps;
-    Double2 pc = z * (1.0 / 87178291200.0) - 1.0 / 479001600.0;
-    pc = pc * z + 1.0 / 3628800.0;
-    pc = pc * z - 1.0 / 40320.0;
-    pc = pc * z + 1.0 / 720.0;
-    pc = pc * z - 1.0 / 24.0;
-    pc = pc * z + 0.5;
-    const Double2 cos_r = 1.0 - z * pc;
+    Double2 sin_r, cos_r;
+    sincos_taylor(r, sin_r, cos_r);
     // The quadrant n mod 4: odd swaps sin and cos; sin is negated for n = 2, 3, cos for n = 1, 2.
     UInt2 q;
     std::memcpy(&q, &shifted, sizeof q);
