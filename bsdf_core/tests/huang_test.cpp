@@ -215,7 +215,7 @@ TEST(HuangHair, DeterministicEqualsMeanOfCyclesEstimator) {
             const double mu1 = mean_one[size_t(l)] / n;
             const double sd1 = std::sqrt(std::max(m2_one[size_t(l)] / n - mu1 * mu1, 0.0) / n);
             EXPECT_NEAR(lum(det[size_t(l)]), mu1, 5 * sd1 + 2e-3 * total)
-                << "one node: lobe " << l << " case " << c.theta_o << " " << c.theta_i << " " << c.dphi;
+                << "node subset: lobe " << l << " case " << c.theta_o << " " << c.theta_i << " " << c.dphi;
         }
     }
 }
