@@ -206,6 +206,7 @@ def plot(result, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     s = result["settings"]
     fig, ax = plt.subplots(2, 2, figsize=(10, 7.5))
@@ -225,6 +226,7 @@ def plot(result, path):
         ax[1, col].set_ylabel("resident memory [MB]")
         ax[1, col].set_xlabel(xlabel)
         for a in ax[:, col]:
+            a.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # decades only: no overlapping labels
             a.grid(True, which="both", alpha=0.3)
             if a.get_legend_handles_labels()[0]:
                 a.legend(fontsize=8)
