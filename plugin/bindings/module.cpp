@@ -136,14 +136,45 @@ py::array_t<double> albedo_arrays(const ClosureSum& bsdf, const Array& wo, const
     return out;
 }
 
-// Principled Hair's inputs from {socket key: value} by the scene schema's input rows
-// ("materials[].closures[].inputs.*", bound to PrincipledHairInputs' fields): the one table of the
-// node's inputs. Keys absent keep the struct's defaults (Blender 4.5's).
+// The scene schema's rows of Principled Hair's inputs ("materials[].closures[].inputs.*", bound to
+// PrincipledHairInputs' fields: the one table of the node's inputs), with their keys; found once.
+using PrincipledInputRows = std::vector<std::pair<std::string, const bindings::SceneKey*>>;
+const PrincipledInputRows& principled_input_rows() {
+    static const PrincipledInputRows rows = [] {
+        const std::string path = "materials[].closures[].inputs";
+        PrincipledInputRows out;
+        for (const bindings::SceneKey* k : bindings::rows_under(path, ""))
+            if (k->field && k->field.owner == typeid(PrincipledHairInputs))
+                out.emplace_back(std::string(k->path).substr(path.size() + 1), k);
+        return out;
+    }();
+    return rows;
+}
+
+// Principled Hair's inputs from {key: value} (values as hairbsdf.principled checked them) by those
+// rows; keys absent keep the struct's defaults (Blender 4.5's), an unknown key is an error.
 PrincipledHairInputs principled_inputs_from(int parametrization, const py::dict& inputs) {
-    static const std::string path = "materials[].closures[].inputs";
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
-    bindings::read_fields(path, py::reinterpret_borrow<py::dict>(bindings::check_value(path, inputs, "inputs")), in);
+    size_t used = 0;
+    for (const auto& [key, row] : principled_input_rows()) {
+        if (!inputs.contains(key)) continue;
+        py::object value = inputs[py::str(key)];
+        if (row->kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
+        row->field.assign(*row, &in, value);
+        ++used;
+    }
+    if (used != inputs.size()) {
+        std::string unknown, allowed;
+        for (const auto& item : inputs) {
+            const std::string key = py::str(item.first);
+            bool known = false;
+            for (const auto& row : principled_input_rows()) known = known || row.first == key;
+            if (!known) unknown = key;
+        }
+        for (const auto& row : principled_input_rows()) allowed += (allowed.empty() ? "" : ", ") + row.first;
+        throw py::value_error("inputs['" + unknown + "']: not a Principled Hair input; allowed: " + allowed);
+    }
     return in;
 }
 
