@@ -1,6 +1,6 @@
-// The zoo's parameter tables (params/<model>.h) and MaterialX's node tables: names unique, each bound row reads and writes its
-// own field only (so no two rows share a field and a row's default is its field's default), and
-// the factory's schema is the table's.
+// The zoo's parameter tables (params/<model>.h) and MaterialX's node tables (params/materialx.h):
+// names unique, each bound row reads and writes its own field only (so no two rows share a field
+// and a row's default is its field's default), and the factory's schema is the table's.
 #include <gtest/gtest.h>
 
 #include <cmath>

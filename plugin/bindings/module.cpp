@@ -186,7 +186,8 @@ struct PrincipledChiang {
     TiltConvention tilt;
 };
 PrincipledChiang principled_chiang_from(const py::tuple& principled) {
-    if (principled.size() != 4) throw py::value_error("internal: principled_chiang takes (parametrization, inputs, accuracy, tilt)");
+    if (principled.size() != 4)
+        throw py::value_error("internal: principled_chiang takes (parametrization, inputs, accuracy, tilt)");
     return {principled_inputs_from(principled[0].cast<int>(), principled[1].cast<py::dict>()),
             Accuracy(principled[2].cast<int>()), TiltConvention(principled[3].cast<int>())};
 }
@@ -278,8 +279,8 @@ HuangColorRoughness huang_color_roughness(int index) {
 // option of Huang's table.
 ClosureSum principled_huang(int parametrization, const py::dict& inputs, const py::dict& options) {
     const PrincipledHairInputs in = principled_inputs_from(parametrization, inputs);
-    const HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture,
-                                                           huang_color_roughness(options["color_roughness"].cast<int>()));
+    const HuangColorRoughness color_roughness = huang_color_roughness(options["color_roughness"].cast<int>());
+    const HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, color_roughness);
     return ClosureSum({Closure{RGB(1.0), HuangHair(huang_options(p, options))}});
 }
 
@@ -940,7 +941,8 @@ PYBIND11_MODULE(_core, m) {
     // MaterialX nodes (params/materialx.h): each takes its inputs as a dict by its table's names.
     m.def("materialx_schema", [](const std::string& node) {
         if (node == ParamTable<ChiangHairBsdfInputs>::model) return schema_list(param_specs<ChiangHairBsdfInputs>());
-        if (node == ParamTable<ChiangHairRoughnessInputs>::model) return schema_list(param_specs<ChiangHairRoughnessInputs>());
+        if (node == ParamTable<ChiangHairRoughnessInputs>::model)
+            return schema_list(param_specs<ChiangHairRoughnessInputs>());
         if (node == ParamTable<ChiangHairAbsorptionFromColorInputs>::model)
             return schema_list(param_specs<ChiangHairAbsorptionFromColorInputs>());
         if (node == ParamTable<DeonHairAbsorptionFromMelaninInputs>::model)

@@ -103,8 +103,9 @@ def chiang_hair_roughness(longitudinal: float = _ROUGHNESS["longitudinal"], azim
 def chiang_hair_absorption_from_color(color=_FROM_COLOR["color"],
                                       azimuthal_roughness: float = _FROM_COLOR["azimuthal_roughness"]) -> np.ndarray:
     """MaterialX `chiang_hair_absorption_from_color`: Chiang 2016 eq. 9 on the clamped colour."""
-    return np.array(_core.materialx_absorption_from_color(
-        {"color": check.color("color", color), "azimuthal_roughness": check.real("azimuthal_roughness", azimuthal_roughness)}))
+    return np.array(_core.materialx_absorption_from_color({
+        "color": check.color("color", color),
+        "azimuthal_roughness": check.real("azimuthal_roughness", azimuthal_roughness)}))
 
 
 @_table_parameters("deon_hair_absorption_from_melanin")

@@ -72,7 +72,8 @@ def test_missing_colours_are_cycles_default_surface(tmp_path):
     grey = _core.DEFAULT_SURFACE_COLOR
     row = next(k for k in scene_schema() if k["path"] == "materials[].closures[].color")
     assert row["default"] == "(" + ", ".join(f"{c:g}" for c in grey) + ")"
-    d = desc(dict(name="bare", closures=[]), dict(name="plain", closures=[dict(type="diffuse", weight=(1.0, 1.0, 1.0))]))
+    plain = dict(type="diffuse", weight=(1.0, 1.0, 1.0))
+    d = desc(dict(name="bare", closures=[]), dict(name="plain", closures=[plain]))
     path = tmp_path / "materials.mtlx"
     write_materialx(d, path)
     text = path.read_text()

@@ -119,7 +119,8 @@ def write_materialx(desc, path):
             continue
         if c["type"] == "diffuse":
             node = doc.addNode("oren_nayar_diffuse_bsdf", name + "_bsdf", "BSDF")
-            node.setInputValue("color", ", ".join(repr(float(v)) for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)), "color3")
+            color = c.get("color", _core.DEFAULT_SURFACE_COLOR)
+            node.setInputValue("color", ", ".join(repr(float(v)) for v in color), "color3")
             node.setInputValue("roughness", "0.0", "float")  # Lambert, as Cycles' Diffuse BSDF at roughness 0
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
             surface.setConnectedNode("bsdf", node)
