@@ -116,6 +116,8 @@ private:
                 if (!x || !(*x == std::floor(*x))) fail(p, v, "is not allowed; expected a whole number");
                 if (!(*x >= p.min_value && *x <= p.max_value)) fail(p, v, "is out of range; allowed: " + range_text(p));
                 return {*x, *x, *x};
+            case ParamKind::Vector2:
+                break;  // MaterialX's node tables only (params/materialx.h), never a model's
         }
         fail(p, v, "has an unknown kind");
     }

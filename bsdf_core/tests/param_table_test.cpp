@@ -1,8 +1,9 @@
-// The zoo's parameter tables (params/<model>.h): names unique, each bound row reads and writes its
-// own field only (so no two rows share a field and a row's default is its field's default), and
-// the factory's schema is the table's.
+// The zoo's parameter tables (params/<model>.h) and MaterialX's node tables (params/materialx.h):
+// names unique, each bound row reads and writes its own field only (so no two rows share a field
+// and a row's default is its field's default), and the factory's schema is the table's.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <set>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "hairbsdf/params/huang.h"
 #include "hairbsdf/params/kajiya_kay.h"
 #include "hairbsdf/params/marschner.h"
+#include "hairbsdf/params/materialx.h"
 #include "hairbsdf/params/scheuermann.h"
 #include "hairbsdf/params/yan_fur.h"
 
@@ -26,10 +28,14 @@ ParamValue other_value(const ModelParamSpec& s, const ParamValue& v) {
     for (double& x : out) {
         if (s.kind == ParamKind::Choice || s.kind == ParamKind::Bool || s.kind == ParamKind::Int)
             x = x == s.max_value ? s.min_value : x + 1;
+        else if (!std::isfinite(s.max_value))
+            x += 1;
         else
             x = x == s.max_value ? 0.5 * (s.min_value + s.max_value) : 0.5 * (x + s.max_value);
     }
-    if (s.kind == ParamKind::RGB) out[1] = 0.5 * (out[1] + s.min_value);  // channels differ
+    if (s.kind == ParamKind::RGB || s.kind == ParamKind::Vector2)  // channels differ
+        out[1] = std::isfinite(s.min_value) ? 0.5 * (out[1] + s.min_value) : out[1] + 1;
+    if (s.kind == ParamKind::Vector2) out[2] = 0;  // unused
     return out;
 }
 
@@ -73,6 +79,10 @@ TEST(ParamTables, EachBoundRowOwnsItsField) {
     check_table<YanFurParams>();
     check_table<CyclesHairParams>();  // built by name outside the zoo
     check_table<HuangHairParams>(false);  // Huang's options, applied by the bindings
+    check_table<ChiangHairBsdfInputs>(false);  // MaterialX nodes (hairbsdf.materialx)
+    check_table<ChiangHairRoughnessInputs>(false);
+    check_table<ChiangHairAbsorptionFromColorInputs>(false);
+    check_table<DeonHairAbsorptionFromMelaninInputs>(false);
 }
 
 TEST(ParamTables, ZooModelsComeFromTheTables) {

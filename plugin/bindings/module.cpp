@@ -26,6 +26,7 @@
 #include "hairbsdf/params/principled_hair.h"
 #include "hairbsdf/params/scheuermann.h"
 #include "hairbsdf/params/yan_fur.h"
+#include "hairbsdf/render/scene.h"
 #include "model_params.h"
 #include "scene_schema.h"
 
@@ -135,39 +136,65 @@ py::array_t<double> albedo_arrays(const ClosureSum& bsdf, const Array& wo, const
     return out;
 }
 
-PrincipledHairInputs principled_inputs(int parametrization, std::array<double, 3> color, double melanin,
-                                       double melanin_redness, std::array<double, 3> tint,
-                                       std::array<double, 3> absorption_coefficient, double roughness,
-                                       double radial_roughness, double coat, double ior, double offset,
-                                       double random_color, double random_roughness, double random) {
+// The scene schema's rows of Principled Hair's inputs ("materials[].closures[].inputs.*", bound to
+// PrincipledHairInputs' fields: the one table of the node's inputs), with their keys; found once.
+using PrincipledInputRows = std::vector<std::pair<std::string, const bindings::SceneKey*>>;
+const PrincipledInputRows& principled_input_rows() {
+    static const PrincipledInputRows rows = [] {
+        const std::string path = "materials[].closures[].inputs";
+        PrincipledInputRows out;
+        for (const bindings::SceneKey* k : bindings::rows_under(path, ""))
+            if (k->field && k->field.owner == typeid(PrincipledHairInputs))
+                out.emplace_back(std::string(k->path).substr(path.size() + 1), k);
+        return out;
+    }();
+    return rows;
+}
+
+// Principled Hair's inputs from {key: value} (values as hairbsdf.principled checked them) by those
+// rows; keys absent keep the struct's defaults (Blender 4.5's), an unknown key is an error.
+PrincipledHairInputs principled_inputs_from(int parametrization, const py::dict& inputs) {
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
-    in.color = rgb_from(color);
-    in.melanin = melanin;
-    in.melanin_redness = melanin_redness;
-    in.tint = rgb_from(tint);
-    in.absorption_coefficient = rgb_from(absorption_coefficient);
-    in.roughness = roughness;
-    in.radial_roughness = radial_roughness;
-    in.coat = coat;
-    in.ior = ior;
-    in.offset = offset;
-    in.random_color = random_color;
-    in.random_roughness = random_roughness;
-    in.random = random;
+    size_t used = 0;
+    for (const auto& [key, row] : principled_input_rows()) {
+        if (!inputs.contains(key)) continue;
+        py::object value = inputs[py::str(key)];
+        if (row->kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
+        row->field.assign(*row, &in, value);
+        ++used;
+    }
+    if (used != inputs.size()) {
+        std::string unknown, allowed;
+        for (const auto& item : inputs) {
+            const std::string key = py::str(item.first);
+            bool known = false;
+            for (const auto& row : principled_input_rows()) known = known || row.first == key;
+            if (!known) unknown = key;
+        }
+        for (const auto& row : principled_input_rows()) allowed += (allowed.empty() ? "" : ", ") + row.first;
+        throw py::value_error("inputs['" + unknown + "']: not a Principled Hair input; allowed: " + allowed);
+    }
     return in;
 }
 
-ClosureSum principled_chiang(int parametrization, std::array<double, 3> color, double melanin,
-                             double melanin_redness, std::array<double, 3> tint,
-                             std::array<double, 3> absorption_coefficient, double roughness,
-                             double radial_roughness, double coat, double ior, double offset, double random_color,
-                             double random_roughness, double random, int accuracy, int tilt) {
-    const PrincipledHairInputs in =
-        principled_inputs(parametrization, color, melanin, melanin_redness, tint, absorption_coefficient, roughness,
-                          radial_roughness, coat, ior, offset, random_color, random_roughness, random);
-    const ChiangHairParams p = chiang_params_from_principled(in, Accuracy(accuracy), TiltConvention(tilt));
-    return ClosureSum({Closure{RGB(1.0), ChiangHair(p)}});
+// principled_hair(model="chiang"): `principled` is (parametrization, inputs, accuracy, tilt), as
+// Closure keeps it for chiang_rows.
+struct PrincipledChiang {
+    PrincipledHairInputs in;
+    Accuracy accuracy;
+    TiltConvention tilt;
+};
+PrincipledChiang principled_chiang_from(const py::tuple& principled) {
+    if (principled.size() != 4)
+        throw py::value_error("internal: principled_chiang takes (parametrization, inputs, accuracy, tilt)");
+    return {principled_inputs_from(principled[0].cast<int>(), principled[1].cast<py::dict>()),
+            Accuracy(principled[2].cast<int>()), TiltConvention(principled[3].cast<int>())};
+}
+
+ClosureSum principled_chiang(const py::tuple& principled) {
+    const PrincipledChiang c = principled_chiang_from(principled);
+    return ClosureSum({Closure{RGB(1.0), ChiangHair(chiang_params_from_principled(c.in, c.accuracy, c.tilt))}});
 }
 
 ClosureSum chiang_from_params(std::array<double, 3> sigma_a, double eta, std::array<double, 4> v,
@@ -200,19 +227,41 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
     return d;
 }
 
-// Huang's options as the indices and numbers of its table's rows (params/huang.h): each bound row
-// writes its field (a choice's index names its enum value through the table).
-HuangHairParams huang_options(HuangHairParams p, int quadrature, int sampler, double tolerance, long max_evaluations,
-                              long trt_points, int glass_albedo_table) {
-    const std::map<std::string, double> given = {{"accuracy", quadrature},
-                                                 {"sampler", sampler},
-                                                 {"tolerance", tolerance},
-                                                 {"max_evaluations", double(max_evaluations)},
-                                                 {"trt_points", double(trt_points)},
-                                                 {"glass_albedo_table", glass_albedo_table}};
+// P's inputs from a dict of checked values named as its table's rows (params/param_table.h): a
+// number, or a sequence of 2 or 3 numbers; names absent keep P's defaults, an unknown name is an error.
+template <class P>
+P inputs_from_table(const py::dict& given) {
+    P p;
+    size_t used = 0;
+    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+        const py::str name(row.spec.name);
+        if (!row.set || !given.contains(name)) continue;
+        const py::handle v = given[name];
+        ParamValue x{};
+        if (py::isinstance<py::sequence>(v)) {
+            const std::vector<double> seq = v.cast<std::vector<double>>();
+            if (seq.empty() || seq.size() > 3) throw py::value_error(std::string(name) + ": expected 1 to 3 numbers");
+            std::copy(seq.begin(), seq.end(), x.begin());
+        } else {
+            x.fill(v.cast<double>());
+        }
+        row.set(p, x);
+        ++used;
+    }
+    if (used != given.size()) {
+        std::string known;
+        for (const ParamRow<P>& row : ParamTable<P>::rows()) known += (known.empty() ? "" : ", ") + row.spec.name;
+        throw py::value_error(std::string(ParamTable<P>::model) + ": unknown input; allowed: " + known);
+    }
+    return p;
+}
+
+// Huang's options by their table's names (params/huang.h): a choice as its index, else the
+// number; each bound row writes its field (a choice's index names its enum value through the table).
+HuangHairParams huang_options(HuangHairParams p, const py::dict& given) {
     for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows()) {
         if (!row.set) continue;  // color_roughness: an input of the node conversion
-        const double x = given.at(row.spec.name);
+        const double x = given[py::str(row.spec.name)].cast<double>();
         row.set(p, {x, x, x});
     }
     return p;
@@ -226,53 +275,13 @@ HuangColorRoughness huang_color_roughness(int index) {
     throw std::logic_error("params/huang.h has no color_roughness row");
 }
 
-ClosureSum principled_huang(int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
-                            std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,
-                            double radial_roughness, double ior, double offset, double random_color,
-                            double random_roughness, double random, double aspect_ratio, double reflection,
-                            double transmission, double secondary_reflection, int quadrature, int sampler,
-                            double tolerance, long max_evaluations, long trt_points, int color_roughness,
-                            int glass_albedo_table) {
-    PrincipledHairInputs in;
-    in.parametrization = Parametrization(parametrization);
-    in.color = rgb_from(color);
-    in.melanin = melanin;
-    in.melanin_redness = melanin_redness;
-    in.tint = rgb_from(tint);
-    in.absorption_coefficient = rgb_from(absorption_coefficient);
-    in.roughness = roughness;
-    in.radial_roughness = radial_roughness;
-    in.ior = ior;
-    in.offset = offset;
-    in.random_color = random_color;
-    in.random_roughness = random_roughness;
-    in.random = random;
-    in.aspect_ratio = aspect_ratio;
-    in.reflection = reflection;
-    in.transmission = transmission;
-    in.secondary_reflection = secondary_reflection;
-    HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture,
-                                                     huang_color_roughness(color_roughness));
-    return ClosureSum(
-        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points,
-                                                        glass_albedo_table))}});
-}
-
-ClosureSum huang_from_params(std::array<double, 3> sigma_a, double roughness, double offset, double eta,
-                             double aspect_ratio, std::array<double, 3> factors, int quadrature, int sampler,
-                             double tolerance, long max_evaluations, long trt_points, int glass_albedo_table) {
-    HuangHairParams p;
-    p.sigma_a = rgb_from(sigma_a);
-    p.roughness = roughness;
-    p.offset = offset;
-    p.eta = eta;
-    p.aspect_ratio = aspect_ratio;
-    p.r_factor = factors[0];
-    p.tt_factor = factors[1];
-    p.trt_factor = factors[2];
-    return ClosureSum(
-        {Closure{RGB(1.0), HuangHair(huang_options(p, quadrature, sampler, tolerance, max_evaluations, trt_points,
-                                                        glass_albedo_table))}});
+// principled_hair(model="huang"): the node's inputs as principled_inputs_from reads them, and every
+// option of Huang's table.
+ClosureSum principled_huang(int parametrization, const py::dict& inputs, const py::dict& options) {
+    const PrincipledHairInputs in = principled_inputs_from(parametrization, inputs);
+    const HuangColorRoughness color_roughness = huang_color_roughness(options["color_roughness"].cast<int>());
+    const HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, color_roughness);
+    return ClosureSum({Closure{RGB(1.0), HuangHair(huang_options(p, options))}});
 }
 
 py::dict huang_params_dict(const HuangHair& m) {
@@ -353,6 +362,7 @@ py::dict table_dict(const P& p) {
             case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
             case ParamKind::Bool: d[name] = v[0] != 0.0; break;
             case ParamKind::Int: d[name] = (long long)v[0]; break;
+            case ParamKind::Vector2: d[name] = std::array<double, 2>{v[0], v[1]}; break;
         }
     }
     return d;
@@ -396,6 +406,7 @@ py::list schema_list(const std::vector<ModelParamSpec>& schema) {
             case ParamKind::Choice: d["type"] = "choice", d["default"] = p.choices[size_t(v[0])]; break;
             case ParamKind::Bool: d["type"] = "bool", d["default"] = v[0] != 0.0; break;
             case ParamKind::Int: d["type"] = "int", d["default"] = (long long)v[0]; break;
+            case ParamKind::Vector2: d["type"] = "vector2", d["default"] = py::make_tuple(v[0], v[1]); break;
         }
         d["min"] = p.min_value;
         d["max"] = p.max_value;
@@ -726,25 +737,18 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
     return py::make_tuple(wi, value, pdf, lobe);
 }
 
-// principled_hair(model="chiang") with per-row inputs: `principled` is principled_chiang's arguments
+// principled_hair(model="chiang") with per-row inputs: `principled` is principled_chiang's argument
 // (the uniform inputs, accuracy, tilt). The kernels, or None where they do not apply; with
 // `scalar`, the double reference path above.
 py::object chiang_rows(int op_index, const py::tuple& principled, std::array<double, 3> weight, const py::dict& inputs,
                        py::handle wo, py::handle second, py::handle h, py::object out, bool scalar) {
-    if (principled.size() != 16) throw py::value_error("internal: principled_chiang takes 16 arguments");
-    auto d = [&](size_t k) { return principled[k].cast<double>(); };
-    auto rgb = [&](size_t k) { return principled[k].cast<std::array<double, 3>>(); };
-    const PrincipledHairInputs in =
-        principled_inputs(principled[0].cast<int>(), rgb(1), d(2), d(3), rgb(4), rgb(5), d(6), d(7), d(8), d(9), d(10),
-                          d(11), d(12), d(13));
-    const Accuracy accuracy = Accuracy(principled[14].cast<int>());
-    const TiltConvention tilt = TiltConvention(principled[15].cast<int>());
+    const PrincipledChiang c = principled_chiang_from(principled);
     const ChiangBatchOp op = ChiangBatchOp(op_index);
     if (scalar)
-        return scalar_rows(in, accuracy, tilt, rgb_from(weight), op, py::cast<Array>(wo), py::cast<Array>(second),
+        return scalar_rows(c.in, c.accuracy, c.tilt, rgb_from(weight), op, py::cast<Array>(wo), py::cast<Array>(second),
                            py::cast<Array>(h), inputs);
-    return kernel_rows(chiang_batch_constants_principled(in, accuracy, tilt, rgb_from(weight)), op, wo, second, h, out,
-                       inputs);
+    return kernel_rows(chiang_batch_constants_principled(c.in, c.accuracy, c.tilt, rgb_from(weight)), op, wo, second, h,
+                       out, inputs);
 }
 
 template <class Fn>
@@ -854,6 +858,9 @@ PYBIND11_MODULE(_core, m) {
 
     py::register_exception<PluginError>(m, "PluginError", PyExc_RuntimeError);
     m.attr("PLUGIN_ABI_VERSION") = HAIRBSDF_PLUGIN_ABI_VERSION;
+    // Cycles' default surface colour (render/scene.h): the exporter's fallback diffuse.
+    const RGB grey = render::kDefaultSurfaceColor;
+    m.attr("DEFAULT_SURFACE_COLOR") = py::make_tuple(grey.r, grey.g, grey.b);
     py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")
         .def_property_readonly("name", &PluginLibrary::name)
         .def_property_readonly("path", &PluginLibrary::path)
@@ -892,14 +899,13 @@ PYBIND11_MODULE(_core, m) {
               return ClosureSum({Closure{RGB(1.0), make_model(model, path, given)}});
           },
           py::arg("model"), py::arg("params"), py::arg("path") = "");
-    m.def("principled_chiang", &principled_chiang);
+    m.def("principled_chiang", &principled_chiang, py::arg("principled"));
     // Per-row Principled Hair inputs on a Chiang closure (docs/simd.md); op 0 eval, 1 pdf, 2 sample.
     m.def("chiang_rows", &chiang_rows, py::arg("op"), py::arg("principled"), py::arg("weight"), py::arg("inputs"),
           py::arg("wo"), py::arg("second"), py::arg("h"), py::arg("out"), py::arg("scalar"));
     m.attr("CHIANG_ROW_INPUTS") = py::make_tuple(kRowInputNames[0], kRowInputNames[1], kRowInputNames[2],
                                                  kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
-    m.def("principled_huang", &principled_huang);
-    m.def("huang_from_params", &huang_from_params);
+    m.def("principled_huang", &principled_huang, py::arg("parametrization"), py::arg("inputs"), py::arg("options"));
     // Huang's options (params/huang.h): the table as model_schema's dicts, and name -> default.
     m.def("huang_option_schema", [] { return schema_list(param_specs<HuangHairParams>()); });
     m.def("huang_option_defaults", [] {
@@ -931,47 +937,36 @@ PYBIND11_MODULE(_core, m) {
     });
     m.def("chiang_from_params", &chiang_from_params);
     m.def("scheuermann_lobe_albedo", [](double p, double v_t) { return ScheuermannHair::lobe_albedo(p, v_t); });
-    m.def("principled_chiang_params",
-          [](int parametrization, std::array<double, 3> color, double melanin, double melanin_redness,
-             std::array<double, 3> tint, std::array<double, 3> absorption_coefficient, double roughness,
-             double radial_roughness, double coat, double ior, double offset, double random_color,
-             double random_roughness, double random) {
-              ClosureSum c = principled_chiang(parametrization, color, melanin, melanin_redness, tint,
-                                               absorption_coefficient, roughness, radial_roughness, coat, ior,
-                                               offset, random_color, random_roughness, random, 0, 0);
-              return chiang_params_dict(std::get<ChiangHair>(c.closures()[0].model).params());
-          });
 
-    m.def("materialx_chiang", [](std::array<std::array<double, 3>, 3> tints, double ior,
-                                 std::array<std::array<double, 2>, 3> roughness, double cuticle_angle,
-                                 std::array<double, 3> absorption) {
-        ChiangHairBsdfInputs in;
-        in.tint_R = rgb_from(tints[0]);
-        in.tint_TT = rgb_from(tints[1]);
-        in.tint_TRT = rgb_from(tints[2]);
-        in.ior = ior;
-        in.roughness_R = {roughness[0][0], roughness[0][1]};
-        in.roughness_TT = {roughness[1][0], roughness[1][1]};
-        in.roughness_TRT = {roughness[2][0], roughness[2][1]};
-        in.cuticle_angle = cuticle_angle;
-        in.absorption_coefficient = rgb_from(absorption);
+    // MaterialX nodes (params/materialx.h): each takes its inputs as a dict by its table's names.
+    m.def("materialx_schema", [](const std::string& node) {
+        if (node == ParamTable<ChiangHairBsdfInputs>::model) return schema_list(param_specs<ChiangHairBsdfInputs>());
+        if (node == ParamTable<ChiangHairRoughnessInputs>::model)
+            return schema_list(param_specs<ChiangHairRoughnessInputs>());
+        if (node == ParamTable<ChiangHairAbsorptionFromColorInputs>::model)
+            return schema_list(param_specs<ChiangHairAbsorptionFromColorInputs>());
+        if (node == ParamTable<DeonHairAbsorptionFromMelaninInputs>::model)
+            return schema_list(param_specs<DeonHairAbsorptionFromMelaninInputs>());
+        throw py::value_error("node: " + node + " is not a MaterialX node with a table");
+    });
+    m.def("materialx_chiang", [](const py::dict& inputs) {
+        const ChiangHairBsdfInputs in = inputs_from_table<ChiangHairBsdfInputs>(inputs);
         return ClosureSum({Closure{RGB(1.0), ChiangHair(chiang_params_from_materialx(in))}});
     });
-    m.def("materialx_roughness", [](double l, double a, double k_tt, double k_trt) {
-        const ChiangHairRoughness r = chiang_hair_roughness(l, a, k_tt, k_trt);
+    m.def("materialx_roughness", [](const py::dict& inputs) {
+        const ChiangHairRoughness r = chiang_hair_roughness(inputs_from_table<ChiangHairRoughnessInputs>(inputs));
         return std::array<std::array<double, 2>, 3>{std::array<double, 2>{r.roughness_R.x, r.roughness_R.y},
                                                     std::array<double, 2>{r.roughness_TT.x, r.roughness_TT.y},
                                                     std::array<double, 2>{r.roughness_TRT.x, r.roughness_TRT.y}};
     });
-    m.def("materialx_absorption_from_color", [](std::array<double, 3> c, double a) {
-        const RGB s = chiang_hair_absorption_from_color(rgb_from(c), a);
+    m.def("materialx_absorption_from_color", [](const py::dict& inputs) {
+        const RGB s = chiang_hair_absorption_from_color(inputs_from_table<ChiangHairAbsorptionFromColorInputs>(inputs));
         return std::array<double, 3>{s.r, s.g, s.b};
     });
-    m.def("materialx_absorption_from_melanin",
-          [](double c, double r, std::array<double, 3> eu, std::array<double, 3> pheo) {
-              const RGB s = deon_hair_absorption_from_melanin(c, r, rgb_from(eu), rgb_from(pheo));
-              return std::array<double, 3>{s.r, s.g, s.b};
-          });
+    m.def("materialx_absorption_from_melanin", [](const py::dict& inputs) {
+        const RGB s = deon_hair_absorption_from_melanin(inputs_from_table<DeonHairAbsorptionFromMelaninInputs>(inputs));
+        return std::array<double, 3>{s.r, s.g, s.b};
+    });
     m.def("absorption_from_color", [](std::array<double, 3> c, double radial_roughness) {
         const RGB s = absorption_from_color(rgb_from(c), radial_roughness);
         return std::array<double, 3>{s.r, s.g, s.b};

@@ -4,6 +4,8 @@ written once, in the table (plugin/tests/test_model_tables.py checks the docstri
 
 from __future__ import annotations
 
+import math
+
 HEADING = "Parameters (generated from the table, {}):"
 
 
@@ -22,8 +24,10 @@ def parameters_block(schema: list, source: str) -> str:
         elif p["type"] == "int":
             allowed = f"a whole number in [{int(p['min'])}, {int(p['max'])}]"
         else:
-            allowed = ("RGB (or grey), each channel " if p["type"] == "rgb" else "") + \
-                f"in [{_number(p['min'])}, {_number(p['max'])}]"
+            lo, hi = p["min"], p["max"]
+            span = ("finite" if math.isinf(lo) and math.isinf(hi) else f">= {_number(lo)}" if math.isinf(hi)
+                    else f"in [{_number(lo)}, {_number(hi)}]")
+            allowed = {"rgb": "RGB (or grey), each channel ", "vector2": "2 numbers, each "}.get(p["type"], "") + span
         d = p["default"]
         if p["optional"]:
             default = "derived unless given"

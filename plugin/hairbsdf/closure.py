@@ -36,7 +36,7 @@ class Closure:
     def __init__(self, core: _core.ClosureSum, description: str, principled: tuple | None = None):
         self._core = core
         self._description = description
-        # principled_hair(model="chiang")'s uniform inputs (principled_chiang's arguments), which
+        # principled_hair(model="chiang")'s uniform inputs (principled_chiang's argument), which
         # per-row `inputs=` start from; None for every other closure.
         self._principled = principled
 

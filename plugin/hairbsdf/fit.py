@@ -7,7 +7,9 @@ delta_phi): sum_k w_k |f_model - f_target|^2 with w_k from gonio.GonioGrid. Erro
 relative to the target: |f - g| / |g| in that norm, in total and per lobe where the model's lobes
 are the same light paths as Principled Hair's (R, TT, TRT, TRRT+).
 
-Every fittable model's free parameters, bounds and fixed keywords are declared here, in FIT_MODELS."""
+Every fittable model's free parameters, bounds and fixed keywords are declared here, in FIT_MODELS:
+the search ranges (a fitting choice, narrower than the models' ranges) and the starts or fixed values
+that differ from a model's defaults; the others are the defaults, read from the model's table."""
 
 from __future__ import annotations
 
@@ -25,7 +27,10 @@ from . import gonio
 from ._deps import require
 from .gonio import H_NODES
 from .closure import LOBES
+from .principled import PRINCIPLED_HAIR_DEFAULTS as PRINCIPLED
 from .spec import CONSTRUCTORS, SpecError, build, format_spec, parse_spec
+from .zoo import DEON_DEFAULTS as DEON, EPIC_DEFAULTS as EPIC, KAJIYA_KAY_DEFAULTS as KAJIYA_KAY
+from .zoo import MARSCHNER_DEFAULTS as MARSCHNER, SCHEUERMANN_DEFAULTS as SCHEUERMANN, YAN_FUR_DEFAULTS as YAN_FUR
 
 
 # --- Free parameters ------------------------------------------------------------------------------
@@ -96,69 +101,88 @@ def _scheuermann_kwargs(v):
             "primary_shift": v["primary_shift"], "secondary_shift": v["secondary_shift"]}
 
 
+# Starts that reparametrize a default: a grey free value is the default's first channel, and a
+# "scale" start gives the default colour back through the model's kwargs map.
+_KK_SPECULAR = KAJIYA_KAY["specular"][0]
+_SCHEUERMANN_PRIMARY = SCHEUERMANN["primary_color"][0]
+
+
+def _defaults_of(model: dict, *names: str) -> dict:
+    """Fixed keywords held at the model's defaults."""
+    return {name: model[name] for name in names}
+
+
 FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
     FitModel(
         "epic", "epic_hair",
-        (*_rgb_params("base_color", 0.0, 1.0, (0.017513, 0.005763, 0.002059), "C per channel"),
-         FreeParam("specular", 0.0, 1.0, 0.5, doc="R scale / 0.5"),
-         FreeParam("roughness", 0.05, 1.0, 0.35, doc="beta_R = roughness^2"),
-         FreeParam("shift", -0.25, 0.25, 0.035, doc="alpha_R = -2 shift, in sin theta"),
-         FreeParam("scatter", 0.0, 1.0, 0.0, doc="multiple-scattering fake (shadow = 1)")),
+        (*_rgb_params("base_color", 0.0, 1.0, EPIC["base_color"], "C per channel"),
+         FreeParam("specular", 0.0, 1.0, EPIC["specular"], doc="R scale / 0.5"),
+         FreeParam("roughness", 0.05, 1.0, EPIC["roughness"], doc="beta_R = roughness^2"),
+         FreeParam("shift", -0.25, 0.25, EPIC["shift"], doc="alpha_R = -2 shift, in sin theta"),
+         FreeParam("scatter", 0.0, 1.0, EPIC["scatter"], doc="multiple-scattering fake (shadow = 1)")),
         lambda v: {"base_color": _rgb(v, "base_color"), "specular": v["specular"], "roughness": v["roughness"],
                    "shift": v["shift"], "scatter": v["scatter"]},
-        fixed={"variant": "direct"}, lobe_of_slot=("R", "TT", "TRT", None),
+        fixed=_defaults_of(EPIC, "variant"), lobe_of_slot=("R", "TT", "TRT", None),
         note="slot 3 (multiple-scattering fake) has no Principled Hair counterpart"),
     FitModel(
         "kajiya_kay", "kajiya_kay_hair",
-        (FreeParam("specular", 0.0, 1.0, 0.5, doc="K_s, grey"),
-         *_rgb_params("diffuse_scale", 0.0, 1.0, (1.0, 1.0, 1.0), "K_d = (1 - K_s) x this, per channel"),
-         FreeParam("exponent", 1.0, 10_000.0, 60.0, log=True, doc="p, fitted in ln p")),
+        (FreeParam("specular", 0.0, 1.0, _KK_SPECULAR, doc="K_s, grey"),
+         *_rgb_params("diffuse_scale", 0.0, 1.0, tuple(d / (1.0 - _KK_SPECULAR) for d in KAJIYA_KAY["diffuse"]),
+                      "K_d = (1 - K_s) x this, per channel"),
+         FreeParam("exponent", 1.0, 10_000.0, KAJIYA_KAY["exponent"], log=True, doc="p, fitted in ln p")),
         _kajiya_kay_kwargs, note="specular / diffuse are not Principled Hair's light paths: total error only"),
     FitModel(
         "scheuermann", "scheuermann_hair",
-        (FreeParam("primary", 0.0, 1.0, 0.5, doc="primary colour, grey"),
-         *_rgb_params("secondary_scale", 0.0, 1.0, (1.0, 0.7, 0.4), "secondary = (1 - primary) x this"),
-         FreeParam("primary_exponent", 1.0, 10_000.0, 240.0, log=True, doc="fitted in ln p"),
-         FreeParam("secondary_exponent", 1.0, 10_000.0, 60.0, log=True, doc="fitted in ln p"),
-         FreeParam("primary_shift", -0.5, 0.5, 0.0349208),
-         FreeParam("secondary_shift", -0.5, 0.5, -0.0699268)),
-        _scheuermann_kwargs, fixed={"shift_texture": 0.5, "noise": 1.0},
+        (FreeParam("primary", 0.0, 1.0, _SCHEUERMANN_PRIMARY, doc="primary colour, grey"),
+         *_rgb_params("secondary_scale", 0.0, 1.0,
+                      tuple(s / (1.0 - _SCHEUERMANN_PRIMARY) for s in SCHEUERMANN["secondary_color"]),
+                      "secondary = (1 - primary) x this"),
+         FreeParam("primary_exponent", 1.0, 10_000.0, SCHEUERMANN["primary_exponent"], log=True, doc="fitted in ln p"),
+         FreeParam("secondary_exponent", 1.0, 10_000.0, SCHEUERMANN["secondary_exponent"], log=True,
+                   doc="fitted in ln p"),
+         FreeParam("primary_shift", -0.5, 0.5, SCHEUERMANN["primary_shift"]),
+         FreeParam("secondary_shift", -0.5, 0.5, SCHEUERMANN["secondary_shift"])),
+        _scheuermann_kwargs, fixed=_defaults_of(SCHEUERMANN, "shift_texture", "noise"),
         note="two shifted specular cones, no transmission: total error only"),
     FitModel(
         "marschner", "marschner_hair",
-        (*_rgb_params("sigma_a", 0.0, 40.0, (0.245531, 0.52, 1.365), "absorption per channel"),
-         FreeParam("alpha_r", -0.35, 0.35, -0.1309, doc="R shift, radians"),
-         FreeParam("beta_r", 0.02, 0.7, 0.1309, doc="R width, radians"),
-         FreeParam("glint_scale", 0.0, 5.0, 0.5, doc="k_G")),
+        (*_rgb_params("sigma_a", 0.0, 40.0, MARSCHNER["sigma_a"], "absorption per channel"),
+         FreeParam("alpha_r", -0.35, 0.35, MARSCHNER["alpha_r"], doc="R shift, radians"),
+         FreeParam("beta_r", 0.02, 0.7, MARSCHNER["beta_r"], doc="R width, radians"),
+         FreeParam("glint_scale", 0.0, 5.0, MARSCHNER["glint_scale"], doc="k_G")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "alpha_r": v["alpha_r"], "beta_r": v["beta_r"],
                    "glint_scale": v["glint_scale"]},
-        fixed={"eta": 1.55, "eccentricity": 1.0}, lobe_of_slot=("R", "TT", "TRT", None),
+        fixed={**_defaults_of(MARSCHNER, "eta"), "eccentricity": 1.0}, lobe_of_slot=("R", "TT", "TRT", None),
         note="circular fibre (eccentricity 1) like Principled Hair; no TRRT+ lobe"),
     FitModel(
         "deon", "deon_hair",
-        (*_rgb_params("sigma_a", 0.0, 40.0, (0.245531, 0.52, 1.365), "absorption per channel"),
-         FreeParam("roughness", 0.03, 0.6, 0.1309, doc="beta_R, radians"),
-         FreeParam("tilt", -0.2, 0.2, 0.0349066, doc="cuticle tilt, radians")),
+        # sigma_a starts at Principled Hair's default absorption (d'Eon's own is derived from melanin)
+        (*_rgb_params("sigma_a", 0.0, 40.0, PRINCIPLED["absorption_coefficient"], "absorption per channel"),
+         FreeParam("roughness", 0.03, 0.6, DEON["roughness"], doc="beta_R, radians"),
+         FreeParam("tilt", -0.2, 0.2, DEON["tilt"], doc="cuticle tilt, radians")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "roughness": v["roughness"], "tilt": v["tilt"]},
-        fixed={"eta": 1.55}, lobe_of_slot=("R", "TT", "TRT", "TRRT+")),
+        fixed=_defaults_of(DEON, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+")),
     FitModel(
         "principled", "principled_hair",
-        (FreeParam("melanin", 0.0, 0.999, 0.8), FreeParam("melanin_redness", 0.0, 1.0, 1.0),
-         FreeParam("roughness", 0.05, 1.0, 0.3), FreeParam("radial_roughness", 0.05, 1.0, 0.3),
-         FreeParam("offset", -0.2, 0.2, 0.0349066, doc="radians")),
+        (FreeParam("melanin", 0.0, 0.999, PRINCIPLED["melanin"]),
+         FreeParam("melanin_redness", 0.0, 1.0, PRINCIPLED["melanin_redness"]),
+         FreeParam("roughness", 0.05, 1.0, PRINCIPLED["roughness"]),
+         FreeParam("radial_roughness", 0.05, 1.0, PRINCIPLED["radial_roughness"]),
+         FreeParam("offset", -0.2, 0.2, PRINCIPLED["offset"], doc="radians")),
         lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=("R", "TT", "TRT", "TRRT+"),
-        depends_on_h=True, note="Chiang (Principled Hair) in the melanin parametrization, coat 0, IOR 1.55"),
+        depends_on_h=True, note=f"Chiang (Principled Hair) in the melanin parametrization, coat {PRINCIPLED['coat']:g}, "
+                                f"IOR {PRINCIPLED['ior']:g}"),
     FitModel(
         "yan_fur", "yan_fur",
-        (*_rgb_params("cortex_absorption", 0.0, 40.0, (0.64, 0.64, 0.64), "sigma_ca per channel"),
-         FreeParam("roughness", 0.05, 1.0, 0.2238, doc="Chiang's beta_m"),
-         FreeParam("radial_roughness", 0.05, 1.0, 0.2186, doc="Chiang's beta_n"),
-         FreeParam("alpha", -0.2, 0.2, 0.0956, doc="cuticle tilt, radians")),
+        (*_rgb_params("cortex_absorption", 0.0, 40.0, YAN_FUR["cortex_absorption"], "sigma_ca per channel"),
+         FreeParam("roughness", 0.05, 1.0, YAN_FUR["roughness"], doc="Chiang's beta_m"),
+         FreeParam("radial_roughness", 0.05, 1.0, YAN_FUR["radial_roughness"], doc="Chiang's beta_n"),
+         FreeParam("alpha", -0.2, 0.2, YAN_FUR["alpha"], doc="cuticle tilt, radians")),
         lambda v: {"cortex_absorption": _rgb(v, "cortex_absorption"), "roughness": v["roughness"],
                    "radial_roughness": v["radial_roughness"], "alpha": v["alpha"]},
-        fixed={"eta": 1.55}, lobe_of_slot=("R", "TT", "TRT", "TRRT+", None, None), depends_on_h=True,
-        note="the medulla at Yan 2015's fit (kappa 0.88); TTs / TRTs have no Principled Hair counterpart "
-             "(in the total only); each evaluation with a new cortex_absorption builds a table (~1 s)"),
+        fixed=_defaults_of(YAN_FUR, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+", None, None), depends_on_h=True,
+        note=f"the medulla at Yan 2015's fit (kappa {YAN_FUR['medulla_ratio']:g}); TTs / TRTs have no Principled "
+             "Hair counterpart (in the total only); each evaluation with a new cortex_absorption builds a table (~1 s)"),
 )}
 
 

@@ -15,28 +15,31 @@ import numpy as np
 
 from . import _core
 from . import _validate as check
+from ._param_docs import with_parameters
 from .closure import Closure
 
-# ND_chiang_hair_bsdf defaults (roughness pairs: (longitudinal variance v, azimuthal scale s)).
-CHIANG_HAIR_BSDF_DEFAULTS = {
-    "tint_R": (1.0, 1.0, 1.0),
-    "tint_TT": (1.0, 1.0, 1.0),
-    "tint_TRT": (1.0, 1.0, 1.0),
-    "ior": 1.55,
-    "roughness_R": (0.1, 0.1),
-    "roughness_TT": (0.05, 0.05),
-    "roughness_TRT": (0.2, 0.2),
-    "cuticle_angle": 0.5,
-    "absorption_coefficient": (0.0, 0.0, 0.0),
-}
-CHIANG_HAIR_ROUGHNESS_DEFAULTS = {"longitudinal": 0.1, "azimuthal": 0.2, "scale_TT": 0.5, "scale_TRT": 2.0}
-CHIANG_HAIR_ABSORPTION_FROM_COLOR_DEFAULTS = {"color": (1.0, 1.0, 1.0), "azimuthal_roughness": 0.2}
-DEON_HAIR_ABSORPTION_FROM_MELANIN_DEFAULTS = {
-    "melanin_concentration": 0.25,
-    "melanin_redness": 0.5,
-    "eumelanin_color": (0.657704, 0.498077, 0.254107),
-    "pheomelanin_color": (0.829444, 0.67032, 0.349938),
-}
+
+_TABLES = "bsdf_core/include/hairbsdf/params/materialx.h"
+
+
+def _table_defaults(node: str) -> dict:
+    """A node's input names and nodedef defaults, from its C++ table (params/materialx.h)."""
+    return {p["name"]: p["default"] for p in _core.materialx_schema(node)}
+
+
+def _table_parameters(node: str):
+    """Appends the node's generated Parameters block to the function's docstring."""
+    return with_parameters(_core.materialx_schema(node), _TABLES)
+
+
+# Roughness pairs: (longitudinal variance v, azimuthal scale s).
+CHIANG_HAIR_BSDF_DEFAULTS = _table_defaults("chiang_hair_bsdf")
+CHIANG_HAIR_ROUGHNESS_DEFAULTS = _table_defaults("chiang_hair_roughness")
+CHIANG_HAIR_ABSORPTION_FROM_COLOR_DEFAULTS = _table_defaults("chiang_hair_absorption_from_color")
+DEON_HAIR_ABSORPTION_FROM_MELANIN_DEFAULTS = _table_defaults("deon_hair_absorption_from_melanin")
+_ROUGHNESS = CHIANG_HAIR_ROUGHNESS_DEFAULTS
+_FROM_COLOR = CHIANG_HAIR_ABSORPTION_FROM_COLOR_DEFAULTS
+_FROM_MELANIN = DEON_HAIR_ABSORPTION_FROM_MELANIN_DEFAULTS
 
 
 def _pair(name, value):
@@ -53,14 +56,14 @@ def _pair(name, value):
     return (float(arr[0]), float(arr[1]))
 
 
+@_table_parameters("chiang_hair_bsdf")
 def chiang_hair_bsdf(*, glsl_compat: bool = False, **inputs) -> Closure:
     """MaterialX `chiang_hair_bsdf`: sum over R, TT, TRT, TRRT+ of tint * A_p * M_p * N_p.
 
-    Keywords are the nodedef's input names: tint_R, tint_TT, tint_TRT (color3), ior,
-    roughness_R, roughness_TT, roughness_TRT (vector2 (v, s); s without sqrt(pi/8)),
-    cuticle_angle (in [0, 1], 0.5 = no tilt, mapped to (c - 0.5) * pi radians), and
-    absorption_coefficient (vector3). `normal` and `curve_direction` come from the fibre
-    frame (`h` and `x`). `glsl_compat=True` multiplies by the GLSL backend's extra 1/pi.
+    Keywords are the nodedef's input names, listed below: the roughness pairs are vector2 (v, s)
+    with s without sqrt(pi/8); cuticle_angle is normalised (mapped to (c - 0.5) * pi radians).
+    `normal` and `curve_direction` come from the fibre frame (`h` and `x`). `glsl_compat=True`
+    multiplies by the GLSL backend's extra 1/pi.
     """
     check.keywords("chiang_hair_bsdf", inputs, CHIANG_HAIR_BSDF_DEFAULTS)
     v = dict(CHIANG_HAIR_BSDF_DEFAULTS)
@@ -71,9 +74,7 @@ def chiang_hair_bsdf(*, glsl_compat: bool = False, **inputs) -> Closure:
             v[key] = check.real(key, value)
         else:
             v[key] = check.color(key, value)
-    core = _core.materialx_chiang([v["tint_R"], v["tint_TT"], v["tint_TRT"]], v["ior"],
-                                  [v["roughness_R"], v["roughness_TT"], v["roughness_TRT"]], v["cuticle_angle"],
-                                  v["absorption_coefficient"])
+    core = _core.materialx_chiang(v)
     shown = ", ".join(f"{k}={val!r}" for k, val in inputs.items())
     closure = Closure(core, f"chiang_hair_bsdf({shown})")
     return closure * (1.0 / math.pi) if glsl_compat else closure
@@ -85,32 +86,45 @@ class ChiangHairRoughness(NamedTuple):
     roughness_TRT: tuple
 
 
-def chiang_hair_roughness(longitudinal: float = 0.1, azimuthal: float = 0.2, scale_TT: float = 0.5,
-                          scale_TRT: float = 2.0) -> ChiangHairRoughness:
+@_table_parameters("chiang_hair_roughness")
+def chiang_hair_roughness(longitudinal: float = _ROUGHNESS["longitudinal"], azimuthal: float = _ROUGHNESS["azimuthal"],
+                          scale_TT: float = _ROUGHNESS["scale_TT"],
+                          scale_TRT: float = _ROUGHNESS["scale_TRT"]) -> ChiangHairRoughness:
     """MaterialX `chiang_hair_roughness`: (v, s) per lobe from artist roughness (Chiang 2016
     eqs. 7-8, s without sqrt(pi/8)); TT and TRT scale only v, by scale**2."""
-    r = _core.materialx_roughness(check.real("longitudinal", longitudinal), check.real("azimuthal", azimuthal),
-                                  check.real("scale_TT", scale_TT), check.real("scale_TRT", scale_TRT))
+    r = _core.materialx_roughness({"longitudinal": check.real("longitudinal", longitudinal),
+                                   "azimuthal": check.real("azimuthal", azimuthal),
+                                   "scale_TT": check.real("scale_TT", scale_TT),
+                                   "scale_TRT": check.real("scale_TRT", scale_TRT)})
     return ChiangHairRoughness(*(tuple(x) for x in r))
 
 
-def chiang_hair_absorption_from_color(color=(1.0, 1.0, 1.0), azimuthal_roughness: float = 0.2) -> np.ndarray:
-    """MaterialX `chiang_hair_absorption_from_color`: Chiang 2016 eq. 9, colour clamped to [0.001, 1]."""
-    return np.array(_core.materialx_absorption_from_color(check.color("color", color),
-                                                          check.real("azimuthal_roughness", azimuthal_roughness)))
+@_table_parameters("chiang_hair_absorption_from_color")
+def chiang_hair_absorption_from_color(color=_FROM_COLOR["color"],
+                                      azimuthal_roughness: float = _FROM_COLOR["azimuthal_roughness"]) -> np.ndarray:
+    """MaterialX `chiang_hair_absorption_from_color`: Chiang 2016 eq. 9 on the clamped colour."""
+    return np.array(_core.materialx_absorption_from_color({
+        "color": check.color("color", color),
+        "azimuthal_roughness": check.real("azimuthal_roughness", azimuthal_roughness)}))
 
 
-def deon_hair_absorption_from_melanin(melanin_concentration: float = 0.25, melanin_redness: float = 0.5,
-                                      eumelanin_color=(0.657704, 0.498077, 0.254107),
-                                      pheomelanin_color=(0.829444, 0.67032, 0.349938)) -> np.ndarray:
+@_table_parameters("deon_hair_absorption_from_melanin")
+def deon_hair_absorption_from_melanin(melanin_concentration: float = _FROM_MELANIN["melanin_concentration"],
+                                      melanin_redness: float = _FROM_MELANIN["melanin_redness"],
+                                      eumelanin_color=_FROM_MELANIN["eumelanin_color"],
+                                      pheomelanin_color=_FROM_MELANIN["pheomelanin_color"]) -> np.ndarray:
     """MaterialX `deon_hair_absorption_from_melanin`: q = -ln(max(1 - c, 1e-4)),
     sigma = max(q(1 - r)(-ln E) + q r (-ln P), 0) with d'Eon's pigment colours E and P."""
-    return np.array(_core.materialx_absorption_from_melanin(
-        check.real("melanin_concentration", melanin_concentration), check.real("melanin_redness", melanin_redness),
-        check.color("eumelanin_color", eumelanin_color), check.color("pheomelanin_color", pheomelanin_color)))
+    return np.array(_core.materialx_absorption_from_melanin({
+        "melanin_concentration": check.real("melanin_concentration", melanin_concentration),
+        "melanin_redness": check.real("melanin_redness", melanin_redness),
+        "eumelanin_color": check.color("eumelanin_color", eumelanin_color),
+        "pheomelanin_color": check.color("pheomelanin_color", pheomelanin_color)}))
 
 
-# Interface of the `simple_hair` node graph (resources/Materials/Examples/SimpleHair).
+# Interface of the `simple_hair` node graph (resources/Materials/Examples/SimpleHair): a graph of the
+# nodes above with no C++ counterpart, so its interface defaults are written here only (as are
+# simple_hair_base's, the MDL proposal's, in its signature).
 SIMPLE_HAIR_DEFAULTS = {
     "melaninConcentration": 0.5,
     "melaninRedness": 0.5,
@@ -442,10 +456,12 @@ def principled_inputs_from_node(node) -> dict:
     model = getattr(node, "model", "CHIANG")
     if str(model).upper() != "CHIANG":
         raise ValueError(f"node: model {model!r} is not allowed; chiang_hair_bsdf is the Chiang model ('CHIANG')")
-    from .principled import PRINCIPLED_HAIR_DEFAULTS
+    from .principled import PARAMETRIZATIONS, PRINCIPLED_HAIR_DEFAULTS
 
-    out = {"parametrization": {"COLOR": "color", "MELANIN": "melanin", "ABSORPTION": "absorption"}.get(
-        str(node.parametrization).upper(), str(node.parametrization).lower())}
+    # Blender's parametrization enum names are PARAMETRIZATIONS' keys in upper case.
+    parametrization = str(node.parametrization).lower()
+    check.choice("node.parametrization", parametrization, PARAMETRIZATIONS)
+    out = {"parametrization": parametrization}
     for socket in node.inputs:
         key = socket.name.lower().replace(" ", "_")
         if key not in PRINCIPLED_HAIR_DEFAULTS or getattr(socket, "is_linked", False):

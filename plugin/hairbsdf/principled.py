@@ -92,12 +92,8 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     for key, value in inputs.items():
         values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
 
-    arguments = (
-        PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
-        values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
-        values["coat"], values["ior"], values["offset"], values["random_color"], values["random_roughness"],
-        values["random"], ACCURACIES[accuracy], TILTS[tilt])
-    core = _core.principled_chiang(*arguments)
+    arguments = (PARAMETRIZATIONS[parametrization], values, ACCURACIES[accuracy], TILTS[tilt])
+    core = _core.principled_chiang(arguments)
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     extra = "".join(f", {k}={v!r}" for k, v in (("accuracy", accuracy), ("tilt", tilt))
                     if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
@@ -131,13 +127,11 @@ def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accura
     values = dict(HUANG_DEFAULTS)
     for key, value in inputs.items():
         values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
-    core = _core.principled_huang(
-        PARAMETRIZATIONS[parametrization], values["color"], values["melanin"], values["melanin_redness"],
-        values["tint"], values["absorption_coefficient"], values["roughness"], values["radial_roughness"],
-        values["ior"], values["offset"], values["random_color"], values["random_roughness"], values["random"],
-        values["aspect_ratio"], values["reflection"], values["transmission"], values["secondary_reflection"],
-        HUANG_ACCURACIES[accuracy], HUANG_SAMPLERS[sampler], tolerance, max_evaluations, trt_points,
-        HUANG_COLOR_ROUGHNESS[color_roughness], HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table])
+    core = _core.principled_huang(PARAMETRIZATIONS[parametrization], values, {
+        "accuracy": HUANG_ACCURACIES[accuracy], "sampler": HUANG_SAMPLERS[sampler], "tolerance": tolerance,
+        "max_evaluations": max_evaluations, "trt_points": trt_points,
+        "color_roughness": HUANG_COLOR_ROUGHNESS[color_roughness],
+        "glass_albedo_table": HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table]})
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     options = {"accuracy": accuracy, "sampler": sampler, "tolerance": tolerance, "trt_points": trt_points,
                "color_roughness": color_roughness, "glass_albedo_table": glass_albedo_table}

@@ -97,6 +97,26 @@ def test_bad_node_inputs_name_the_parameter():
         hairbsdf.principled_hair(tint=(1, float("inf"), 1))
 
 
+def test_core_reads_node_inputs_by_the_scene_schemas_rows():
+    """_core.principled_chiang / principled_huang take the node's inputs as a dict, read by the scene
+    schema's input rows (the one table of Principled Hair's inputs); an unknown key names its path."""
+    from hairbsdf import _core
+    from hairbsdf.principled import HUANG_OPTION_DEFAULTS, HUANG_OPTIONS, PARAMETRIZATIONS
+
+    given = {"absorption_coefficient": (1.0, 2.0, 3.0), "ior": 1.7, "offset": 0.1}
+    chiang = _core.principled_chiang((PARAMETRIZATIONS["absorption"], given, 0, 0)).model_params()[0]
+    np.testing.assert_array_equal(chiang["sigma_a"], given["absorption_coefficient"])
+    assert (chiang["eta"], chiang["tilt"]) == (1.7, 0.1)
+    options = {name: HUANG_OPTIONS[name]["choices"].index(value) if HUANG_OPTIONS[name]["type"] == "choice" else value
+               for name, value in HUANG_OPTION_DEFAULTS.items()}
+    huang = _core.principled_huang(PARAMETRIZATIONS["absorption"], dict(given, aspect_ratio=0.7), options)
+    huang = huang.model_params()[0]
+    np.testing.assert_array_equal(huang["sigma_a"], given["absorption_coefficient"])
+    assert (huang["eta"], huang["offset"], huang["aspect_ratio"]) == (1.7, 0.1, 0.7)
+    with pytest.raises(ValueError, match="rougness"):
+        _core.principled_chiang((0, {"rougness": 0.3}, 0, 0))
+
+
 def test_blender_enum_names_are_accepted():
     a = hairbsdf.principled_hair(parametrization="MELANIN").eval([0, 0, 1], [0, 1, 0], 0.1)
     b = hairbsdf.principled_hair(parametrization="melanin").eval([0, 0, 1], [0, 1, 0], 0.1)

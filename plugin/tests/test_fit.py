@@ -15,6 +15,31 @@ from hairbsdf.spec import SpecError, build, format_spec, parse_spec
 PY = sys.executable
 
 
+# --- Starts --------------------------------------------------------------------------------------------
+
+# What a fit starts from or holds fixed where it is not the model's default (a fitting choice).
+NOT_THE_DEFAULT = {"marschner": {"eccentricity"}, "deon": {"sigma_a"}, "principled": {"parametrization"}}
+
+
+@pytest.mark.parametrize("name", sorted(FIT_MODELS))
+def test_fits_start_at_the_models_defaults(name):
+    """A fit's start keywords are the model's table defaults (read, not copied), but the declared choices."""
+    from hairbsdf import model_schema
+    from hairbsdf.principled import PRINCIPLED_HAIR_DEFAULTS
+
+    model = FIT_MODELS[name]
+    defaults = (PRINCIPLED_HAIR_DEFAULTS if name == "principled"
+                else {p["name"]: p["default"] for p in model_schema(name)})
+    start = model.kwargs({p.name: p.start for p in model.free})
+    for key, value in start.items():
+        if key in NOT_THE_DEFAULT.get(name, ()):
+            continue
+        if isinstance(value, str):
+            assert value == defaults[key], key
+        else:
+            np.testing.assert_allclose(np.atleast_1d(value), np.atleast_1d(defaults[key]), rtol=1e-12, err_msg=key)
+
+
 # --- Specs ------------------------------------------------------------------------------------------------
 
 def test_spec_parses_literal_keywords():

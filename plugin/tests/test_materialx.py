@@ -47,6 +47,13 @@ def test_names_and_defaults_match_the_nodedefs(stdlib, nodedef, ours):
         np.testing.assert_allclose(np.atleast_1d(ours[key]), np.atleast_1d(value), rtol=1e-6, err_msg=key)
 
 
+def test_node_tables_reject_unknown_names():
+    with pytest.raises(ValueError, match="not a MaterialX node"):
+        hairbsdf._core.materialx_schema("chiang_hair")
+    with pytest.raises(ValueError, match="allowed: longitudinal, azimuthal, scale_TT, scale_TRT"):
+        hairbsdf._core.materialx_roughness({"longitudinal": 0.1, "roughness": 0.2})
+
+
 def test_geometry_inputs_exist(stdlib):
     names = {i.getName(): i.getDefaultGeomPropString() for i in stdlib.getNodeDef("ND_chiang_hair_bsdf").getActiveInputs()}
     assert names["normal"] == "Nworld" and names["curve_direction"] == "Tworld"

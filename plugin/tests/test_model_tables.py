@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hairbsdf
-from hairbsdf import _param_docs, principled
+from hairbsdf import _core, _param_docs, materialx, principled
 
 
 def constructor(model):
@@ -38,6 +38,16 @@ def signature_mismatches(model, function, schema):
 @pytest.mark.parametrize("model", hairbsdf.zoo_model_names() + ["cycles_hair"])
 def test_constructor_keywords_are_the_table(model):
     problems = signature_mismatches(model, constructor(model), hairbsdf.model_schema(model))
+    assert not problems, "\n".join(problems)
+
+
+# MaterialX's support nodes (params/materialx.h); chiang_hair_bsdf takes **inputs, checked against its table.
+MATERIALX_NODES = ["chiang_hair_roughness", "chiang_hair_absorption_from_color", "deon_hair_absorption_from_melanin"]
+
+
+@pytest.mark.parametrize("node", MATERIALX_NODES)
+def test_materialx_keywords_are_the_table(node):
+    problems = signature_mismatches(node, getattr(materialx, node), _core.materialx_schema(node))
     assert not problems, "\n".join(problems)
 
 
@@ -91,7 +101,9 @@ def docstring_problems(function, schema, source):
 TABLE_DOCS = [(m, lambda m=m: (constructor(m), hairbsdf.model_schema(m), f"bsdf_core/include/hairbsdf/params/{m}.h"))
               for m in hairbsdf.zoo_model_names() + ["cycles_hair"]] + [
     ("principled_hair", lambda: (hairbsdf.principled_hair, list(principled.HUANG_OPTIONS.values()),
-                                 'bsdf_core/include/hairbsdf/params/huang.h; model="huang" only'))]
+                                 'bsdf_core/include/hairbsdf/params/huang.h; model="huang" only'))] + [
+    (n, lambda n=n: (getattr(materialx, n), _core.materialx_schema(n), "bsdf_core/include/hairbsdf/params/materialx.h"))
+    for n in ["chiang_hair_bsdf"] + MATERIALX_NODES]
 
 
 @pytest.mark.parametrize("name,case", TABLE_DOCS, ids=[n for n, _ in TABLE_DOCS])

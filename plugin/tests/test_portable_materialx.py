@@ -61,3 +61,21 @@ def test_document_validates_and_loads_back(tmp_path):
     rng = np.random.default_rng(3)
     wo, wi, h = rng.normal(size=(64, 3)), rng.normal(size=(64, 3)), rng.uniform(-1, 1, 64)
     np.testing.assert_allclose(closure.eval_lobes(wo, wi, h), want.eval_lobes(wo, wi, h), rtol=1e-9, atol=1e-300)
+
+
+def test_missing_colours_are_cycles_default_surface(tmp_path):
+    """A material without closures and a diffuse without a colour are written with Cycles' default
+    surface colour, the one the scene loader gives closures[].color (render/scene.h)."""
+    from hairbsdf import _core
+    from hairbsdf.render import scene_schema
+
+    grey = _core.DEFAULT_SURFACE_COLOR
+    row = next(k for k in scene_schema() if k["path"] == "materials[].closures[].color")
+    assert row["default"] == "(" + ", ".join(f"{c:g}" for c in grey) + ")"
+    plain = dict(type="diffuse", weight=(1.0, 1.0, 1.0))
+    d = desc(dict(name="bare", closures=[]), dict(name="plain", closures=[plain]))
+    path = tmp_path / "materials.mtlx"
+    write_materialx(d, path)
+    text = path.read_text()
+    written = ", ".join(repr(float(c)) for c in grey)
+    assert text.count(f'value="{written}"') == 2, text

@@ -25,7 +25,8 @@ enum class ParamKind {
     RGB,     // three numbers, each in [min_value, max_value]; a number gives grey
     Choice,  // one of `choices`, given by name; default_value[0] is the default's index
     Bool,    // 0 or 1 (Python: False / True)
-    Int      // a whole number in [min_value, max_value] (Python: int)
+    Int,     // a whole number in [min_value, max_value] (Python: int)
+    Vector2  // two numbers (MaterialX's vector2; default_value[2] unused): no zoo model's kind
 };
 
 struct ModelParamSpec {

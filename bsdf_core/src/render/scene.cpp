@@ -24,7 +24,7 @@ bool finite_array(const T& a) {
 
 std::string plural(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
-// Materials: a default surface for out-of-range indices (Cycles' default is diffuse 0.8), added
+// Materials: a default surface for out-of-range indices (Cycles' default, a diffuse of kDefaultSurfaceColor), added
 // to the scene the first time a curve or triangle needs it.
 struct DefaultSurface {
     SceneDesc& s;
@@ -36,7 +36,6 @@ struct DefaultSurface {
             ClosureDesc c;
             c.type = ClosureDesc::Type::Diffuse;
             c.weight = RGB(1.0);
-            c.color = RGB(0.8);
             m.closures.push_back(c);
             index = int(s.materials.size());
             s.materials.push_back(m);

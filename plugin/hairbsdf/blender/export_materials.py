@@ -14,7 +14,7 @@ Supported (everything else is reported with a warning naming the node and socket
     where it does not depend on the hit; Hair Info > Random straight into the Principled Hair's
     Random socket stays None (per-curve random).
 A material without nodes is a diffuse of its viewport colour and a missing material is
-Cycles' default surface (diffuse 0.8 grey), as in Cycles' shader sync.
+Cycles' default surface (a grey diffuse, GREY), as in Cycles' shader sync.
 A material whose hair model override is set (Material tab, model_override.py) has its
 Principled Hair closures replaced by `hair_model` closures of the same weights: the step
 after translating it (MaterialTable.index, override_closures).
@@ -25,10 +25,12 @@ from __future__ import annotations
 import functools
 import os
 
+from .. import _core
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
 
-GREY = (0.8, 0.8, 0.8)
+GREY = _core.DEFAULT_SURFACE_COLOR  # Cycles' default surface colour (render/scene.h)
+_GREY_DIFFUSE = f"{GREY[0]:g} grey diffuse"
 DEFAULT_MATERIAL_NAME = "__default__"
 
 MAX_DEPTH = 64
@@ -291,7 +293,7 @@ class MaterialTranslator:
         if t == "ShaderNodeBsdfHair":
             closures.append(self._hair_bsdf(node, weight))
             return
-        self.warn(f"'{node.name}' ({_label(node)}) is not supported; rendered as 0.8 grey diffuse")
+        self.warn(f"'{node.name}' ({_label(node)}) is not supported; rendered as {_GREY_DIFFUSE}")
         closures.append(_diffuse(weight, GREY))
 
     def _linked_diffuse(self, node, ident, weight) -> dict:
@@ -303,7 +305,7 @@ class MaterialTranslator:
         model = getattr(node, "model", "CHIANG")
         if model not in ("CHIANG", "HUANG"):
             self.warn(f"'{node.name}': the {model.title()} model is not supported; "
-                      "rendered as 0.8 grey diffuse")
+                      f"rendered as {_GREY_DIFFUSE}")
             return _diffuse(weight, GREY)
         inputs = {}
         for key, ident, kind in principled_hair_inputs(model):

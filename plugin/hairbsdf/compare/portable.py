@@ -100,12 +100,12 @@ def _ident(name):
 def write_materialx(desc, path):
     """One MaterialX document with a surfacematerial per material (only call it when
     materialx_limits is empty for every material)."""
-    from .. import materialx
+    from .. import _core, materialx
     mx = materialx._mx()
     doc = mx.createDocument()
     for m in desc.get("materials", []):
         name = _ident(m["name"])
-        c = (m.get("closures") or [dict(type="diffuse", color=(0.8, 0.8, 0.8))])[0]
+        c = (m.get("closures") or [dict(type="diffuse")])[0]
         if c["type"] == "principled_hair":
             inputs = {k: v for k, v in c.get("inputs", {}).items() if k != "random" and v is not None}
             inputs = {k: (tuple(float(x) for x in v) if hasattr(v, "__len__") else float(v)) for k, v in inputs.items()}
@@ -119,12 +119,13 @@ def write_materialx(desc, path):
             continue
         if c["type"] == "diffuse":
             node = doc.addNode("oren_nayar_diffuse_bsdf", name + "_bsdf", "BSDF")
-            node.setInputValue("color", ", ".join(repr(float(v)) for v in c.get("color", (0.8, 0.8, 0.8))), "color3")
+            color = c.get("color", _core.DEFAULT_SURFACE_COLOR)
+            node.setInputValue("color", ", ".join(repr(float(v)) for v in color), "color3")
             node.setInputValue("roughness", "0.0", "float")  # Lambert, as Cycles' Diffuse BSDF at roughness 0
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
             surface.setConnectedNode("bsdf", node)
         else:  # emission
-            col = [float(v) * float(c.get("strength", 1.0)) for v in c.get("color", (0.8, 0.8, 0.8))]
+            col = [float(v) * float(c.get("strength", 1.0)) for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
             node = doc.addNode("uniform_edf", name + "_edf", "EDF")
             node.setInputValue("color", ", ".join(repr(v) for v in col), "color3")
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")

@@ -15,9 +15,11 @@ namespace hairbsdf {
 constexpr RGB kDeonEumelanin{0.419, 0.697, 1.37};
 constexpr RGB kDeonPheomelanin{0.187, 0.4, 1.05};
 
-// sigma_a from melanin: Principled Hair's mapping (Cycles' pigments), or d'Eon's pigment constants.
+// sigma_a from melanin: Principled Hair's mapping (Cycles' pigments, at the node's default Radial
+// Roughness), or d'Eon's pigment constants.
 inline RGB deon_sigma_a(double melanin, double redness, bool deon_pigments) {
-    if (!deon_pigments) return absorption_from_melanin(melanin, redness, RGB(1.0), 0.3);
+    if (!deon_pigments)
+        return absorption_from_melanin(melanin, redness, RGB(1.0), PrincipledHairInputs{}.radial_roughness);
     const double q = -std::log(std::max(1.0 - melanin, 1e-4));
     return (q * (1 - redness)) * kDeonEumelanin + (q * redness) * kDeonPheomelanin;
 }

@@ -82,6 +82,10 @@ struct MeshData {
 };
 
 // One entry of a material's flat weighted closure sum.
+// Cycles' default surface colour (diffuse grey): a material without one, an unsupported node, and
+// the colour of a diffuse / emission / cycles_hair closure that names none.
+constexpr RGB kDefaultSurfaceColor{0.8};
+
 struct ClosureDesc {
     enum class Type { PrincipledHair, Diffuse, Emission, CyclesHair, Model };  // Model: scene_desc.md `hair_model`
     enum class HairModel { Chiang, Huang };  // Principled Hair's model enum (Blender 4.0+)
@@ -93,7 +97,7 @@ struct ClosureDesc {
     PrincipledHairInputs hair;
     bool random_from_curve = true;
     // diffuse / emission / cycles_hair
-    RGB color{0.8};
+    RGB color = kDefaultSurfaceColor;
     double strength = 1.0;  // emission only
     // hair_model: a zoo model ("kajiya_kay", "epic", ...) or "plugin" (the library at
     // model_path) with named parameters; built by model_factory.h.
@@ -262,7 +266,7 @@ struct SceneDesc {
 // Drops or repairs content the renderer cannot use, in place, and returns one warning per
 // kind of problem: curves with non-finite keys, fewer than two keys, no length or no
 // radius are dropped; negative / non-finite radii become 0; material indices outside the
-// list (e.g. -1) get Cycles' default surface (diffuse 0.8 grey), appended as the last
+// list (e.g. -1) get Cycles' default surface (diffuse kDefaultSurfaceColor), appended as the last
 // material; triangles with bad indices or non-finite vertices
 // are dropped; non-finite light or world values turn the light off; camera values are
 // clamped to something renderable.
