@@ -151,7 +151,8 @@ struct Row {
             }
             return *this;
         }
-        throw std::logic_error("scene schema: " + k.path + ": " + ParamTable<P>::model + "'s table has no row " + param);
+        throw std::logic_error("scene schema: " + k.path + ": " + ParamTable<P>::model + "'s table has no row " +
+                               param);
     }
     Row& range(double lo, double hi) { return k.minimum = lo, k.maximum = hi, k.bounded = true, *this; }
     Row& array(const char* dtype, int columns) { return k.dtype = dtype, k.columns = columns, *this; }
