@@ -55,6 +55,14 @@ res = {
     "poll_sampling": bpy.types.CYCLES_RENDER_PT_sampling.poll(type("C", (), {"engine": "HAIRBSDF"})()),
     "poll_own": bpy.types.HAIRBSDF_RENDER_PT_settings.poll(type("C", (), {"engine": "HAIRBSDF"})()),
 }
+from hairbsdf import _core
+props = scene.hairbsdf.bl_rna.properties
+schema = {k["path"]: k for k in _core.scene_schema()}
+choices = ("tilt", "accuracy", "huang_sampler")
+res["enums"] = {n: [[i.identifier, i.value] for i in props[n].enum_items] for n in choices}
+res["enum_defaults"] = {n: props[n].default for n in choices}
+res["schema"] = {n: [schema["integrator." + n]["allowed"], schema["integrator." + n]["default"]] for n in choices}
+res["prose"] = {n: sorted(ui.CHOICE_PROSE.get(n, {})) for n in choices}
 scene.hairbsdf.tilt = "3.4"
 hb.unregister()
 res["engines_after"] = engines()
@@ -74,6 +82,17 @@ def test_register_unregister(run_blender, engine_kind):
     assert (r["preview"], r["postprocess"], r["custom_nodes"]) == (True, True, False)  # previews: test_engine_preview.py
     assert r["engine_set"] == "HAIRBSDF"
     assert r["settings"] == [0, "AUTO", "CYCLES"]
+    # The choices of scene.hairbsdf's enums are the scene schema's integrator names in capitals (tilt adds
+    # AUTO), with the schema's defaults and UI prose for each. A .blend file saves an item's position:
+    # the order is pinned here, so a reordered table fails.
+    ids = {n: [i for i, _ in items] for n, items in r["enums"].items()}
+    assert ids == {"tilt": ["AUTO", "4.2", "3.4"], "accuracy": ["CYCLES", "EXACT"],
+                   "huang_sampler": ["CYCLES", "MIXTURE"]}
+    assert all([v for _, v in items] == list(range(len(items))) for items in r["enums"].values())
+    for n, (allowed, default) in r["schema"].items():
+        assert ids[n][-len(allowed):] == [a.upper() for a in allowed], n
+        assert r["prose"][n] == sorted(allowed), n  # every choice has its label and description, none stale
+        assert r["enum_defaults"][n] == ("AUTO" if n == "tilt" else default.upper()), n
     assert r["before"] == []
     for name in ("CYCLES_RENDER_PT_sampling", "CYCLES_RENDER_PT_sampling_render", "CYCLES_RENDER_PT_sampling_advanced",
                  "CYCLES_RENDER_PT_light_paths", "CYCLES_RENDER_PT_light_paths_max_bounces", "CYCLES_RENDER_PT_film",

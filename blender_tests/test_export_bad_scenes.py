@@ -97,6 +97,15 @@ scene.render.engine = "HAIRBSDF"
 bpy.ops.render.render()
 out["nodes_engine"] = {"status": engine.LAST_RENDER.get("status"), "warnings": engine.LAST_RENDER.get("warnings"),
                        "messages": engine.LAST_RENDER.get("messages")}
+
+# ---- the Cycles add-on disabled (last: it is not enabled again): its render settings are missing
+import addon_utils
+addon_utils.disable("cycles")
+try:
+    export_scene(bpy.context.evaluated_depsgraph_get())
+    out["no_cycles"] = "no error"
+except ExportError as exc:
+    out["no_cycles"] = str(exc)
 emit(out)
 '''
 
@@ -122,6 +131,8 @@ def test_bad_scenes(run_blender, blender_kind, tmp_path, renderer_available):
     assert ne["status"] == "exported"
     assert any("'PH' > 'Color' is driven by 'Noise'" in x for x in ne["warnings"]), ne
     assert any(m[0] == "WARNING" and "Noise" in m[1] for m in ne["messages"])
+    # Cycles' settings, and so their defaults, are read from the add-on only: without it, no export
+    assert "the Cycles add-on is disabled" in r["no_cycles"], r["no_cycles"]
     if can_render:
         br = r["broken_render"]
         assert br["status"] == "ok" and br["finite"] and br["coverage"] > 0.01, br

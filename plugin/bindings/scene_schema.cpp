@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/params/huang.h"
 #include "hairbsdf/render/scene.h"
 
 namespace py = pybind11;
@@ -118,15 +119,15 @@ py::object value_of(const SceneKey& k, E value) {
 // Fluent rows for the table below.
 struct Row {
     SceneKey k;
-    Row(const char* path, K kind, const char* meaning) {
-        k.path = path;
+    Row(std::string path, K kind, const char* meaning) {
+        k.path = std::move(path);
         k.kind = kind;
         k.meaning = meaning;
     }
     Row& required() { return k.required = true, *this; }
     // A default that is not a bound field's value: a rule ("size_x") or a key read by hand.
     Row& fallback(const char* value) { return k.default_value = value, *this; }
-    Row& values(std::vector<const char*> v) { return k.allowed = std::move(v), *this; }
+    Row& values(std::vector<std::string> v) { return k.allowed = std::move(v), *this; }
     // A bound Enum's names with the C++ value each one reads as.
     template <class E>
     Row& choices(std::initializer_list<std::pair<const char*, E>> named) {
@@ -135,6 +136,23 @@ struct Row {
             k.allowed_values.push_back(long(value));
         }
         return *this;
+    }
+    // A bound Enum named as the choice row `param` of P's parameter table (params/<model>.h):
+    // its names, in the table's order, each reading as the value that row sets `field` to.
+    template <class P, class E>
+    Row& choices_of(const char* param, E P::*field) {
+        for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+            if (row.spec.name != param) continue;
+            for (size_t i = 0; i < row.spec.choices.size(); ++i) {
+                P named{};
+                row.set(named, ParamValue{double(i), double(i), double(i)});
+                k.allowed.push_back(row.spec.choices[i]);
+                k.allowed_values.push_back(long(named.*field));
+            }
+            return *this;
+        }
+        throw std::logic_error("scene schema: " + k.path + ": " + ParamTable<P>::model + "'s table has no row " +
+                               param);
     }
     Row& range(double lo, double hi) { return k.minimum = lo, k.maximum = hi, k.bounded = true, *this; }
     Row& array(const char* dtype, int columns) { return k.dtype = dtype, k.columns = columns, *this; }
@@ -176,8 +194,25 @@ using Camera = R::CameraDesc;
 using Light = R::LightDesc;
 using Settings = R::IntegratorSettings;
 
-std::vector<SceneKey> make_schema() {
+// A shading program's rows under `prefix`: one layout for a material's and the world's.
+std::vector<SceneKey> program_rows(const std::string& prefix, const char* meaning) {
     return {
+        Row(prefix, K::Dict, meaning),
+        Row(prefix + ".code", K::Array, "instructions: opcode, then its arguments").array("int32", 0).required(),
+        Row(prefix + ".constants", K::Array, "registers 0..K-1 (read-only)").array("float32", 0).required(),
+        Row(prefix + ".registers", K::Int, "R >= K float slots").range(0, 1 << 20).required()
+            .field(&R::ShadingProgram::register_count),
+    };
+}
+
+std::vector<SceneKey> joined(std::initializer_list<std::vector<SceneKey>> parts) {
+    std::vector<SceneKey> out;
+    for (const std::vector<SceneKey>& part : parts) out.insert(out.end(), part.begin(), part.end());
+    return out;
+}
+
+std::vector<SceneKey> make_schema() {
+    return joined({{
         Row("version", K::Int, "the format's version").range(1, 1).fallback("1"),
 
         Row("curves", K::Dict, "all hair of all objects, concatenated"),
@@ -229,12 +264,7 @@ std::vector<SceneKey> make_schema() {
         Row("materials[]", K::Dict, "one material"),
         Row("materials[].name", K::String, "the material's name (\"__default__\": no material)")
             .field(&R::MaterialDesc::name),
-        Row("materials[].program", K::Dict, "the node networks on closure inputs (docs/shading_vm.md)"),
-        Row("materials[].program.code", K::Array, "instructions: opcode, then its arguments").array("int32", 0)
-            .required(),
-        Row("materials[].program.constants", K::Array, "registers 0..K-1 (read-only)").array("float32", 0).required(),
-        Row("materials[].program.registers", K::Int, "R >= K float slots").range(0, 1 << 20).required()
-            .field(&R::ShadingProgram::register_count),
+    }, program_rows("materials[].program", "the node networks on closure inputs (docs/shading_vm.md)"), {
         Row("materials[].emission_sampling", K::Enum, "which sides of its emissive triangles NEE samples")
             .choices<R::EmissionSampling>({{"AUTO", R::EmissionSampling::Auto}, {"NONE", R::EmissionSampling::None},
                                            {"FRONT", R::EmissionSampling::Front}, {"BACK", R::EmissionSampling::Back},
@@ -395,11 +425,7 @@ std::vector<SceneKey> make_schema() {
         Row("world", K::Dict, "the background; absent: black"),
         Row("world.color", K::Vector, "uniform background radiance (colour x strength)").columns(3)
             .linkable(In::Color).field(&R::SceneDesc::world),
-        Row("world.program", K::Dict, "nodes computing the world's inputs, run once (docs/shading_vm.md)"),
-        Row("world.program.code", K::Array, "as a material's program").array("int32", 0).required(),
-        Row("world.program.constants", K::Array, "as a material's program").array("float32", 0).required(),
-        Row("world.program.registers", K::Int, "as a material's program").range(0, 1 << 20).required()
-            .field(&R::ShadingProgram::register_count),
+    }, program_rows("world.program", "nodes computing the world's inputs, run once (docs/shading_vm.md)"), {
         Row("world.mis", K::Bool, "World > Settings > Sampling").field(&R::SceneDesc::world_mis),
         Row("world.map_resolution", K::Int, "the light tree's importance map, res x res/2; 0: automatic")
             .range(0, 65536).field(&R::SceneDesc::world_map_resolution),
@@ -457,10 +483,9 @@ std::vector<SceneKey> make_schema() {
             .choices<Accuracy>({{"cycles", Accuracy::Cycles}, {"exact", Accuracy::Exact}})
             .field(&Settings::accuracy),
         Row("integrator.huang_sampler", K::Enum, "Huang's BSDF sampler (docs/huang.md)")
-            .choices<HuangSampler>({{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}})
-            .field(&Settings::huang_sampler),
+            .choices_of("sampler", &HuangHairParams::sampler).field(&Settings::huang_sampler),
         Row("integrator.huang_glass_albedo_table", K::Enum, "Huang's energy-compensation tables")
-            .choices<GlassAlbedoTable>({{"4.x", GlassAlbedoTable::Cycles4}, {"5.x", GlassAlbedoTable::Cycles5}})
+            .choices_of("glass_albedo_table", &HuangHairParams::glass_albedo_table)
             .field(&Settings::huang_glass_albedo_table),
         Row("integrator.passes", K::EnumList, "extra images in the result (docs/engine.md)")
             .values({"hair_lobes", "depth", "normal", "variance"}).fallback("[]"),
@@ -471,7 +496,7 @@ std::vector<SceneKey> make_schema() {
         Row("source.view_layer", K::Informational, "informational"),
         Row("source.frame", K::Informational, "informational"),
         Row("source.render", K::Informational, "informational (final-render export rules used)"),
-    };
+    }});
 }
 
 std::string leaf(const std::string& path) {
@@ -997,7 +1022,7 @@ py::list scene_schema_as_python() {
         d["required"] = k.required;
         d["default"] = k.default_value;
         py::list allowed;
-        for (const char* a : k.allowed) allowed.append(a);
+        for (const std::string& a : k.allowed) allowed.append(a);
         d["allowed"] = allowed;
         d["minimum"] = k.bounded ? py::object(py::float_(k.minimum)) : py::object(py::none());
         d["maximum"] = k.bounded ? py::object(py::float_(k.maximum)) : py::object(py::none());

@@ -54,7 +54,7 @@ enum class SceneKeyKind {
 };
 
 struct SceneKey {
-    const char* path;       // "lights[].strength": dict keys joined by '.', a list's items as "[]"
+    std::string path;       // "lights[].strength": dict keys joined by '.', a list's items as "[]"
     SceneKeyKind kind;
     const char* dtype = "";  // Array / Image: "float32", "int32" or "float64"
     int columns = 0;         // Array: 0 for (N,), else (N, columns); Vector: its length; Image: channels
@@ -62,7 +62,7 @@ struct SceneKey {
     // The default the renderer uses when the key is absent, for the docs: the bound field's
     // initial value, or a rule where the default is not a value ("size_x").
     std::string default_value = "";
-    std::vector<const char*> allowed = {};  // Enum / EnumList
+    std::vector<std::string> allowed = {};  // Enum / EnumList
     std::vector<long> allowed_values = {};  // a bound Enum: the C++ value of each allowed name
     double minimum = 0, maximum = 0;        // Int / IntPair when minimum < maximum or `bounded`
     bool bounded = false;

@@ -119,6 +119,35 @@ def test_optional_plain_keys_have_their_default_from_the_scene_struct():
     assert unbound == []
 
 
+def _row(path):
+    return next(k for k in scene_schema() if k["path"] == path)
+
+
+def test_huang_integrator_choices_are_the_huang_table():
+    """integrator.huang_sampler and integrator.huang_glass_albedo_table list the choices of
+    Huang's table (params/huang.h), in its order: the scene schema reads them from it."""
+    from hairbsdf import _core
+
+    table = {p["name"]: p["choices"] for p in _core.huang_option_schema()}
+    assert _row("integrator.huang_sampler")["allowed"] == table["sampler"]
+    assert _row("integrator.huang_glass_albedo_table")["allowed"] == table["glass_albedo_table"]
+
+
+def test_world_program_has_the_material_program_layout():
+    """A program's keys are declared once, for a material's and the world's program alike."""
+    def layout(prefix):
+        """The program's key rows, their paths relative to the program (its own row's meaning
+        is where it is used)."""
+        rows = [dict(k, path=k["path"][len(prefix):]) for k in scene_schema()
+                if k["path"] == prefix or k["path"].startswith(prefix + ".")]
+        rows[0]["meaning"] = ""
+        return rows
+
+    material = layout("materials[].program")
+    assert [k["path"] for k in material] == ["", ".code", ".constants", ".registers"]
+    assert layout("world.program") == material
+
+
 def _scene():
     return {"camera": {"type": "PERSP", "matrix_world": np.eye(4), "resolution": (4, 2)},
             "integrator": {"samples": 1},

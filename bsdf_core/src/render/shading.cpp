@@ -143,9 +143,7 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
             }
             case ClosureDesc::Type::Diffuse: {
                 MaterialClosure d;
-                if (with_program)
-                    for (const ClosureDesc::Link& l : c.links)
-                        if (l.input == ClosureDesc::Input::Color) d.color_register = l.reg;
+                d.color_register = linked(c, ClosureDesc::Input::Color);
                 d.weight_register = linked(c, ClosureDesc::Input::Weight);
                 d.weight = d.color_register >= 0 ? c.weight : c.weight * c.color;
                 if (negligible(c, d.weight)) break;
@@ -155,12 +153,9 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
             }
             case ClosureDesc::Type::Emission: {
                 EmissionClosure l{c.weight, Emission(c.color, c.strength)};
-                if (with_program)
-                    for (const ClosureDesc::Link& k : c.links) {
-                        if (k.input == ClosureDesc::Input::Color) l.color_register = k.reg;
-                        if (k.input == ClosureDesc::Input::Strength) l.strength_register = k.reg;
-                        if (k.input == ClosureDesc::Input::Weight) l.weight_register = k.reg;
-                    }
+                l.color_register = linked(c, ClosureDesc::Input::Color);
+                l.strength_register = linked(c, ClosureDesc::Input::Strength);
+                l.weight_register = linked(c, ClosureDesc::Input::Weight);
                 if (l.color_register >= 0 || l.strength_register >= 0 || l.weight_register >= 0)
                     linked_emission_.push_back(l);
                 else

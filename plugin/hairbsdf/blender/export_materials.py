@@ -63,11 +63,6 @@ def _mul(w, f):
     return tuple(a * f for a in w)
 
 
-def _as_weight(weight):
-    """A closure's weight: a tuple, or the Value of the register computing it (resolved by finish)."""
-    return weight if isinstance(weight, Value) else tuple(weight)
-
-
 class MaterialTranslator:
     """Translates one node tree at a time, a material's (translate) or the world's
     (export_world.export_world): both walk their shaders with `walk`. Warnings go to `report`
@@ -140,6 +135,14 @@ class MaterialTranslator:
         elif v is not None:
             container[key] = v
 
+    def times(self, a: Value, b: Value) -> Value:
+        """a (3 wide) times b (1 or 3 wide): a constant when both are (so a constant weight goes out
+        as numbers), else instructions the scene loader folds."""
+        ca, cb = self.network.constant_of(a), self.network.constant_of(b)
+        if ca is not None and cb is not None:
+            return self.network.constant(_mul(ca, cb))
+        return self.network.multiply(a, b)
+
     @staticmethod
     def _socket_default(sock, kind, default):
         dv = getattr(sock, "default_value", None)
@@ -169,14 +172,31 @@ class MaterialTranslator:
 
     # ------------------------------------------------------------------ materials
     def translate(self, material) -> dict:
+        name = DEFAULT_MATERIAL_NAME if material is None else material.name
+        self.begin(f"Material '{name}'")
+        out = {"name": name}
+        closures = self._closures(material)
+        # Each weight is a Value of the network: a constant goes out as numbers, a computed one as a
+        # register. A closure of constant weight 0 is left out here; one of computed weight by the loader.
+        constants = [self.network.constant_of(c["weight"]) for c in closures]
+        out["closures"] = [c for c, w in zip(closures, constants) if w is None or max(w) > 0.0 or min(w) < 0.0]
+        self.pending += [(c, "weight", c["weight"], "color") for c in out["closures"]]
+        kept = {id(c) for c in out["closures"]} | {id(c.get("inputs")) for c in out["closures"]}
+        program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
+        if program is not None:
+            out["program"] = program
+        if any(c.get("type") == "emission" for c in out["closures"]):
+            out["emission_sampling"] = emission_sampling(material)
+        return out
+
+    def _closures(self, material) -> list:
+        """The material's closures, their weights Values of the network."""
+        one = self.network.constant((1.0, 1.0, 1.0))
         if material is None:
-            return {"name": DEFAULT_MATERIAL_NAME, "closures": [_diffuse((1.0, 1.0, 1.0), GREY)]}
-        self.begin(f"Material '{material.name}'")
-        out = {"name": material.name, "closures": []}
+            return [_diffuse(one, GREY)]
         nt = material.node_tree if getattr(material, "use_nodes", False) else None
         if nt is None:
-            out["closures"] = [_diffuse((1.0, 1.0, 1.0), rgb(material.diffuse_color))]
-            return out
+            return [_diffuse(one, rgb(material.diffuse_color))]
         output = None
         try:
             output = nt.get_output_node("CYCLES")
@@ -185,7 +205,7 @@ class MaterialTranslator:
         if output is None:
             # Cycles renders a node material without an active output as black.
             self.warn("no active Material Output node; rendered black")
-            return out
+            return []
         surface = find_socket(output.inputs, "Surface")
         volume = find_socket(output.inputs, "Volume")
         if volume is not None and self._link_source(volume) is not None:
@@ -194,23 +214,10 @@ class MaterialTranslator:
         if disp is not None and self._link_source(disp) is not None:
             self.warn("displacement is not supported and is ignored")
         src = self._link_source(surface)
-        if src is None:
-            return out
         closures = []
-        self.walk(src[0], src[1], (1.0, 1.0, 1.0), lambda node, weight: self._shader(node, weight, closures))
-        # A closure of constant weight 0 is left out here; one of computed weight by the loader.
-        for c in closures:
-            if isinstance(c["weight"], Value):
-                self.pending.append((c, "weight", c["weight"], "color"))
-        out["closures"] = [c for c in closures if isinstance(c["weight"], Value) or max(c["weight"]) > 0.0
-                           or min(c["weight"]) < 0.0]
-        kept = {id(c) for c in out["closures"]} | {id(c.get("inputs")) for c in out["closures"]}
-        program = self.network.finish([p for p in self.pending if id(p[0]) in kept])
-        if program is not None:
-            out["program"] = program
-        if any(c.get("type") == "emission" for c in out["closures"]):
-            out["emission_sampling"] = emission_sampling(material)
-        return out
+        if src is not None:
+            self.walk(src[0], src[1], one, lambda node, weight: self._shader(node, weight, closures))
+        return closures
 
     def program_needs(self) -> tuple:
         """(reads Hair Info > Intercept, attribute names) of the last translated material."""
@@ -221,8 +228,9 @@ class MaterialTranslator:
     def walk(self, node, out_socket, weight, visit, depth=0):
         """Walks the shader nodes feeding `out_socket` of `node`: muted nodes pass through, Mix
         and Add Shader fold into weights, and every other node is handed to `visit(node, weight)`
-        (a material's closures, the world's backgrounds). A weight is a tuple, or a Value of the
-        network where a Mix Shader's Fac is computed by nodes (then every weight below it is)."""
+        (a material's closures, the world's backgrounds). A weight is a Value of the network: a
+        constant, or instructions where a Mix Shader's Fac is computed by nodes (then every weight
+        below it is)."""
         if depth > MAX_DEPTH:
             self.warn("shader graph too deep; truncated")
             return
@@ -243,19 +251,15 @@ class MaterialTranslator:
                 fac = self.network.constant((self.value(node, "Fac", "float", 0.5),))  # warned: the socket value
             shaders = [s for s in node.inputs if s.type == "SHADER"]
             constant = self.network.constant_of(fac)
-            if constant is not None and not isinstance(weight, Value):
+            if constant is None:  # computed (per hit where it depends on the hit): the factors are registers
+                factors = self.network.mix_factors(fac)
+            else:
                 constant = min(max(constant, 0.0), 1.0)  # svm_node_mix_closure clamps
-                for sock, f in zip(shaders, (1.0 - constant, constant)):
-                    src = self._link_source(sock)
-                    if src is not None and f > 0.0:
-                        self.walk(src[0], src[1], _mul(weight, f), visit, depth + 1)
-                return
-            # A computed Fac (per hit where it depends on the hit): the weights are registers.
-            weight = weight if isinstance(weight, Value) else self.network.constant(weight)
-            for sock, f in zip(shaders, self.network.mix_factors(fac)):
+                factors = (self.network.constant((1.0 - constant,)), self.network.constant((constant,)))
+            for sock, f in zip(shaders, factors):
                 src = self._link_source(sock)
-                if src is not None:
-                    self.walk(src[0], src[1], self.network.multiply(weight, f), visit, depth + 1)
+                if src is not None and self.network.constant_of(f) != 0.0:  # a constant 0 adds nothing
+                    self.walk(src[0], src[1], self.times(weight, f), visit, depth + 1)
             return
         if t == "ShaderNodeAddShader":
             for sock in (s for s in node.inputs if s.type == "SHADER"):
@@ -327,7 +331,7 @@ class MaterialTranslator:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
         defaults = cycles_hair_defaults()
-        c = {"type": "cycles_hair", "weight": _as_weight(weight), "component": node.component.upper(),
+        c = {"type": "cycles_hair", "weight": weight, "component": node.component.upper(),
              **{key: defaults[key] for key in ("color", "offset", "roughness_u", "roughness_v")}}
         for ident, kind, key in (("Color", "color", "color"), ("Offset", "float", "offset"),
                                  ("RoughnessU", "float", "roughness_u"), ("RoughnessV", "float", "roughness_v")):
@@ -350,7 +354,7 @@ def _label(node):
 
 
 def _diffuse(weight, color):
-    return {"type": "diffuse", "weight": _as_weight(weight), "color": tuple(color)}
+    return {"type": "diffuse", "weight": weight, "color": tuple(color)}
 
 
 def _fmt(v):

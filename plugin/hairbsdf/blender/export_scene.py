@@ -38,79 +38,83 @@ CHIANG_LCG_BEFORE = (3, 6, 0)  # blender/cycles 598483b43, first released in 3.6
 HUANG_GLASS_TABLES_5_FROM = (5, 0, 0)
 
 
-def _get(obj, name, default):
-    return getattr(obj, name, default) if obj is not None else default
-
-
 def engine_settings(scene) -> dict:
-    """The engine's own settings (ui.py's scene.hairbsdf), with defaults when the add-on's
-    properties are not registered."""
+    """The engine's own settings (ui.py's scene.hairbsdf); {} when the add-on's properties are
+    not registered: then the scene format's defaults apply, and the running Blender's tilt."""
     s = getattr(scene, "hairbsdf", None)
-    return {"threads": int(_get(s, "threads", 0)), "tilt": str(_get(s, "tilt", "AUTO")),
-            "accuracy": str(_get(s, "accuracy", "CYCLES")),
-            "huang_sampler": str(_get(s, "huang_sampler", "CYCLES"))}
+    names = [] if s is None else [p.identifier for p in s.bl_rna.properties if p.identifier != "rna_type"]
+    return {name: getattr(s, name) for name in names}
+
+
+def cycles_settings(scene, group: str):
+    """scene.<group> ("cycles", "cycles_curves"): the exporter reads Cycles' render settings there
+    and nowhere else, so each default is the Cycles add-on's own. Without the add-on there are
+    none: ExportError."""
+    settings = getattr(scene, group, None)
+    if settings is None:
+        raise ExportError(f"scene.{group} is missing: the Cycles add-on is disabled, and hairbsdf reads the render "
+                          "settings from it (sampling, light paths, film, curves); enable it in Preferences > Add-ons")
+    return settings
 
 
 def export_integrator(scene, view_layer, render: bool, settings: dict, report) -> dict:
-    cy = getattr(scene, "cycles", None)
-    if cy is None:
-        report.warn("the Cycles add-on is disabled; hairbsdf uses Cycles' default settings")
-    g = lambda name, default: _get(cy, name, default)  # noqa: E731
-    samples = int(g("samples", 4096) if render else g("preview_samples", 1024))
-    layer_mode = g("use_layer_samples", "USE")
+    cy = cycles_settings(scene, "cycles")
+    samples = int(cy.samples if render else cy.preview_samples)
+    layer_mode = cy.use_layer_samples
     layer_samples = int(getattr(view_layer, "samples", 0)) if view_layer is not None else 0
     if render and layer_samples > 0 and layer_mode != "IGNORE":
         samples = min(samples, layer_samples) if layer_mode == "BOUNDED" else layer_samples
-    seed = int(g("seed", 0))
-    if g("use_animated_seed", False):
+    seed = int(cy.seed)
+    if cy.use_animated_seed:
         seed_base = seed
         seed = lookup3_hash_uint2(int(scene.frame_current) & 0xFFFFFFFF, seed_base & 0xFFFFFFFF)
         sub = float(getattr(scene, "frame_subframe", 0.0))
         if sub != 0.0:
             seed = (seed + lookup3_hash_uint2(int(sub * 2147483647) & 0xFFFFFFFF, seed_base & 0xFFFFFFFF))
         seed &= 0xFFFFFFFF
-    ftype = g("pixel_filter_type", "BLACKMAN_HARRIS")
+    ftype = cy.pixel_filter_type
     # Cycles' Blender sync forces the box filter to 1 px whatever filter_width says.
-    fwidth = 1.0 if ftype == "BOX" else float(g("filter_width", 1.5))
+    fwidth = 1.0 if ftype == "BOX" else float(cy.filter_width)
     tilt = settings.get("tilt", "AUTO")
     tilt = default_tilt() if tilt in ("AUTO", "", None) else tilt
     ignored = []
-    if render and g("use_denoising", False):
+    if render and cy.use_denoising:
         ignored.append("Denoising")
-    if g("use_fast_gi", False):
+    if cy.use_fast_gi:
         ignored.append("Fast GI")
-    if render and float(g("time_limit", 0.0)) > 0.0:
+    if render and float(cy.time_limit) > 0.0:
         ignored.append("Time Limit")
     if ignored:
         report.warn("Cycles settings hairbsdf ignores (the image may differ from Cycles): " + ", ".join(ignored))
-    return {
+    integrator = {
         "samples": max(samples, 1),
         "seed": seed,
-        "max_bounces": int(g("max_bounces", 12)),
-        "diffuse_bounces": int(g("diffuse_bounces", 4)),
-        "glossy_bounces": int(g("glossy_bounces", 4)),
-        "transmission_bounces": int(g("transmission_bounces", 12)),
-        "transparent_bounces": int(g("transparent_max_bounces", 8)),
-        "min_light_bounces": int(g("min_light_bounces", 0)),
+        "max_bounces": int(cy.max_bounces),
+        "diffuse_bounces": int(cy.diffuse_bounces),
+        "glossy_bounces": int(cy.glossy_bounces),
+        "transmission_bounces": int(cy.transmission_bounces),
+        "transparent_bounces": int(cy.transparent_max_bounces),
+        "min_light_bounces": int(cy.min_light_bounces),
         "filter_type": ftype,
         "filter_width": fwidth,
-        "exposure": float(g("film_exposure", 1.0)),
+        "exposure": float(cy.film_exposure),
         "film_transparent": bool(scene.render.film_transparent),
-        "light_sampling_threshold": float(g("light_sampling_threshold", 0.01)),
+        "light_sampling_threshold": float(cy.light_sampling_threshold),
         # Cycles 4.x picks NEE lights with its light tree (on by default); 3.x has none.
-        "light_tree": bool(g("use_light_tree", True)) if blender_version() >= (4, 0, 0) else False,
+        "light_tree": bool(cy.use_light_tree) if blender_version() >= (4, 0, 0) else False,
         # Cycles < 3.6 draws Chiang's longitudinal sample numbers from a per-hit LCG (correlated).
         "chiang_lcg": blender_version() < CHIANG_LCG_BEFORE,
-        "filter_glossy": float(g("blur_glossy", 1.0)),
-        "clamp_direct": float(g("sample_clamp_direct", 0.0)),
-        "clamp_indirect": float(g("sample_clamp_indirect", 10.0)),
+        "filter_glossy": float(cy.blur_glossy),
+        "clamp_direct": float(cy.sample_clamp_direct),
+        "clamp_indirect": float(cy.sample_clamp_indirect),
         "tilt": tilt,
-        "accuracy": settings.get("accuracy", "CYCLES").lower(),
-        "huang_sampler": settings.get("huang_sampler", "CYCLES").lower(),
-        # Cycles 5.x regenerated Huang's energy-compensation tables (docs/blender5.md).
-        "huang_glass_albedo_table": "5.x" if blender_version() >= HUANG_GLASS_TABLES_5_FROM else "4.x",
-        "passes": passes.requested(view_layer) if render else [],
     }
+    # The engine's choices are the scene's names in capitals (ui.py); not set: the scene's defaults.
+    integrator.update((name, settings[name].lower()) for name in ("accuracy", "huang_sampler") if name in settings)
+    # Cycles 5.x regenerated Huang's energy-compensation tables (docs/blender5.md).
+    integrator["huang_glass_albedo_table"] = "5.x" if blender_version() >= HUANG_GLASS_TABLES_5_FROM else "4.x"
+    integrator["passes"] = passes.requested(view_layer) if render else []
+    return integrator
 
 
 _RAY_VISIBILITY = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
@@ -138,6 +142,7 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         render = getattr(depsgraph, "mode", "RENDER") == "RENDER"
     if settings is None:
         settings = engine_settings(scene)
+    cycles_settings(scene, "cycles")  # before the objects: a scene without Cycles' settings fails at once
     camera = export_camera(depsgraph, report)
     use_strand = bool(getattr(view_layer, "use_strand", True))
     if not use_strand:
@@ -194,8 +199,8 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
     n_curves = curves["curve_random"].size
     # Back faces of 3D curves: Cycles 3.4 never reports them, Cycles 4.5 does (measured with 3.4.1 and
     # 4.5.15; docs/engine.md, which also says why the cause in 3.x is not the Embree build option).
-    shape = str(_get(getattr(scene, "cycles_curves", None), "shape", "RIBBONS"))
-    subdiv = int(_get(getattr(scene, "cycles_curves", None), "subdivisions", 2))
+    curve_settings = cycles_settings(scene, "cycles_curves")
+    shape, subdiv = str(curve_settings.shape), int(curve_settings.subdivisions)
     if shape not in ("RIBBONS", "THICK", "THICK_LINEAR"):
         report.warn(f"curve shape {shape} is not supported; rendered as 3D curves (THICK)")
         shape = "THICK"

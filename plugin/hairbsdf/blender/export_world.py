@@ -48,29 +48,29 @@ def export_world(scene, report, images=None) -> dict:
     def background(node, weight):
         t = node.bl_idname
         if t in ("ShaderNodeBackground", "ShaderNodeEmission"):
-            s = tr.value(node, "Strength", "float", 1.0)
+            s = _value(net, tr.value(node, "Strength", "float", 1.0))
             linked = tr._link_source(find_socket(node.inputs, "Color"))
             if linked is not None and linked[0].bl_idname == "ShaderNodeTexEnvironment" and not linked[0].mute:
-                if isinstance(weight, Value) or isinstance(s, Value):
-                    tex_weight = net.multiply(_value(net, weight), _value(net, s))
-                else:
-                    tex_weight = tuple(w * s for w in weight)
+                tex_weight = tr.times(weight, s)
+                constant = net.constant_of(tex_weight)
                 if texture:
                     tr.warn(f"only one Environment Texture is supported; '{linked[0].name}' is ignored")
-                elif isinstance(tex_weight, Value) or any(w != 0 for w in tex_weight):
+                elif constant is None or any(w != 0 for w in constant):
                     texture.update(_environment_texture(tr, linked[0], linked[1], tex_weight))
                 return
-            c = tr.value(node, "Color", "color", (0.05, 0.05, 0.05))
-            if any(isinstance(v, Value) for v in (weight, c, s)):
-                computed.append(net.multiply(net.multiply(_value(net, weight), _value(net, c)), _value(net, s)))
+            c = _value(net, tr.value(node, "Color", "color", (0.05, 0.05, 0.05)))
+            term = tr.times(tr.times(weight, c), s)
+            constant = net.constant_of(term)
+            if constant is None:
+                computed.append(term)
                 return
             for k in range(3):
-                color[k] += weight[k] * c[k] * s
+                color[k] += constant[k]
         else:
             tr.warn(f"node '{node.name}' ({getattr(node, 'bl_label', t)}) is not supported as a world shader; ignored")
 
     if src is not None:
-        tr.walk(src[0], src[1], (1.0, 1.0, 1.0), background)
+        tr.walk(src[0], src[1], net.constant((1.0, 1.0, 1.0)), background)
     result = {"color": tuple(float(c) for c in color), "mis": world_mis(world),
               "map_resolution": world_map_resolution(world)}
     pending = []
@@ -81,8 +81,7 @@ def export_world(scene, report, images=None) -> dict:
         pending.append((result, "color", total, "color"))
     if texture.get("pixels") is not None:
         result["texture"] = texture
-        if isinstance(texture["weight"], Value):
-            pending.append((texture, "weight", texture["weight"], "color"))
+        pending.append((texture, "weight", texture["weight"], "color"))
     program = net.finish(pending) if pending else None
     if program is not None:
         result["program"] = program
@@ -90,7 +89,7 @@ def export_world(scene, report, images=None) -> dict:
 
 
 def _value(net, v):
-    """A weight, strength or colour as a Value of the world's network."""
+    """A strength or colour as a Value of the world's network."""
     if isinstance(v, Value):
         return v
     return net.constant(v if isinstance(v, tuple) else (v,))
@@ -137,7 +136,6 @@ def _environment_texture(tr, node, output, weight) -> dict:
     pixels, srgb_encoded = read_image_rgb(node.image, tr.warn)
     if pixels is None or matrix is None:
         return {}
-    weight = weight if isinstance(weight, Value) else tuple(float(w) for w in weight)
     return {"pixels": pixels, "weight": weight, "interpolation": interpolation,
             "srgb_encoded": srgb_encoded, "matrix": matrix}
 

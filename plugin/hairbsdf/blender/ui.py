@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import bpy
 
+from .. import _core
 from .model_override import fill_params
 
 ENGINE_ID = "HAIRBSDF"
@@ -87,6 +88,45 @@ def unpatch_panels():
 
 # ---------------------------------------------------------------------------- settings
 
+# The engine's settings that are integrator keys of the scene (docs/scene_desc.md): their choices,
+# in the scene schema's order, and their defaults are the schema's (its C++ IntegratorSettings);
+# an identifier is the scene's name in capitals (the exporter writes it lower-case). A .blend file
+# saves an item's position, so the schema's order is part of the file format. Only the prose is
+# the UI's: (label, description) per choice; a choice without prose shows its name.
+TILT_AUTO = ("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
+CHOICE_PROSE = {
+    "tilt": {
+        "4.2": ("Blender 4.2+", "Tilt applied to the view angle (Cycles 4.2 and later)"),
+        "3.4": ("Blender 3.4-4.1", "Tilt applied to the light angle (Cycles 3.4 to 4.1)"),
+    },
+    "accuracy": {
+        "cycles": ("Cycles", "Cycles' truncated Bessel series: matches Cycles"),
+        "exact": ("Exact", "Exact special functions (differs from Cycles by up to ~5e-3)"),
+    },
+    "huang_sampler": {
+        "cycles": ("Cycles", "Cycles' sampler, weight = its energy estimate, pdf 1: Cycles' estimator, so the "
+                             "image's expected value is Cycles'"),
+        "mixture": ("Mixture", "Lobe mixture with an exact pdf and MIS: converges to the model's own integral, "
+                               "which Cycles' sampler does not (multi-bounce differs by ~0.3 %)"),
+    },
+}
+
+
+def _integrator_row(key: str) -> dict:
+    return next(k for k in _core.scene_schema() if k["path"] == "integrator." + key)
+
+
+def integrator_choices(key: str) -> tuple:
+    """EnumProperty items of the scene's integrator.<key>: (identifier, label, description)."""
+    prose = CHOICE_PROSE.get(key, {})
+    return tuple((name.upper(), *prose.get(name, (name, ""))) for name in _integrator_row(key)["allowed"])
+
+
+def integrator_default(key: str) -> str:
+    """The identifier of integrator.<key>'s default in the scene schema."""
+    return _integrator_row(key)["default"].upper()
+
+
 class HairBsdfSceneSettings(bpy.types.PropertyGroup):
     threads: bpy.props.IntProperty(
         name="Threads", description="Render threads (0: Blender's Performance > Threads setting, or all cores)",
@@ -94,22 +134,13 @@ class HairBsdfSceneSettings(bpy.types.PropertyGroup):
     tilt: bpy.props.EnumProperty(
         name="Tilt Convention",
         description="Principled Hair cuticle tilt convention (docs/principled_hair.md, section Blender 3.4-4.1)",
-        items=(("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4"),
-               ("4.2", "Blender 4.2+", "Tilt applied to the view angle (Cycles 4.2 and later)"),
-               ("3.4", "Blender 3.4-4.1", "Tilt applied to the light angle (Cycles 3.4 to 4.1)")),
-        default="AUTO")
+        items=(TILT_AUTO,) + integrator_choices("tilt"), default=TILT_AUTO[0])
     accuracy: bpy.props.EnumProperty(
         name="Accuracy", description="Special functions of the hair model",
-        items=(("CYCLES", "Cycles", "Cycles' truncated Bessel series: matches Cycles"),
-               ("EXACT", "Exact", "Exact special functions (differs from Cycles by up to ~5e-3)")),
-        default="CYCLES")
+        items=integrator_choices("accuracy"), default=integrator_default("accuracy"))
     huang_sampler: bpy.props.EnumProperty(
         name="Huang Sampler", description="BSDF sampling of the Huang hair model (docs/huang.md, In the engine)",
-        items=(("CYCLES", "Cycles", "Cycles' sampler, weight = its energy estimate, pdf 1: Cycles' estimator, "
-                                    "so the image's expected value is Cycles'"),
-               ("MIXTURE", "Mixture", "Lobe mixture with an exact pdf and MIS: converges to the model's own "
-                                      "integral, which Cycles' sampler does not (multi-bounce differs by ~0.3 %)")),
-        default="CYCLES")
+        items=integrator_choices("huang_sampler"), default=integrator_default("huang_sampler"))
 
 
 class HAIRBSDF_RENDER_PT_settings(bpy.types.Panel):

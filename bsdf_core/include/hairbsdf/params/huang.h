@@ -23,10 +23,12 @@ struct ParamTable<HuangHairParams> {
                                           {{"cycles", HuangQuadrature::Cycles}, {"converged", HuangQuadrature::Converged}},
                                           "cycles: the expected value of Cycles' eval (its Simpson nodes in h); "
                                           "converged: the integral over h converged"),
+            // Cycles' first: the scene's integrator.huang_sampler and the Blender setting list these
+            // choices in this order (a .blend file saves the setting's position).
             r::choice<P, HuangSampler>("sampler", &P::sampler,
-                                       {{"mixture", HuangSampler::Mixture}, {"cycles", HuangSampler::Cycles}},
-                                       "mixture: analytic lobe mixture, exact pdf; cycles: Cycles' sampler "
-                                       "(its weight, pdf reported as 1: no MIS)"),
+                                       {{"cycles", HuangSampler::Cycles}, {"mixture", HuangSampler::Mixture}},
+                                       "cycles: Cycles' sampler (its weight, pdf reported as 1: no MIS); "
+                                       "mixture: analytic lobe mixture, exact pdf"),
             r::number<P>("tolerance", &P::tolerance, 1e-6, 0.5,
                          "error target of eval and albedo relative to the row's total (R + TT + TRT + TRRT+)"),
             r::integer<P>("max_evaluations", &P::max_evaluations, 1000, r::kMaxInteger,
