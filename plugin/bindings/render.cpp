@@ -529,16 +529,24 @@ py::tuple py_eval_hit_bsdf(py::handle scene_dict, int material, py::handle wo_h,
     return py::make_tuple(value, pdf, lobes);
 }
 
-// shading_vm_instruction_set() -> {"ops": {name: opcode}, "argument_counts": {name: n}, enum name: {name: value}}
+// shading_vm_instruction_set() -> {"ops": {name: opcode}, "argument_counts": {name: n},
+// "operands": {name: [{"arg", "width", "write", "what", "width_arg", "width_per_arg"}]}, enum name: {name: value}}
 py::dict py_shading_vm_instruction_set() {
     const ShadingInstructionSet& set = shading_instruction_set();
-    py::dict ops, counts, out;
+    py::dict ops, counts, operands, out;
     for (const ShadingOpInfo& op : set.ops) {
         ops[op.name] = int32_t(op.op);
         counts[op.name] = op.argument_count;
+        py::list blocks;
+        for (const ShadingOperandSpec& o : op.operands)
+            blocks.append(py::dict(py::arg("arg") = o.arg, py::arg("width") = o.width, py::arg("write") = o.write,
+                                   py::arg("what") = o.what, py::arg("width_arg") = o.width_arg,
+                                   py::arg("width_per_arg") = o.width_per_arg));
+        operands[op.name] = blocks;
     }
     out["ops"] = ops;
     out["argument_counts"] = counts;
+    out["operands"] = operands;
     for (const auto& [table, entries] : set.enums) {
         py::dict d;
         for (const ShadingNamedValue& e : entries) d[e.name] = e.value;
@@ -570,7 +578,8 @@ PYBIND11_MODULE(_render, m) {
           "'registers': the folded program's size (0: none), 'warnings': [...]}. attribute_count: the curve "
           "attributes its program may read; images: the scene's `images`.");
     m.def("shading_vm_instruction_set", &py_shading_vm_instruction_set,
-          "The shading VM's opcodes, their argument counts and its enums under Blender's identifiers "
+          "The shading VM's opcodes, their argument counts, the register blocks each reads and writes, and its "
+          "enums under Blender's identifiers "
           "(render/shading_vm.h); the exporter's compiler derives its numbers from this.");
     m.def("eval_hit_bsdf", &py_eval_hit_bsdf, py::arg("scene"), py::arg("material"), py::arg("wo"), py::arg("wi"),
           py::arg("h"), py::arg("normal") = py::none(), py::arg("random") = 0.0, py::arg("seed") = 0u,
