@@ -2,6 +2,7 @@
 // node definitions, program validation, and the per-hit context.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -272,6 +273,49 @@ TEST(ShadingVm, ValidationNamesTheProblem) {
     EXPECT_NE(message(make_program({0, 0, 0, 0}, {op(ShadingOp::ColorRamp), 1, 0, 2, 4, 7, 0}, 5)).find("ramp table"),
               std::string::npos);
     EXPECT_EQ(message(make_program({1.0f}, {op(ShadingOp::Copy), 1, 0}, 1)), "");
+}
+
+TEST(ShadingVm, DeclaredOperandsAreDistinctArgumentsOfTheirInstruction) {
+    const auto& ops = shading_instruction_set().ops;
+    for (size_t i = 0; i < ops.size(); ++i) {
+        const ShadingOpInfo& info = ops[i];
+        SCOPED_TRACE(info.name);
+        EXPECT_EQ(int32_t(info.op), int32_t(i) + 1);  // in opcode order, from 1
+        std::vector<int> args;
+        for (const ShadingOperandSpec& o : info.operands) {
+            EXPECT_GE(o.arg, 0);
+            EXPECT_LT(o.arg, info.argument_count) << o.what;
+            args.push_back(o.arg);
+            if (o.width_arg < 0) {
+                EXPECT_GE(o.width, 1) << o.what;
+            } else {
+                EXPECT_LT(o.width_arg, info.argument_count) << o.what;
+                EXPECT_GE(o.width_per_arg, 1) << o.what;
+            }
+        }
+        std::sort(args.begin(), args.end());
+        EXPECT_EQ(std::adjacent_find(args.begin(), args.end()), args.end()) << "an argument declared twice";
+        for (const ShadingOperandSpec& o : info.operands)  // a width's argument is a number, not a register
+            EXPECT_FALSE(o.width_arg >= 0 && std::binary_search(args.begin(), args.end(), o.width_arg)) << o.what;
+    }
+}
+
+TEST(ShadingVm, OperandWidthsFollowTheirArguments) {
+    const int32_t mix_vector = op(ShadingOp::MixVector);
+    auto fac_width = [&](int32_t non_uniform) {
+        const std::vector<int32_t> code = {mix_vector, non_uniform, 0, 0, 3, 0, 0};
+        for (const ShadingOperand& o : instruction_operands(code.data()))
+            if (o.arg == 3) return o.width;
+        return 0;
+    };
+    EXPECT_EQ(fac_width(0), 1);
+    EXPECT_EQ(fac_width(1), 3);
+    const std::vector<int32_t> ramp = {op(ShadingOp::ColorRamp), 0, 0, 5, 20, 23, 24};
+    EXPECT_EQ(instruction_operands(ramp.data()).front().width, 20);  // the table: 4 x size
+    // The VM validates with these widths: a non-uniform factor at the last register reads past it.
+    EXPECT_THROW(validate_program(make_program({}, {mix_vector, 1, 0, 0, 3, 0, 0}, 4), 0), std::invalid_argument);
+    EXPECT_NO_THROW(validate_program(make_program({}, {mix_vector, 0, 0, 0, 3, 0, 0}, 4), 0));
+    EXPECT_THROW(validate_program(make_program({}, {mix_vector, 2, 0, 0, 0, 0, 0}, 4), 0), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------- Image Texture

@@ -28,6 +28,7 @@
 #include "hairbsdf/params/yan_fur.h"
 #include "hairbsdf/render/scene.h"
 #include "model_params.h"
+#include "render_passes.h"
 #include "scene_schema.h"
 
 namespace py = pybind11;
@@ -889,6 +890,9 @@ PYBIND11_MODULE(_core, m) {
     m.def("scene_schema", &bindings::scene_schema_as_python,
           "The scene format's keys (docs/scene_desc.md), one dict per key: path, kind, dtype, columns, required, "
           "default, allowed, minimum, maximum, only_for, register_link, closed, meaning.");
+    m.def("render_passes", &bindings::render_passes_as_python,
+          "The passes integrator.passes may name, each with the images it adds to a render's result (key, Blender "
+          "pass name, Blender channel ids, channels) and its meaning (plugin/bindings/render_passes.h).");
     m.def("validate_scene", &bindings::check_scene, py::arg("scene"),
           "Checks a scene dict against scene_schema() and returns a normalised copy; errors name the key path.");
     m.def("model_schema", [](const std::string& model, const std::string& path) { return schema_list(model_schema(model, path)); },

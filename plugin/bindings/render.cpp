@@ -24,6 +24,7 @@
 #include "hairbsdf/render/render.h"
 #include "hairbsdf/render/shading.h"
 #include "model_params.h"
+#include "render_passes.h"
 #include "scene_schema.h"
 
 namespace py = pybind11;
@@ -240,17 +241,10 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     for (int* bounces : {&s.max_bounces, &s.diffuse_bounces, &s.glossy_bounces, &s.transmission_bounces,
                          &s.transparent_bounces, &s.min_light_bounces})
         *bounces = std::min(*bounces, 1 << 20);
-    if (in.contains("passes")) {
-        // The flags in the order of the row's allowed names.
-        const bindings::SceneKey& row = bindings::scene_key("integrator.passes");
-        bool* flags[] = {&s.pass_hair_lobes, &s.pass_depth, &s.pass_normal, &s.pass_variance};
-        if (row.allowed.size() != std::size(flags))
-            throw std::logic_error("scene schema: integrator.passes names " + std::to_string(row.allowed.size()) +
-                                   " passes, the reader has " + std::to_string(std::size(flags)));
+    if (in.contains("passes"))  // checked names of render_passes()
         for (py::handle name : py::reinterpret_borrow<py::list>(in["passes"]))
-            for (size_t i = 0; i < row.allowed.size(); ++i)
-                if (std::string(py::str(name)) == row.allowed[i]) *flags[i] = true;
-    }
+            for (const bindings::RenderPass& pass : bindings::render_passes())
+                if (std::string(py::str(name)) == pass.name) s.*pass.flag = true;
 }
 
 // The scene dict -> SceneDesc: check_scene (scene_schema.h) validates and normalises it
@@ -355,15 +349,22 @@ py::dict py_render(py::handle scene_dict, py::object progress, py::object cancel
             for (size_t c = 0; c < channels; ++c) dst[i * channels + c] = data[i * stride + offset + c];
         return a;
     };
-    const Film::Passes& passes = out.passes;
-    if (!passes.hair_lobes.empty()) {
-        const char* names[kLobeCount] = {"hair_r", "hair_tt", "hair_trt", "hair_trrt", "hair_tts", "hair_trts"};
-        for (size_t k = 0; k < size_t(kLobeCount); ++k)
-            result[names[k]] = image(passes.hair_lobes, {h, w, 3}, 3 * k, 3 * kLobeCount, 3);
+    for (const bindings::RenderPass& pass : bindings::render_passes()) {
+        const std::vector<float>& data = out.passes.*pass.data;
+        if (data.empty()) continue;
+        size_t stride = 0, offset = 0;
+        for (const bindings::PassImage& im : pass.images) stride += size_t(im.channels());
+        if (data.size() != size_t(h) * size_t(w) * stride)
+            throw std::logic_error(std::string("render pass ") + pass.name + ": the film wrote " +
+                                   std::to_string(data.size()) + " values, the pass table's images take " +
+                                   std::to_string(size_t(h) * size_t(w) * stride));
+        for (const bindings::PassImage& im : pass.images) {
+            const size_t c = size_t(im.channels());
+            result[im.key] = image(data, c == 1 ? std::vector<py::ssize_t>{h, w} : std::vector<py::ssize_t>{h, w, py::ssize_t(c)},
+                                   offset, stride, c);
+            offset += c;
+        }
     }
-    if (!passes.depth.empty()) result["depth"] = image(passes.depth, {h, w}, 0, 1, 1);
-    if (!passes.normal.empty()) result["normal"] = image(passes.normal, {h, w, 3}, 0, 3, 3);
-    if (!passes.variance.empty()) result["variance"] = image(passes.variance, {h, w, 3}, 0, 3, 3);
     return result;
 }
 
@@ -529,16 +530,24 @@ py::tuple py_eval_hit_bsdf(py::handle scene_dict, int material, py::handle wo_h,
     return py::make_tuple(value, pdf, lobes);
 }
 
-// shading_vm_instruction_set() -> {"ops": {name: opcode}, "argument_counts": {name: n}, enum name: {name: value}}
+// shading_vm_instruction_set() -> {"ops": {name: opcode}, "argument_counts": {name: n},
+// "operands": {name: [{"arg", "width", "write", "what", "width_arg", "width_per_arg"}]}, enum name: {name: value}}
 py::dict py_shading_vm_instruction_set() {
     const ShadingInstructionSet& set = shading_instruction_set();
-    py::dict ops, counts, out;
+    py::dict ops, counts, operands, out;
     for (const ShadingOpInfo& op : set.ops) {
         ops[op.name] = int32_t(op.op);
         counts[op.name] = op.argument_count;
+        py::list blocks;
+        for (const ShadingOperandSpec& o : op.operands)
+            blocks.append(py::dict(py::arg("arg") = o.arg, py::arg("width") = o.width, py::arg("write") = o.write,
+                                   py::arg("what") = o.what, py::arg("width_arg") = o.width_arg,
+                                   py::arg("width_per_arg") = o.width_per_arg));
+        operands[op.name] = blocks;
     }
     out["ops"] = ops;
     out["argument_counts"] = counts;
+    out["operands"] = operands;
     for (const auto& [table, entries] : set.enums) {
         py::dict d;
         for (const ShadingNamedValue& e : entries) d[e.name] = e.value;
@@ -547,16 +556,30 @@ py::dict py_shading_vm_instruction_set() {
     return out;
 }
 
+// render()'s docstring: the result keys from the pass table.
+const std::string& render_doc() {
+    static const std::string doc = [] {
+        std::string d = "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
+                        "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, "
+                        "warnings}} plus the passes asked for in integrator['passes']:";
+        for (const bindings::RenderPass& pass : bindings::render_passes()) {
+            d += std::string(" ") + pass.name + " ->";
+            for (const bindings::PassImage& im : pass.images)
+                d += std::string(" '") + im.key + "'" + (im.channels() == 1 ? " (H, W)" : " (H, W, " + std::to_string(im.channels()) + ")");
+            d += std::string(" (") + pass.meaning + ");";
+        }
+        d.back() = '.';
+        return d;
+    }();
+    return doc;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_render, m) {
     m.doc() = "hairbsdf path tracer (Embree + TBB); use hairbsdf.render.render, not this module";
     m.def("render", &py_render, py::arg("scene"), py::arg("progress") = py::none(), py::arg("cancel") = py::none(),
-          py::arg("threads") = 0,
-          "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
-          "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, warnings}} "
-          "plus the passes asked for in integrator['passes']: 'hair_r', 'hair_tt', 'hair_trt', 'hair_trrt', 'hair_tts', 'hair_trts' (yan_fur's medulla lobes, 0 for other models), "
-          "'normal', 'variance' (H, W, 3) and 'depth' (H, W).");
+          py::arg("threads") = 0, render_doc().c_str());
     m.def("eval_program", &py_eval_program, py::arg("program"), py::arg("random") = 0.0f,
           py::arg("intercept") = 0.0f, py::arg("length") = 0.0f, py::arg("is_strand") = 1.0f,
           py::arg("attributes") = py::none(), py::arg("images") = py::none(),
@@ -570,7 +593,8 @@ PYBIND11_MODULE(_render, m) {
           "'registers': the folded program's size (0: none), 'warnings': [...]}. attribute_count: the curve "
           "attributes its program may read; images: the scene's `images`.");
     m.def("shading_vm_instruction_set", &py_shading_vm_instruction_set,
-          "The shading VM's opcodes, their argument counts and its enums under Blender's identifiers "
+          "The shading VM's opcodes, their argument counts, the register blocks each reads and writes, and its "
+          "enums under Blender's identifiers "
           "(render/shading_vm.h); the exporter's compiler derives its numbers from this.");
     m.def("eval_hit_bsdf", &py_eval_hit_bsdf, py::arg("scene"), py::arg("material"), py::arg("wo"), py::arg("wi"),
           py::arg("h"), py::arg("normal") = py::none(), py::arg("random") = 0.0, py::arg("seed") = 0u,

@@ -13,6 +13,7 @@
 #include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/huang.h"
 #include "hairbsdf/render/scene.h"
+#include "render_passes.h"
 
 namespace py = pybind11;
 
@@ -488,7 +489,7 @@ std::vector<SceneKey> make_schema() {
             .choices_of("glass_albedo_table", &HuangHairParams::glass_albedo_table)
             .field(&Settings::huang_glass_albedo_table),
         Row("integrator.passes", K::EnumList, "extra images in the result (docs/engine.md)")
-            .values({"hair_lobes", "depth", "normal", "variance"}).fallback("[]"),
+            .values(render_pass_names()).fallback("[]"),
 
         Row("source", K::Informational, "where the scene came from; not read"),
         Row("source.blender_version", K::Informational, "informational"),

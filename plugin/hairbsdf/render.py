@@ -34,8 +34,7 @@ def _allowed(path: str) -> tuple:
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
 
 
-# integrator["passes"] -> result keys: hair_lobes -> hair_r, hair_tt, hair_trt, hair_trrt (H, W, 3);
-# depth -> depth (H, W); normal -> normal (H, W, 3); variance -> variance (H, W, 3) (docs/engine.md)
+# integrator["passes"]' names; _core.render_passes() gives the result keys each adds (docs/engine.md)
 PASSES = _allowed("integrator.passes")
 
 

@@ -839,6 +839,24 @@ def test_variance_pass_is_the_variance_of_the_pixel_mean():
     assert np.all(np.array(predicted) >= 0)
 
 
+def test_each_pass_of_the_table_gives_its_images():
+    """The pass table (_core.render_passes(), plugin/bindings/render_passes.h) is what the scene
+    schema allows, and a render asking for every pass returns exactly its images, (H, W) for one
+    channel and (H, W, channels) otherwise; render()'s docstring names each."""
+    from hairbsdf import _core, _render
+    from hairbsdf.render import PASSES
+    table = _core.render_passes()
+    assert tuple(p["name"] for p in table) == PASSES
+    scene, _, _ = _lobe_scene(_unit((0, 0.4, 0.9)), _unit((0.3, -0.6, 0.5)), passes=PASSES)
+    out = render(scene)
+    height, width = out["combined"].shape[:2]
+    images = {im["key"]: im["channels"] for p in table for im in p["images"]}
+    assert set(out) - {"combined", "stats"} == set(images)
+    for key, channels in images.items():
+        assert out[key].shape == ((height, width) if channels == 1 else (height, width, channels)), key
+        assert f"'{key}'" in _render.render.__doc__, key
+
+
 def test_unknown_pass_names_the_key():
     scene, _, _ = _lobe_scene(_unit((0, 0.4, 0.9)), _unit((0.3, -0.6, 0.5)), passes=("hair_lobes", "mist"))
     with pytest.raises(ValueError, match=r"\['passes'\]\[1\].*'mist' is not allowed"):

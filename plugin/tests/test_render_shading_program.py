@@ -235,3 +235,39 @@ def test_docs_instruction_table_matches_the_declaration():
     isa = _render.shading_vm_instruction_set()
     declared = {name: (op, isa["argument_counts"][name]) for name, op in isa["ops"].items()}
     assert documented == declared
+
+
+def _operand_cases():
+    """(op, numbers): each op with valid numbers for its non-register arguments; MIX_VECTOR
+    uniform and non-uniform (its factor's width follows argument 0)."""
+    numbers = {"COLOR_RAMP": {2: 2}, "MIX_VECTOR": {0: 1}}
+    cases = [(op, numbers.get(op, {})) for op in _OPS]
+    return cases + [("MIX_VECTOR", {0: 0})]
+
+
+@pytest.mark.parametrize("op, numbers", _operand_cases(), ids=lambda c: c if isinstance(c, str) else str(c))
+def test_exporter_places_each_operand_as_the_vm_validates_it(op, numbers):
+    """The exporter's compiler reads the VM's declaration of each op's register blocks
+    (shading_network.operand_blocks): with each block in turn placed last, the program it writes
+    is valid with exactly the registers the exporter allots, and invalid, naming that block, with
+    one fewer. A width the exporter reads wrong (too narrow or too wide) fails one of the two."""
+    from hairbsdf.blender.shading_network import AttributeTable, Reg, ShadingNetwork, operand_blocks
+    count = _render.shading_vm_instruction_set()["argument_counts"][op]
+    declared = _render.shading_vm_instruction_set()["operands"][op]
+    plain = [numbers.get(i, 0) for i in range(count)]
+    reads, writes = operand_blocks(op, plain)
+    blocks = dict(reads + writes)
+    images = [{"name": "texel", "pixels": np.ones((1, 1, 4), np.float32)}]
+    for last in (o for o in declared if o["arg"] != 1 or op != "COLOR_RAMP"):  # the ramp's table is a constant
+        net = ShadingNetwork(AttributeTable(), warn=pytest.fail, link_source=lambda s: None)
+        args = list(plain)
+        if op == "COLOR_RAMP":
+            args[1] = net.constant([0.5] * blocks[1]).reg
+        for o in sorted((o for o in declared if not isinstance(args[o["arg"]], Reg)), key=lambda o: o is last):
+            args[o["arg"]] = net._temp(blocks[o["arg"]])
+        net._emit(op, args)
+        program = net._program()
+        _render.eval_program(program, attributes=np.zeros((1, 1, 4), np.float32), images=images)
+        program["registers"] -= 1
+        with pytest.raises(ValueError, match=f"{last['what']} (reads|writes) register"):
+            _render.eval_program(program, attributes=np.zeros((1, 1, 4), np.float32), images=images)

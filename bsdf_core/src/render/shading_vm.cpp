@@ -373,23 +373,31 @@ float srgb_to_linear(float c) {
 const ShadingInstructionSet& shading_instruction_set() {
     static const ShadingInstructionSet set = [] {
         ShadingInstructionSet s;
+        // Each op's register blocks: which arguments it reads or writes, and how wide they are.
+        auto in = [](int arg, int32_t width, const char* what) { return ShadingOperandSpec{arg, width, false, what}; };
+        auto out = [](int arg, int32_t width, const char* what) { return ShadingOperandSpec{arg, width, true, what}; };
         s.ops = {
-            {"MATH", ShadingOp::Math, 6},
-            {"MAP_RANGE", ShadingOp::MapRange, 9},
-            {"CLAMP", ShadingOp::Clamp, 5},
-            {"COLOR_RAMP", ShadingOp::ColorRamp, 6},
-            {"MIX_COLOR", ShadingOp::MixColor, 6},
-            {"MIX_FLOAT", ShadingOp::MixFloat, 5},
-            {"MIX_VECTOR", ShadingOp::MixVector, 6},
-            {"INVERT", ShadingOp::Invert, 3},
-            {"GAMMA", ShadingOp::Gamma, 3},
-            {"BRIGHT_CONTRAST", ShadingOp::BrightContrast, 4},
-            {"COPY", ShadingOp::Copy, 2},
-            {"LUMINANCE", ShadingOp::Luminance, 3},
-            {"AVERAGE", ShadingOp::Average, 2},
-            {"HAIR_INFO", ShadingOp::HairInfo, 2},
-            {"ATTRIBUTE", ShadingOp::Attribute, 2},
-            {"IMAGE_TEXTURE", ShadingOp::ImageTexture, 6},
+            {"MATH", ShadingOp::Math, 6, {out(2, 1, "out"), in(3, 1, "a"), in(4, 1, "b"), in(5, 1, "c")}},
+            {"MAP_RANGE", ShadingOp::MapRange, 9,
+             {out(2, 1, "out"), in(3, 1, "input"), in(4, 1, "input"), in(5, 1, "input"), in(6, 1, "input"),
+              in(7, 1, "input"), in(8, 1, "input")}},
+            {"CLAMP", ShadingOp::Clamp, 5, {out(1, 1, "out"), in(2, 1, "value"), in(3, 1, "min"), in(4, 1, "max")}},
+            {"COLOR_RAMP", ShadingOp::ColorRamp, 6,
+             {{1, 0, false, "ramp table", 2, 4}, out(3, 3, "out color"), out(4, 1, "out alpha"), in(5, 1, "fac")}},
+            {"MIX_COLOR", ShadingOp::MixColor, 6, {out(2, 3, "out"), in(3, 1, "fac"), in(4, 3, "a"), in(5, 3, "b")}},
+            {"MIX_FLOAT", ShadingOp::MixFloat, 5, {out(1, 1, "out"), in(2, 1, "fac"), in(3, 1, "a"), in(4, 1, "b")}},
+            {"MIX_VECTOR", ShadingOp::MixVector, 6,
+             {out(2, 3, "out"), {3, 1, false, "fac", 0, 2}, in(4, 3, "a"), in(5, 3, "b")}},  // fac 3 wide if non-uniform
+            {"INVERT", ShadingOp::Invert, 3, {out(0, 3, "out"), in(1, 1, "fac"), in(2, 3, "color")}},
+            {"GAMMA", ShadingOp::Gamma, 3, {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "gamma")}},
+            {"BRIGHT_CONTRAST", ShadingOp::BrightContrast, 4,
+             {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "bright"), in(3, 1, "contrast")}},
+            {"COPY", ShadingOp::Copy, 2, {out(0, 1, "out"), in(1, 1, "in")}},
+            {"LUMINANCE", ShadingOp::Luminance, 3, {out(0, 1, "out"), in(1, 3, "color"), in(2, 3, "weights")}},
+            {"AVERAGE", ShadingOp::Average, 2, {out(0, 1, "out"), in(1, 3, "vector")}},
+            {"HAIR_INFO", ShadingOp::HairInfo, 2, {out(1, 1, "out")}},
+            {"ATTRIBUTE", ShadingOp::Attribute, 2, {out(1, 5, "out")}},
+            {"IMAGE_TEXTURE", ShadingOp::ImageTexture, 6, {out(4, 4, "out"), in(5, 3, "vector")}},
         };
         // Blender's identifiers, in the order of its enums (which Cycles' node types follow).
         const char* math_names[] = {
@@ -415,7 +423,13 @@ const ShadingInstructionSet& shading_instruction_set() {
              {{"LINEAR", int32_t(MapRangeType::Linear)}, {"STEPPED", int32_t(MapRangeType::Stepped)},
               {"SMOOTHSTEP", int32_t(MapRangeType::SmoothStep)},
               {"SMOOTHERSTEP", int32_t(MapRangeType::SmootherStep)}}},
+            {"clamp_types", {{"MINMAX", int32_t(ClampType::MinMax)}, {"RANGE", int32_t(ClampType::Range)}}},
+            {"ramp_interpolations",  // Blender's ColorRamp interpolations -> the lookup in the baked table
+             {{"CONSTANT", int32_t(RampLookup::Constant)}, {"LINEAR", int32_t(RampLookup::Linear)},
+              {"EASE", int32_t(RampLookup::Linear)}, {"B_SPLINE", int32_t(RampLookup::Linear)},
+              {"CARDINAL", int32_t(RampLookup::Linear)}}},
             {"mix_blends", in_order(blend_names, size_t(MixBlend::Count))},
+            {"mix_flags", {{"CLAMP_FACTOR", kMixClampFactor}, {"CLAMP_RESULT", kMixClampResult}}},
             {"hair_info_outputs",  // the Hair Info node's output names
              {{"Random", int32_t(HairInfoOutput::Random)}, {"Intercept", int32_t(HairInfoOutput::Intercept)},
               {"Length", int32_t(HairInfoOutput::Length)}, {"Is Strand", int32_t(HairInfoOutput::IsStrand)}}},
@@ -445,32 +459,16 @@ int argument_count(ShadingOp op) {
 }  // namespace
 
 std::vector<ShadingOperand> instruction_operands(const int32_t* code) {
+    const auto& ops = shading_instruction_set().ops;
+    const auto index = size_t(code[0] - 1);
+    if (index >= ops.size()) return {};
     const int32_t* a = code + 1;
-    auto in = [a](int arg, int32_t width, const char* what) { return ShadingOperand{arg, a[arg], width, false, what}; };
-    auto out = [a](int arg, int32_t width, const char* what) { return ShadingOperand{arg, a[arg], width, true, what}; };
-    switch (ShadingOp(code[0])) {
-        case ShadingOp::Math: return {out(2, 1, "out"), in(3, 1, "a"), in(4, 1, "b"), in(5, 1, "c")};
-        case ShadingOp::MapRange:
-            return {out(2, 1, "out"), in(3, 1, "input"), in(4, 1, "input"), in(5, 1, "input"),
-                    in(6, 1, "input"), in(7, 1, "input"), in(8, 1, "input")};
-        case ShadingOp::Clamp: return {out(1, 1, "out"), in(2, 1, "value"), in(3, 1, "min"), in(4, 1, "max")};
-        case ShadingOp::ColorRamp:
-            return {in(1, 4 * a[2], "ramp table"), out(3, 3, "out color"), out(4, 1, "out alpha"), in(5, 1, "fac")};
-        case ShadingOp::MixColor: return {out(2, 3, "out"), in(3, 1, "fac"), in(4, 3, "a"), in(5, 3, "b")};
-        case ShadingOp::MixFloat: return {out(1, 1, "out"), in(2, 1, "fac"), in(3, 1, "a"), in(4, 1, "b")};
-        case ShadingOp::MixVector: return {out(2, 3, "out"), in(3, a[0] ? 3 : 1, "fac"), in(4, 3, "a"), in(5, 3, "b")};
-        case ShadingOp::Invert: return {out(0, 3, "out"), in(1, 1, "fac"), in(2, 3, "color")};
-        case ShadingOp::Gamma: return {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "gamma")};
-        case ShadingOp::BrightContrast:
-            return {out(0, 3, "out"), in(1, 3, "color"), in(2, 1, "bright"), in(3, 1, "contrast")};
-        case ShadingOp::Copy: return {out(0, 1, "out"), in(1, 1, "in")};
-        case ShadingOp::Luminance: return {out(0, 1, "out"), in(1, 3, "color"), in(2, 3, "weights")};
-        case ShadingOp::Average: return {out(0, 1, "out"), in(1, 3, "vector")};
-        case ShadingOp::HairInfo: return {out(1, 1, "out")};
-        case ShadingOp::Attribute: return {out(1, 5, "out")};
-        case ShadingOp::ImageTexture: return {out(4, 4, "out"), in(5, 3, "vector")};
+    std::vector<ShadingOperand> blocks;
+    for (const ShadingOperandSpec& o : ops[index].operands) {
+        const int32_t width = o.width + (o.width_arg < 0 ? 0 : o.width_per_arg * a[o.width_arg]);
+        blocks.push_back({o.arg, a[o.arg], width, o.write, o.what});
     }
-    return {};
+    return blocks;
 }
 
 void validate_program(const ShadingProgram& p, int attribute_count, int image_count) {
@@ -496,7 +494,7 @@ void validate_program(const ShadingProgram& p, int attribute_count, int image_co
         switch (op) {  // enum arguments; register blocks below
             case ShadingOp::Math: in_range(a[0], 0, int32_t(MathType::Count) - 1, "math type"); break;
             case ShadingOp::MapRange: in_range(a[0], 0, 3, "map range type"); break;
-            case ShadingOp::Clamp: in_range(a[0], 0, 1, "clamp type"); break;
+            case ShadingOp::Clamp: in_range(a[0], 0, int32_t(ClampType::Range), "clamp type"); break;
             case ShadingOp::ColorRamp:
                 in_range(a[2], 2, 1 << 16, "ramp table size");
                 if (a[1] < 0 || a[1] + 4 * a[2] > n_const)
@@ -504,8 +502,9 @@ void validate_program(const ShadingProgram& p, int attribute_count, int image_co
                 break;
             case ShadingOp::MixColor:
                 in_range(a[0], 0, int32_t(MixBlend::Count) - 1, "blend type");
-                in_range(a[1], 0, 3, "flags");
+                in_range(a[1], 0, kMixClampFactor | kMixClampResult, "flags");
                 break;
+            case ShadingOp::MixVector: in_range(a[0], 0, 1, "non-uniform"); break;  // sets fac's width
             case ShadingOp::HairInfo: in_range(a[0], 0, 3, "hair info output"); break;
             case ShadingOp::Attribute: in_range(a[0], 0, attribute_count - 1, "attribute index"); break;
             case ShadingOp::ImageTexture:
@@ -648,12 +647,12 @@ void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r
             }
             case ShadingOp::Clamp: {
                 const float v = r[a[2]], lo = r[a[3]], hi = r[a[4]];
-                r[a[1]] = (a[0] == 1 && lo > hi) ? clampf(v, hi, lo) : clampf(v, lo, hi);
+                r[a[1]] = (ClampType(a[0]) == ClampType::Range && lo > hi) ? clampf(v, hi, lo) : clampf(v, lo, hi);
                 break;
             }
             case ShadingOp::ColorRamp: {
                 float rgba[4];
-                ramp_lookup(p.constants.data() + a[1], a[2], a[0] != 0, r[a[5]], rgba);
+                ramp_lookup(p.constants.data() + a[1], a[2], RampLookup(a[0]) != RampLookup::Constant, r[a[5]], rgba);
                 r[a[3]] = rgba[0];
                 r[a[3] + 1] = rgba[1];
                 r[a[3] + 2] = rgba[2];
@@ -662,10 +661,10 @@ void run_program(const ShadingProgram& p, const ShadingHitContext& ctx, float* r
             }
             case ShadingOp::MixColor: {
                 float t = r[a[3]];
-                if (a[1] & 1) t = saturate(t);
+                if (a[1] & kMixClampFactor) t = saturate(t);
                 float out[3];
                 shading_mix(MixBlend(a[0]), t, r + a[4], r + a[5], out);
-                for (int i = 0; i < 3; ++i) r[a[2] + i] = (a[1] & 2) ? saturate(out[i]) : out[i];
+                for (int i = 0; i < 3; ++i) r[a[2] + i] = (a[1] & kMixClampResult) ? saturate(out[i]) : out[i];
                 break;
             }
             case ShadingOp::MixFloat: {

@@ -15,11 +15,22 @@ The passes show as Render Layers outputs in the compositor and in multilayer EXR
 
 from __future__ import annotations
 
+import functools
+
 import bpy
 
-# (result key of hairbsdf.render, Blender pass name, channels, channel ids, socket type)
-LOBE_PASSES = (("hair_r", "Hair R"), ("hair_tt", "Hair TT"), ("hair_trt", "Hair TRT"), ("hair_trrt", "Hair TRRT"),
-               ("hair_tts", "Hair TTs"), ("hair_trts", "Hair TRTs"))
+# The passes of the renderer's table (_core.render_passes()) that Blender's own view-layer
+# switches ask for; each other one is the engine's property `pass_<name>` below.
+BLENDER_SWITCHES = {"depth": "use_pass_z", "normal": "use_pass_normal"}
+_SOCKET_TYPES = {"RGB": "COLOR", "XYZ": "VECTOR", "Z": "VALUE"}  # a Blender pass's socket, by its channel ids
+
+
+@functools.cache
+def render_passes() -> dict:
+    """{pass name: its images [{"key", "blender_name", "channel_ids", "channels"}]}, in the
+    renderer's order (plugin/bindings/render_passes.h)."""
+    from hairbsdf import _core
+    return {p["name"]: p["images"] for p in _core.render_passes()}
 
 
 class HairBsdfViewLayerSettings(bpy.types.PropertyGroup):
@@ -40,32 +51,19 @@ def requested(view_layer) -> list:
     """The integrator's pass names (hairbsdf.render.PASSES) this view layer asks for."""
     if view_layer is None:
         return []
-    out = []
     s = _layer_settings(view_layer)
-    if s is not None and s.pass_hair_lobes:
-        out.append("hair_lobes")
-    if getattr(view_layer, "use_pass_z", False):
-        out.append("depth")
-    if getattr(view_layer, "use_pass_normal", False):
-        out.append("normal")
-    if s is not None and s.pass_variance:
-        out.append("variance")
+    out = []
+    for name in render_passes():
+        switch = BLENDER_SWITCHES.get(name)
+        if getattr(view_layer, switch, False) if switch else (s is not None and getattr(s, "pass_" + name)):
+            out.append(name)
     return out
 
 
 def blender_passes(names):
     """[(result key, pass name, channels, chan_id, socket type)] for the requested passes."""
-    out = []
-    for name in names:
-        if name == "hair_lobes":
-            out += [(key, label, 3, "RGB", "COLOR") for key, label in LOBE_PASSES]
-        elif name == "depth":
-            out.append(("depth", "Depth", 1, "Z", "VALUE"))
-        elif name == "normal":
-            out.append(("normal", "Normal", 3, "XYZ", "VECTOR"))
-        elif name == "variance":
-            out.append(("variance", "Variance", 3, "RGB", "COLOR"))
-    return out
+    return [(im["key"], im["blender_name"], im["channels"], im["channel_ids"], _SOCKET_TYPES[im["channel_ids"]])
+            for name in names for im in render_passes().get(name, [])]
 
 
 def register_passes(engine, scene, view_layer):

@@ -34,7 +34,8 @@ from ._common import luminance_weights, mapping_matrix, rgb
 @functools.cache
 def vm_instruction_set() -> dict:
     """The shading VM's opcodes, argument counts and enums under Blender's identifiers
-    ({"ops", "argument_counts", "math_types", "map_range_types", "mix_blends",
+    ({"ops", "argument_counts", "operands" (the register blocks each op reads and writes),
+    "math_types", "map_range_types", "clamp_types", "ramp_interpolations", "mix_blends", "mix_flags",
     "hair_info_outputs", "image_interpolations", "image_extensions", "image_flags"}), as
     render/shading_vm.h declares them. Read from the renderer module on first use (it loads
     Embree and TBB)."""
@@ -74,6 +75,16 @@ class _Instruction:
     reads: list          # (word position, width)
     writes: list         # (word position, width)
     dynamic: bool = False
+
+
+def operand_blocks(op: str, args) -> tuple:
+    """(reads, writes) of instruction `op` with arguments `args` (after the opcode): lists of
+    (argument index, width), from the VM's declaration of its register blocks."""
+    reads, writes = [], []
+    for o in _vm("operands")[op]:
+        width = o["width"] + (o["width_per_arg"] * int(args[o["width_arg"]]) if o["width_arg"] >= 0 else 0)
+        (writes if o["write"] else reads).append((o["arg"], width))
+    return reads, writes
 
 
 def _width(socket_type: str) -> int:
@@ -154,11 +165,17 @@ class ShadingNetwork:
         self.temps += n
         return reg
 
-    def _emit(self, op: str, args, reads, writes, dynamic=False):
-        """op: the instruction's name in vm_instruction_set()["ops"]; args: ints and Regs after
-        the opcode; reads / writes: (argument index, width)."""
+    def _emit(self, op: str, args, dynamic=False):
+        """op: the instruction's name in vm_instruction_set()["ops"]; args: after the opcode, a Reg
+        where the VM declares a register block, an int elsewhere."""
         if len(args) != _vm("argument_counts")[op]:
             raise AssertionError(f"{op}: {len(args)} arguments, the VM takes {_vm('argument_counts')[op]}")
+        reads, writes = operand_blocks(op, args)
+        registers = {i for i, _ in reads + writes}
+        for i, a in enumerate(args):
+            if isinstance(a, Reg) != (i in registers):
+                raise AssertionError(f"{op}: argument {i} is {a!r}; the VM declares "
+                                     f"{'a register' if i in registers else 'a number'} there")
         ins = _Instruction([_vm("ops")[op]] + list(args), [(i + 1, w) for i, w in reads], [(i + 1, w) for i, w in writes])
         ins.dynamic = dynamic or any(self._is_dynamic(ins.words[p], w) for p, w in ins.reads)
         if ins.dynamic:
@@ -184,9 +201,9 @@ class ShadingNetwork:
             out = self._temp(1)
             if src_type == "RGBA":
                 weights = self.constant(luminance_weights())
-                self._emit("LUMINANCE", [out, value.reg, weights.reg], [(1, 3), (2, 3)], [(0, 1)])
+                self._emit("LUMINANCE", [out, value.reg, weights.reg])
             else:
-                self._emit("AVERAGE", [out, value.reg], [(1, 3)], [(0, 1)])
+                self._emit("AVERAGE", [out, value.reg])
             return Value(out, 1)
         if value.width == 3:
             return value
@@ -198,7 +215,7 @@ class ShadingNetwork:
             return self.constant([self.constants[p.reg.index] for p in parts])
         out = self._temp(3)
         for i, p in enumerate(parts):
-            self._emit("COPY", [Reg("t", out.index + i), p.reg], [(1, 1)], [(0, 1)])
+            self._emit("COPY", [Reg("t", out.index + i), p.reg])
         return Value(out, 3)
 
     # ------------------------------------------------------------------ arithmetic on colours
@@ -218,18 +235,18 @@ class ShadingNetwork:
         for i in range(3):
             bi = b if b.width == 1 else self.component(b, i)
             self._emit("MATH", [_vm("math_types")[operation], 0, Reg("t", out.index + i), self.component(a, i).reg,
-                                bi.reg, unused.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+                                bi.reg, unused.reg])
         return Value(out, 3)
 
     def mix_factors(self, fac: Value) -> tuple:
         """(1 - t, t) with t = Fac clamped to [0, 1]: the weights of a Mix Shader's two inputs
         (Cycles' svm_node_mix_closure)."""
         t = self._temp(1)
-        self._emit("CLAMP", [0, t, fac.reg, self.constant((0.0,)).reg, self.constant((1.0,)).reg],
-                   [(2, 1), (3, 1), (4, 1)], [(1, 1)])
+        self._emit("CLAMP", [_vm("clamp_types")["MINMAX"], t, fac.reg, self.constant((0.0,)).reg,
+                             self.constant((1.0,)).reg])
         rest = self._temp(1)
         self._emit("MATH", [_vm("math_types")["SUBTRACT"], 0, rest, self.constant((1.0,)).reg, t,
-                            self.constant((0.0,)).reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+                            self.constant((0.0,)).reg])
         return Value(rest, 1), Value(t, 1)
 
     def constant_of(self, value: Value):
@@ -376,7 +393,7 @@ def _hair_info(net, node, out, depth):
     if which == _vm("hair_info_outputs")["Intercept"]:
         net.uses_intercept = True
     reg = net._temp(1)
-    net._emit("HAIR_INFO", [which, reg], [], [(1, 1)], dynamic=True)
+    net._emit("HAIR_INFO", [which, reg], dynamic=True)
     return Value(reg, 1)
 
 
@@ -388,7 +405,7 @@ def _attribute_block(net, name):
         index = net.attributes.index(name)
         net.attribute_names.add(name)
         block = Value(net._temp(5), 5)
-        net._emit("ATTRIBUTE", [index, block.reg], [], [(1, 5)], dynamic=True)
+        net._emit("ATTRIBUTE", [index, block.reg], dynamic=True)
         net._outputs[key] = block
     return block
 
@@ -440,7 +457,7 @@ def _mapping(net, node, out, depth):
         for j in (2, 1, 0):
             reg = net._temp(1)
             net._emit("MATH", [_vm("math_types")["MULTIPLY_ADD"], 0, reg, net.component(vec, j).reg,
-                                net.constant((m[i, j],)).reg, acc.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+                                net.constant((m[i, j],)).reg, acc.reg])
             acc = Value(reg, 1)
         parts.append(acc)
     return net.gather(parts)
@@ -472,8 +489,7 @@ def _image_texture(net, node, out, depth):
             flags |= _vm("image_flags")["SRGB_DECODE"]
         block = Value(net._temp(4), 4)
         net._emit("IMAGE_TEXTURE", [index, _vm("image_interpolations")[node.interpolation],
-                                     _vm("image_extensions")[node.extension], flags, block.reg, vector.reg],
-                  [(5, 3)], [(4, 4)])
+                                     _vm("image_extensions")[node.extension], flags, block.reg, vector.reg])
         net._outputs[key] = block
     if out.identifier == "Alpha":
         return Value(Reg("t", block.reg.index + 3), 1)
@@ -486,7 +502,7 @@ def _math(net, node, out, depth):
         return _UNSUPPORTED
     a, b, c = (net.input(node, s, "float", depth) for s in list(node.inputs)[:3])
     reg = net._temp(1)
-    net._emit("MATH", [op, int(node.use_clamp), reg, a.reg, b.reg, c.reg], [(3, 1), (4, 1), (5, 1)], [(2, 1)])
+    net._emit("MATH", [op, int(node.use_clamp), reg, a.reg, b.reg, c.reg])
     return Value(reg, 1)
 
 
@@ -496,16 +512,14 @@ def _map_range(net, node, out, depth):
     kind = _vm("map_range_types")[node.interpolation_type]
     ins = [_in(net, node, name, "float", depth) for name in ("Value", "From Min", "From Max", "To Min", "To Max", "Steps")]
     reg = net._temp(1)
-    net._emit("MAP_RANGE", [kind, int(node.clamp), reg] + [v.reg for v in ins],
-              [(k, 1) for k in range(3, 9)], [(2, 1)])
+    net._emit("MAP_RANGE", [kind, int(node.clamp), reg] + [v.reg for v in ins])
     return Value(reg, 1)
 
 
 def _clamp(net, node, out, depth):
     ins = [_in(net, node, name, "float", depth) for name in ("Value", "Min", "Max")]
     reg = net._temp(1)
-    net._emit("CLAMP", [1 if node.clamp_type == "RANGE" else 0, reg] + [v.reg for v in ins],
-              [(2, 1), (3, 1), (4, 1)], [(1, 1)])
+    net._emit("CLAMP", [_vm("clamp_types")[node.clamp_type], reg] + [v.reg for v in ins])
     return Value(reg, 1)
 
 
@@ -522,9 +536,8 @@ def _color_ramp(net, node, out, depth):
             table.extend(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
         tab = net.constant(table)
         block = Value(net._temp(4), 4)
-        net._emit("COLOR_RAMP", [int(ramp.interpolation != "CONSTANT"), tab.reg, RAMP_TABLE_SIZE,
-                                  block.reg, Reg("t", block.reg.index + 3), fac.reg],
-                  [(5, 1)], [(3, 3), (4, 1)])
+        net._emit("COLOR_RAMP", [_vm("ramp_interpolations")[ramp.interpolation], tab.reg, RAMP_TABLE_SIZE,
+                                  block.reg, Reg("t", block.reg.index + 3), fac.reg])
         net._outputs[key] = block
     if out.identifier == "Alpha":
         return Value(Reg("t", block.reg.index + 3), 1)
@@ -533,8 +546,7 @@ def _color_ramp(net, node, out, depth):
 
 def _mix_color(net, blend, flags, fac, a, b):
     reg = net._temp(3)
-    net._emit("MIX_COLOR", [_vm("mix_blends")[blend], flags, reg, fac.reg, a.reg, b.reg], [(3, 1), (4, 3), (5, 3)],
-              [(2, 3)])
+    net._emit("MIX_COLOR", [_vm("mix_blends")[blend], flags, reg, fac.reg, a.reg, b.reg])
     return Value(reg, 3)
 
 
@@ -544,7 +556,8 @@ def _mix_rgb(net, node, out, depth):
     fac = _in(net, node, "Fac", "float", depth)
     a = _in(net, node, "Color1", "color", depth)
     b = _in(net, node, "Color2", "color", depth)
-    return _mix_color(net, node.blend_type, 1 | (2 if node.use_clamp else 0), fac, a, b)  # factor always clamped
+    flags = _vm("mix_flags")["CLAMP_FACTOR"] | (_vm("mix_flags")["CLAMP_RESULT"] if node.use_clamp else 0)
+    return _mix_color(net, node.blend_type, flags, fac, a, b)  # factor always clamped
 
 
 def _mix(net, node, out, depth):
@@ -555,15 +568,15 @@ def _mix(net, node, out, depth):
         fac = _in(net, node, "Factor_Float", "float", depth)
         a = _in(net, node, "A_Color", "color", depth)
         b = _in(net, node, "B_Color", "color", depth)
-        flags = (1 if node.clamp_factor else 0) | (2 if node.clamp_result else 0)
+        flags = ((_vm("mix_flags")["CLAMP_FACTOR"] if node.clamp_factor else 0)
+                 | (_vm("mix_flags")["CLAMP_RESULT"] if node.clamp_result else 0))
         return _mix_color(net, node.blend_type, flags, fac, a, b)
     if dt == "FLOAT":
         fac = _in(net, node, "Factor_Float", "float", depth)
         a = _in(net, node, "A_Float", "float", depth)
         b = _in(net, node, "B_Float", "float", depth)
         reg = net._temp(1)
-        net._emit("MIX_FLOAT", [int(node.clamp_factor), reg, fac.reg, a.reg, b.reg], [(2, 1), (3, 1), (4, 1)],
-                  [(1, 1)])
+        net._emit("MIX_FLOAT", [int(node.clamp_factor), reg, fac.reg, a.reg, b.reg])
         return Value(reg, 1)
     if dt == "VECTOR":
         non_uniform = node.factor_mode == "NON_UNIFORM"
@@ -572,8 +585,7 @@ def _mix(net, node, out, depth):
         a = _in(net, node, "A_Vector", "vector", depth)
         b = _in(net, node, "B_Vector", "vector", depth)
         reg = net._temp(3)
-        net._emit("MIX_VECTOR", [int(non_uniform), int(node.clamp_factor), reg, fac.reg, a.reg, b.reg],
-                  [(3, 3 if non_uniform else 1), (4, 3), (5, 3)], [(2, 3)])
+        net._emit("MIX_VECTOR", [int(non_uniform), int(node.clamp_factor), reg, fac.reg, a.reg, b.reg])
         return Value(reg, 3)
     return _UNSUPPORTED
 
@@ -600,7 +612,7 @@ def _invert(net, node, out, depth):
     fac = _in(net, node, "Fac", "float", depth)
     color = _in(net, node, "Color", "color", depth)
     reg = net._temp(3)
-    net._emit("INVERT", [reg, fac.reg, color.reg], [(1, 1), (2, 3)], [(0, 3)])
+    net._emit("INVERT", [reg, fac.reg, color.reg])
     return Value(reg, 3)
 
 
@@ -608,7 +620,7 @@ def _gamma(net, node, out, depth):
     color = _in(net, node, "Color", "color", depth)
     gamma = _in(net, node, "Gamma", "float", depth)
     reg = net._temp(3)
-    net._emit("GAMMA", [reg, color.reg, gamma.reg], [(1, 3), (2, 1)], [(0, 3)])
+    net._emit("GAMMA", [reg, color.reg, gamma.reg])
     return Value(reg, 3)
 
 
@@ -617,7 +629,7 @@ def _bright_contrast(net, node, out, depth):
     bright = _in(net, node, "Bright", "float", depth)
     contrast = _in(net, node, "Contrast", "float", depth)
     reg = net._temp(3)
-    net._emit("BRIGHT_CONTRAST", [reg, color.reg, bright.reg, contrast.reg], [(1, 3), (2, 1), (3, 1)], [(0, 3)])
+    net._emit("BRIGHT_CONTRAST", [reg, color.reg, bright.reg, contrast.reg])
     return Value(reg, 3)
 
 

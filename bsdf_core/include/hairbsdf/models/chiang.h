@@ -4,6 +4,7 @@
 #pragma once
 
 #include "hairbsdf/closure.h"
+#include "hairbsdf/math_hair_defaults.h"
 
 namespace hairbsdf {
 
@@ -85,7 +86,7 @@ struct LongitudinalNumbers {
 // Model parameters, already mapped (roughness -> variance and logistic scale).
 struct ChiangHairParams {
     RGB sigma_a{0.0};             // absorption per unit fibre diameter
-    double eta = 1.55;            // relative IOR, used as given (no clamp, as in Cycles)
+    double eta = blender_hair::kIor;  // relative IOR, used as given (no clamp, as in Cycles)
     std::array<double, 4> v{};    // M_p variance used by eval and pdf: R, TT, TRT, TRRT+
     std::array<double, 4> v_sample{};  // variance the sampler uses (Cycles samples R with the un-coated v)
     std::array<double, 3> s{};    // logistic scale of N_p, sqrt(pi/8) included: R, TT, TRT

@@ -21,14 +21,15 @@
 #include <vector>
 
 #include "hairbsdf/closure.h"
+#include "hairbsdf/math_hair_defaults.h"
 
 namespace hairbsdf {
 
 struct DeonHairParams {
-    RGB sigma_a{0.245531, 0.52, 1.365};  // per unit diameter, this library's unit (docs/conventions.md)
-    double eta = 1.55;
+    RGB sigma_a = blender_hair::kAbsorptionCoefficient;  // per unit diameter, this library's unit (docs/conventions.md)
+    double eta = blender_hair::kIor;
     double roughness = 0.1309;   // beta_R (radians): M variance beta^2 and detector sd; TT x1/2, TRT x2
-    double tilt = 0.0349066;     // cuticle tilt alpha (Blender's 2 degrees): R by 2 alpha, TT -alpha, TRT -4 alpha
+    double tilt = blender_hair::kOffset;  // cuticle tilt alpha (Blender's 2 degrees): R by 2 alpha, TT -alpha, TRT -4 alpha
     bool tabulated = true;
 };
 

@@ -36,6 +36,7 @@
 #include <memory>
 
 #include "hairbsdf/closure.h"
+#include "hairbsdf/math_hair_defaults.h"
 #include "hairbsdf/models/energy_bound.h"
 
 namespace hairbsdf {
@@ -43,7 +44,7 @@ namespace hairbsdf {
 enum class EpicVariant { Direct, Environment };
 
 struct EpicHairParams {
-    RGB base_color{0.017513, 0.005763, 0.002059};  // C
+    RGB base_color = blender_hair::kColor;  // C
     double r_scale = 1.0;     // multiplier of R (Python: Specular / 0.5)
     double scatter = 0.0;     // multiplier of the multiple-scattering term
     double roughness = 0.35;  // r: beta_R = r^2

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "hairbsdf/closure.h"
+#include "hairbsdf/math_hair_defaults.h"
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang_ggx.h"
 
@@ -81,8 +82,8 @@ enum class HuangSampler { Mixture, Cycles };
 struct HuangHairParams {
     RGB sigma_a{0.0};          // absorption per unit fibre diameter (major axis)
     double roughness = 0.3;    // GGX alpha; clamped to [0.001, 1] like Cycles
-    double offset = 0.0349066;  // Blender's Offset (radians); Cycles' mesonormal tilt is -offset
-    double eta = 1.55;         // IOR, used as given
+    double offset = blender_hair::kOffset;  // Blender's Offset (radians); Cycles' mesonormal tilt is -offset
+    double eta = blender_hair::kIor;        // IOR, used as given
     double aspect_ratio = 1.0;  // minor / major axis; > 1 is inverted like Cycles (docs/huang.md §1)
     double r_factor = 1.0, tt_factor = 1.0, trt_factor = 1.0;  // Reflection, Transmission, Secondary Reflection (>= 0)
     HuangQuadrature quadrature = HuangQuadrature::Cycles;

@@ -27,12 +27,13 @@
 #include <memory>
 
 #include "hairbsdf/closure.h"
+#include "hairbsdf/math_hair_defaults.h"
 #include "hairbsdf/models/energy_bound.h"
 
 namespace hairbsdf {
 
 struct MarschnerHairParams {
-    RGB sigma_a{0.245531, 0.52, 1.365};  // Blender's Principled Hair default absorption
+    RGB sigma_a = blender_hair::kAbsorptionCoefficient;  // Blender's Principled Hair default absorption
     double eta = 1.55;                    // Table 1
     double eccentricity = 0.9;            // a, Table 1: 0.85-1
     double alpha_r = -0.1309;             // -7.5 deg (Table 1: -10..-5 deg); alpha_TT = -alpha_R/2, alpha_TRT = -3 alpha_R/2

@@ -30,7 +30,7 @@ struct ParamTable<DeonHairParams> {
     static constexpr const char* title = "d'Eon 2011";
     static constexpr const char* summary = "Energy-conserving R, TT, TRT, TRRT+ (docs/models.md §5)";
     // The melanin inputs' defaults (Principled Hair's).
-    static constexpr double kMelanin = 0.8, kMelaninRedness = 1.0;
+    static constexpr double kMelanin = blender_hair::kMelanin, kMelaninRedness = blender_hair::kMelaninRedness;
     static const std::vector<ParamRow<DeonHairParams>>& rows() {
         using P = DeonHairParams;
         namespace r = param_rows;

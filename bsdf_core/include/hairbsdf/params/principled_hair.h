@@ -3,6 +3,7 @@
 // from node inputs: the Python API, the engine and the tests all call these.
 #pragma once
 
+#include "hairbsdf/math_hair_defaults.h"
 #include "hairbsdf/models/chiang.h"
 #include "hairbsdf/models/huang.h"
 
@@ -13,16 +14,16 @@ enum class Parametrization { Color, Melanin, Absorption };  // Blender: COLOR, M
 // Socket values; defaults are Blender 4.5's node defaults. Offset is in radians.
 struct PrincipledHairInputs {
     Parametrization parametrization = Parametrization::Color;
-    RGB color{0.017513, 0.005763, 0.002059};
-    double melanin = 0.8;
-    double melanin_redness = 1.0;
+    RGB color = blender_hair::kColor;
+    double melanin = blender_hair::kMelanin;
+    double melanin_redness = blender_hair::kMelaninRedness;
     RGB tint{1.0, 1.0, 1.0};
-    RGB absorption_coefficient{0.245531, 0.52, 1.365};
+    RGB absorption_coefficient = blender_hair::kAbsorptionCoefficient;
     double roughness = 0.3;
     double radial_roughness = 0.3;
     double coat = 0.0;
-    double ior = 1.55;
-    double offset = 0.0349066;  // 2 degrees
+    double ior = blender_hair::kIor;
+    double offset = blender_hair::kOffset;
     double random_color = 0.0;
     double random_roughness = 0.0;
     double random = 0.0;

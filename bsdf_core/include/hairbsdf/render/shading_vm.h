@@ -19,9 +19,9 @@ namespace hairbsdf::render {
 enum class ShadingOp : int32_t {
     Math = 1,            // type, clamp, out, a, b, c
     MapRange = 2,        // type, clamp, out, value, from_min, from_max, to_min, to_max, steps
-    Clamp = 3,           // type (0 min-max, 1 range), out, value, min, max
-    ColorRamp = 4,       // interpolate, table (RGBA x size), size, out_color(3), out_alpha, fac
-    MixColor = 5,        // blend, flags (1 clamp factor, 2 clamp result), out(3), fac, a(3), b(3)
+    Clamp = 3,           // type (ClampType), out, value, min, max
+    ColorRamp = 4,       // lookup (RampLookup), table (RGBA x size), size, out_color(3), out_alpha, fac
+    MixColor = 5,        // blend, flags (kMixClamp*), out(3), fac, a(3), b(3)
     MixFloat = 6,        // clamp factor, out, fac, a, b
     MixVector = 7,       // non_uniform, clamp factor, out(3), fac (1 or 3), a(3), b(3)
     Invert = 8,          // out(3), fac, color(3)
@@ -39,6 +39,12 @@ enum class ShadingOp : int32_t {
 // order); Smart is evaluated as Cubic, as Cycles' CPU kernel does.
 enum class ImageInterpolation : int32_t { Linear = 0, Closest = 1, Cubic = 2 };
 enum class ImageExtension : int32_t { Repeat = 0, Extend = 1, Clip = 2, Mirror = 3 };
+// Clamp's type (Blender's clamp_type); MixColor's flags; ColorRamp's lookup in its baked table
+// (Blender's Constant interpolation steps, every other one is baked and read linearly).
+enum class ClampType : int32_t { MinMax = 0, Range = 1 };
+constexpr int32_t kMixClampFactor = 1;
+constexpr int32_t kMixClampResult = 2;
+enum class RampLookup : int32_t { Constant = 0, Linear = 1 };
 // ImageTexture flags: divide the interpolated colour by its alpha (Cycles does so when the
 // node's Alpha output is used and the image's alpha is associated at load); decode the
 // interpolated colour from sRGB (8-bit sRGB images are stored encoded and decoded after the
@@ -81,15 +87,28 @@ struct ShadingNamedValue {
     const char* name;
     int32_t value;
 };
+// A register block an instruction reads or writes, as declared: argument `arg` (0 = the first
+// after the opcode) names its first slot; it spans width + width_per_arg * (argument width_arg)
+// slots (width_arg -1: just width), so a ColorRamp's table is 4 x size and a non-uniform
+// MixVector's factor 3.
+struct ShadingOperandSpec {
+    int arg;
+    int32_t width;
+    bool write;
+    const char* what;
+    int width_arg = -1;
+    int32_t width_per_arg = 0;
+};
 struct ShadingOpInfo {
     const char* name;
     ShadingOp op;
     int32_t argument_count;  // after the opcode
+    std::vector<ShadingOperandSpec> operands;  // the arguments that are registers; the others are enums or indices
 };
 struct ShadingInstructionSet {
     std::vector<ShadingOpInfo> ops;  // in opcode order, from 1
-    // "math_types", "map_range_types", "mix_blends", "hair_info_outputs", "image_interpolations",
-    // "image_extensions", "image_flags"
+    // "math_types", "map_range_types", "clamp_types", "ramp_interpolations", "mix_blends", "mix_flags",
+    // "hair_info_outputs", "image_interpolations", "image_extensions", "image_flags"
     std::vector<std::pair<std::string, std::vector<ShadingNamedValue>>> enums;
 };
 const ShadingInstructionSet& shading_instruction_set();
@@ -125,8 +144,9 @@ struct ShadingOperand {
     bool write;
     const char* what;
 };
-// The blocks of the instruction at `code` (its opcode first), whose length has been checked.
-// The one description of the operand layout: validate_program and fold_program read it.
+// The blocks of the instruction at `code` (its opcode first), whose length has been checked:
+// its ShadingOpInfo::operands applied to its arguments. validate_program and fold_program read
+// them; the exporter reads the same declaration (shading_vm_instruction_set()["operands"]).
 std::vector<ShadingOperand> instruction_operands(const int32_t* code);
 
 // Constant folding, done once when a scene is loaded (render/scene.cpp): the program is run
