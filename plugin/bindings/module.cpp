@@ -311,7 +311,7 @@ py::list plugin_schema(const PluginLibrary& lib) {
 
 py::dict plugin_params_dict(const PluginHair& m) {
     py::dict d, values;
-    d["model"] = "plugin";
+    d["model"] = kPluginModel;
     d["name"] = m.library().name();
     d["path"] = m.library().path();
     const auto& params = m.library().params();
@@ -871,6 +871,8 @@ PYBIND11_MODULE(_core, m) {
 
     // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
+    m.def("model_names", &model_names);  // every name make_model builds
+    m.attr("PLUGIN_MODEL") = kPluginModel;
     // (name, title, summary) per zoo model, from the tables (Blender's override menu).
     m.def("zoo_models", []() {
         py::list out;
