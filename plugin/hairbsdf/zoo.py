@@ -19,6 +19,8 @@ def zoo_model_names() -> list[str]:
     """The zoo's model names: kajiya_kay, epic, scheuermann, marschner, deon, yan_fur."""
     return list(_core.zoo_model_names())
 
+PLUGIN_MODEL = _core.PLUGIN_MODEL  # the model name that loads a plugin library (`path`)
+
 
 def zoo_models() -> list[tuple[str, str, str]]:
     """(name, title, one-line summary) per zoo model, from the models' tables (Blender's override menu)."""
@@ -31,7 +33,7 @@ def model_schema(model: str, path: str | None = None) -> list[dict]:
     description. ValueError for an unknown model."""
     if not isinstance(model, str):
         raise TypeError(f"model: expected a string, got {type(model).__name__}")
-    if model == "plugin" and not isinstance(path, str):
+    if model == PLUGIN_MODEL and not isinstance(path, str):
         raise TypeError("path: the plugin model needs the path of the plugin library")
     return _core.model_schema(model, path or "")
 
@@ -41,7 +43,7 @@ def make_model(model: str, params: dict | None = None, *, path: str | None = Non
     parameters; missing ones take their defaults (model_schema). Values: a number, an RGB
     triple (or a number for grey), a choice's name, a bool."""
     params = dict(params or {})
-    if model == "plugin" and not isinstance(path, str):
+    if model == PLUGIN_MODEL and not isinstance(path, str):
         raise TypeError("path: the plugin model needs the path of the plugin library")
     core = _core.make_model(model, params, path or "")
     args = ", ".join(f"{k}={v!r}" for k, v in params.items())

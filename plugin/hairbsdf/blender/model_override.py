@@ -25,7 +25,7 @@ import struct
 
 import bpy
 
-from ..zoo import model_schema, zoo_models
+from ..zoo import PLUGIN_MODEL, model_schema, zoo_models
 from ._common import ExportReport
 from .export_materials import MaterialTranslator, override_params, override_plugin_path
 
@@ -34,7 +34,7 @@ from .export_materials import MaterialTranslator, override_params, override_plug
 OVERRIDES = (
     ("NONE", "None", "Render the material's own closures"),
     *zoo_models(),
-    ("plugin", "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
+    (PLUGIN_MODEL, "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
 )
 PRINCIPLED_HAIR_NODE = "ShaderNodeBsdfHairPrincipled"
 
@@ -137,11 +137,11 @@ def fill_params(settings, keep=True) -> None:
     """One item per schema parameter with its default; with `keep`, items of the same name and
     kind keep their values (switching between builds of one plugin)."""
     model = settings.override
-    path = override_plugin_path(settings) if model == "plugin" else ""
+    path = override_plugin_path(settings) if model == PLUGIN_MODEL else ""
     old = {p.name: (p.kind, p.current(), p.use) for p in settings.params} if keep else {}
     settings.params.clear()
     settings.schema_error = ""
-    if model == "NONE" or (model == "plugin" and not path):
+    if model == "NONE" or (model == PLUGIN_MODEL and not path):
         return
     try:
         schema = model_schema(model, path or None)
@@ -175,7 +175,7 @@ def set_override(material, model: str, path: str | None = None, params: dict | N
     if model not in names:
         raise ValueError(f"model {model!r} is not allowed; use one of {names}")
     s = material.hairbsdf
-    if model == "plugin":
+    if model == PLUGIN_MODEL:
         if not path:
             raise ValueError("the plugin override needs the path of the plugin library")
         s.plugin_path = path

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import bpy
 
+from .._constants import ENGINE_ID
+
 # (result key of hairbsdf.render, Blender pass name, channels, channel ids, socket type)
 LOBE_PASSES = (("hair_r", "Hair R"), ("hair_tt", "Hair TT"), ("hair_trt", "Hair TRT"), ("hair_trrt", "Hair TRRT"),
                ("hair_tts", "Hair TTs"), ("hair_trts", "Hair TRTs"))
@@ -80,7 +82,7 @@ class HAIRBSDF_VIEWLAYER_PT_passes(bpy.types.Panel):
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "view_layer"
-    COMPAT_ENGINES = {"HAIRBSDF"}
+    COMPAT_ENGINES = {ENGINE_ID}
 
     @classmethod
     def poll(cls, context):

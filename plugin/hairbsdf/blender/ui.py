@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import bpy
 
-from .model_override import fill_params
-
-ENGINE_ID = "HAIRBSDF"
+from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
+from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
 CYCLES_PANELS = (
@@ -261,7 +260,7 @@ class HAIRBSDF_MATERIAL_PT_model_override(_MaterialPanel, bpy.types.Panel):
         layout.prop(s, "override")
         if s.override == "NONE":
             return
-        if s.override == "plugin":
+        if s.override == PLUGIN_MODEL:
             layout.prop(s, "plugin_path")
         if s.schema_error:
             box = layout.box()
