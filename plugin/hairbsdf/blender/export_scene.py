@@ -30,7 +30,6 @@ from ..render import SCENE_DESC_VERSION
 from ..scene_file import load_scene, save_scene  # noqa: F401 (re-exported: no bpy needed to read a file)
 
 
-
 def _get(obj, name, default):
     return getattr(obj, name, default) if obj is not None else default
 
