@@ -4,6 +4,12 @@ written once, in the table (plugin/tests/test_model_tables.py checks the docstri
 
 from __future__ import annotations
 
+from . import _core
+
+# The parameter kinds (a schema dict's "type"), named once in C++ (hairbsdf/param_kinds.h), in ParamKind's order.
+PARAM_KINDS = _core.PARAM_KINDS
+FLOAT, RGB, CHOICE, BOOL, INT = PARAM_KINDS
+
 HEADING = "Parameters (generated from the table, {}):"
 
 
@@ -15,14 +21,14 @@ def parameters_block(schema: list, source: str) -> str:
     """One line per table row: name, range or choices, default, meaning."""
     lines = [HEADING.format(source)]
     for p in schema:
-        if p["type"] == "choice":
+        if p["type"] == CHOICE:
             allowed = "one of " + ", ".join(repr(c) for c in p["choices"])
-        elif p["type"] == "bool":
+        elif p["type"] == BOOL:
             allowed = "True or False"
-        elif p["type"] == "int":
+        elif p["type"] == INT:
             allowed = f"a whole number in [{int(p['min'])}, {int(p['max'])}]"
         else:
-            allowed = ("RGB (or grey), each channel " if p["type"] == "rgb" else "") + \
+            allowed = ("RGB (or grey), each channel " if p["type"] == RGB else "") + \
                 f"in [{_number(p['min'])}, {_number(p['max'])}]"
         d = p["default"]
         if p["optional"]:

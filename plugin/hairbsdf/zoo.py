@@ -14,7 +14,7 @@ import inspect
 
 from . import _core
 from . import _validate as check
-from ._param_docs import with_parameters
+from ._param_docs import BOOL, CHOICE, FLOAT, INT, RGB, with_parameters
 from .closure import Closure
 
 PLUGIN_MODEL = _core.PLUGIN_MODEL  # the model name that loads a plugin library (`path`)
@@ -71,11 +71,11 @@ def _check_bool(name, value, row):
     return value
 
 
-_CHECKS = {"float": lambda name, value, row: check.real(name, value),
-           "int": lambda name, value, row: check.real(name, value),
-           "rgb": lambda name, value, row: check.color(name, value),
-           "choice": _check_choice, "bool": _check_bool}
-_ANNOTATIONS = {"float": float, "int": int, "rgb": "tuple[float, float, float] | float", "choice": str, "bool": bool}
+_CHECKS = {FLOAT: lambda name, value, row: check.real(name, value),
+           INT: lambda name, value, row: check.real(name, value),
+           RGB: lambda name, value, row: check.color(name, value),
+           CHOICE: _check_choice, BOOL: _check_bool}
+_ANNOTATIONS = {FLOAT: float, INT: int, RGB: "tuple[float, float, float] | float", CHOICE: str, BOOL: bool}
 
 
 def _shown(value) -> str:

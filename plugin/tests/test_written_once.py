@@ -163,3 +163,23 @@ def test_harness_reads_the_accuracy_ids_from_the_schema():
     copies = ["%s:%d: %s" % (p.name, line, what) for p in (PACKAGE / "compare").glob("*.py")
               for line, what in accuracy_literals(p, set(runner.ACCURACIES))]
     assert not copies, "an accuracy id spelled in the harness; use runner.ACCURACIES:\n" + "\n".join(copies)
+
+
+def test_parameter_kind_names_come_from_the_core():
+    """The parameter kinds' names (a schema dict's "type") are C++'s (hairbsdf/param_kinds.h), read as
+    _core.PARAM_KINDS and unpacked once in hairbsdf/_param_docs.py; no module compares a kind with a literal."""
+    from hairbsdf import _core, _param_docs, zoo
+
+    assert _param_docs.PARAM_KINDS == _core.PARAM_KINDS
+    assert {row["type"] for m in zoo.zoo_model_names() + ["cycles_hair"] for row in zoo.model_schema(m)} <= set(
+        _core.PARAM_KINDS)
+    names = set(_core.PARAM_KINDS) | {k.upper() for k in _core.PARAM_KINDS}
+    copies = []
+    for p in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                if any(re.search(r"""\[["']type["']\]|\.type\b|\.kind\b""", ast.unparse(s)) for s in sides) and any(
+                        isinstance(s, ast.Constant) and s.value in names for s in sides):
+                    copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
+    assert not copies, "a parameter kind spelled again; use hairbsdf._param_docs' names:\n" + "\n".join(copies)

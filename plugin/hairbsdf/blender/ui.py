@@ -9,6 +9,7 @@ from __future__ import annotations
 import bpy
 
 from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
+from .._param_docs import BOOL, CHOICE, FLOAT, INT
 from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
@@ -277,7 +278,7 @@ class HAIRBSDF_MATERIAL_PT_model_override(_MaterialPanel, bpy.types.Panel):
                 head.prop(p, "use", text="")
                 row = head
                 row.active = p.use
-            prop = {"FLOAT": "value", "CHOICE": "choice", "BOOL": "flag"}.get(p.kind)
+            prop = {FLOAT: "value", INT: "number", CHOICE: "choice", BOOL: "flag"}.get(p.kind)
             if prop is None:
                 prop = "color" if p.max <= 1.0 else "vector"
             row.prop(p, prop, text=text)
