@@ -5,7 +5,7 @@ looking out, in, and along a tangent, in front of a green world: Cycles 3.4.1 ne
 inner wall (Blender 3.x's Embree 3 is built with BACKFACE_CULLING_CURVES and culls), Cycles
 4.5.15 always does (Embree 4 does not cull the Catmull-Rom sweep), except very close to the
 wall looking out, where both Embrees miss the hit. The exporter sets curve_backface_culling
-for Blender < 3.6 (export_scene.CURVE_CULLING_BEFORE); each configuration must show what
+for Blender < 3.6 (_blender_versions.CURVE_CULLING_BEFORE); each configuration must show what
 Cycles shows.
 
 Shading of such an inner-wall hit (4.5): Cycles' shader_setup_from_ray flips Ng, N and dPdu of

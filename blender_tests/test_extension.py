@@ -16,7 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ci import skip_or_fail
+from hairbsdf._constants import ENGINE_ID
 from hairbsdf.compare.metrics import load_image
+from hairbsdf.compare.runner import CYCLES_ACCURACY
 
 pytestmark = pytest.mark.blender
 
@@ -113,7 +115,8 @@ def install_and_render(blender, package, folder, blend=None, plant_import_error=
     spec = dict(package=str(package), out=str(folder / "result.json"), plant_import_error=plant_import_error,
                 site_packages=None if blender == "3.4" else site_packages(bpy_python(blender)))
     if blend:
-        spec["job"] = dict(action="render", blend=str(blend), engine="HAIRBSDF", accuracy="CYCLES",
+        spec["job"] = dict(action="render", blend=str(blend), engine=ENGINE_ID, engine_id=ENGINE_ID,
+                           accuracy=CYCLES_ACCURACY, default_accuracy=CYCLES_ACCURACY,
                            exr_out=str(folder / "installed.exr"), meta_out=str(folder / "installed_meta.json"),
                            force_parity=False, osl=None, hair_model=None, **RENDER)
     spec_path = folder / "spec.json"
@@ -135,7 +138,8 @@ def test_installs_enables_and_renders_bit_identically(blender, packages, tmp_pat
         action="build", scenes_dir=str(SCENES), module="swatch", blend_out=str(blend),
         info_out=str(tmp_path / "build.json"), cfg=dict(RENDER, variant=None, osl=False)), tmp_path, ref_env)
     ref_meta, times["checkout render"] = blender_job(blender, dict(
-        action="render", blend=str(blend), engine="HAIRBSDF", accuracy="CYCLES", exr_out=str(tmp_path / "ref.exr"),
+        action="render", blend=str(blend), engine=ENGINE_ID, engine_id=ENGINE_ID, accuracy=CYCLES_ACCURACY,
+        default_accuracy=CYCLES_ACCURACY, exr_out=str(tmp_path / "ref.exr"),
         meta_out=str(tmp_path / "ref_meta.json"), scenes_dir=str(SCENES), force_parity=False, osl=None,
         hair_model=None, sites=[str(STAGED_SITE)] if blender == "3.4" else [], **RENDER), tmp_path, ref_env)
     assert Path(ref_meta["hairbsdf_file"]).resolve().is_relative_to(ROOT), ref_meta["hairbsdf_file"]

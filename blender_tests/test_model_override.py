@@ -101,6 +101,19 @@ try:
     out["unknown"] = None
 except ValueError as exc:
     out["unknown"] = str(exc)
+# an integer row (no zoo table has one yet): the panel's item holds, ranges and checks a whole number
+from hairbsdf._param_docs import INT
+item = hair.hairbsdf.params.add()
+item.name, item.kind, item.min, item.max = "count", INT, 1, 8
+item.assign(3)
+out["int_item"] = [item.current(), item.in_range()]
+item.number = 9
+out["int_out_of_range"] = item.in_range()
+try:
+    item.assign(2.5)
+    out["int_fraction"] = None
+except ValueError as exc:
+    out["int_fraction"] = str(exc)
 emit(out)
 '''
 
@@ -121,9 +134,9 @@ def test_override_exports_and_renders(run_blender, blender_kind, renderer_availa
     schema = {p["name"]: p for p in r["epic_schema"]}
     assert [i[0] for i in r["epic_items"]] == list(schema)
     for name, kind, value in r["epic_items"]:
-        assert kind == schema[name]["type"].upper()
-        np.testing.assert_allclose(np.atleast_1d(value) if kind != "CHOICE" else 0,
-                                   np.atleast_1d(schema[name]["default"]) if kind != "CHOICE" else 0, rtol=1e-6)
+        assert kind == schema[name]["type"]
+        np.testing.assert_allclose(np.atleast_1d(value) if kind != "choice" else 0,
+                                   np.atleast_1d(schema[name]["default"]) if kind != "choice" else 0, rtol=1e-6)
     assert dict((i[0], i[2]) for i in r["epic_items"])["variant"] == "direct"
     # export: principled_hair -> hair_model with the weight and the given values
     assert [c["type"] for c in r["hair_none"]] == ["principled_hair"]
@@ -150,3 +163,5 @@ def test_override_exports_and_renders(run_blender, blender_kind, renderer_availa
     assert r["render_bad"]["status"] != "ok"
     assert "exponent" in " ".join(r["render_bad"]["errors"] or []), r["render_bad"]
     assert "has no parameter 'roughnes'" in r["unknown"]
+    assert r["int_item"] == [3, True] and r["int_out_of_range"] is False
+    assert "parameter 'count': expected a whole number, got 2.5" in r["int_fraction"]

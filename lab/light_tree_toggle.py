@@ -12,6 +12,7 @@ import os
 import bpy
 import numpy as np
 
+from hairbsdf._constants import ENGINE_ID
 from hairbsdf.compare import blender_job as bj
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -33,7 +34,7 @@ def add_light(kind, name, loc, energy, target=(0, 0, 0), **props):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("engine", choices=("CYCLES", "HAIRBSDF"))
+    ap.add_argument("engine", choices=("CYCLES", ENGINE_ID))
     ap.add_argument("blend", help="the .blend to render")
     ap.add_argument("--seeds", type=int, nargs=2, default=(0, 8), metavar=("FIRST", "END"),
                     help="seeds FIRST .. END-1 (default 0 8)")
@@ -62,8 +63,8 @@ def main():
     for tree in (True, False):
         for seed in range(*a.seeds):
             exr = os.path.join(a.out, f"{tag}{a.engine}_lt{int(tree)}_s{seed}.exr")
-            job = dict(action="render", blend=blends[tree], engine=a.engine, accuracy="CYCLES", seed=seed, spp=a.spp,
-                       res=[128, 96], threads=1, osl=False, force_parity=False, exr_out=exr,
+            job = dict(action="render", blend=blends[tree], engine=a.engine, engine_id=ENGINE_ID, accuracy="CYCLES",
+                       seed=seed, spp=a.spp, res=[128, 96], threads=1, osl=False, force_parity=False, exr_out=exr,
                        scenes_dir=os.path.join(ROOT, "plugin", "hairbsdf", "compare", "scenes"),
                        sites=[os.path.join(ROOT, "build", "blender_site", "current")], hair_model=None)
             meta = bj.do_render(job)

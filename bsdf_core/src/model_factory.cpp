@@ -182,13 +182,9 @@ const ZooEntry kNodeModels[] = {entry<CyclesHairParams, CyclesHair>()};
 const ZooEntry& zoo_entry(const std::string& model) {
     for (const ZooEntry& e : kZoo)
         if (model == e.name) return e;
-    std::vector<std::string> node_models;
-    for (const ZooEntry& e : kNodeModels) {
+    for (const ZooEntry& e : kNodeModels)
         if (model == e.name) return e;
-        node_models.push_back(e.name);
-    }
-    throw ModelError("unknown model '" + model + "'; allowed: " + join(zoo_model_names()) + ", " + join(node_models) +
-                     ", plugin");
+    throw ModelError("unknown model '" + model + "'; allowed: " + join(model_names()));
 }
 
 }  // namespace
@@ -197,6 +193,16 @@ const std::vector<std::string>& zoo_model_names() {
     static const std::vector<std::string> names = [] {
         std::vector<std::string> out;
         for (const ZooEntry& e : kZoo) out.push_back(e.name);
+        return out;
+    }();
+    return names;
+}
+
+const std::vector<std::string>& model_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> out = zoo_model_names();
+        for (const ZooEntry& e : kNodeModels) out.push_back(e.name);
+        out.push_back(kPluginModel);
         return out;
     }();
     return names;
@@ -235,7 +241,7 @@ std::vector<ModelParamSpec> plugin_model_schema(const PluginLibrary& library) {
 }
 
 std::vector<ModelParamSpec> model_schema(const std::string& model, const std::string& path) {
-    if (model == "plugin") return plugin_model_schema(*load_plugin(path));
+    if (model == kPluginModel) return plugin_model_schema(*load_plugin(path));
     return zoo_model_schema(model);
 }
 
@@ -254,7 +260,7 @@ HairModel make_plugin_model(const std::string& path, const ModelParams& params) 
 }
 
 HairModel make_model(const std::string& model, const std::string& path, const ModelParams& params) {
-    if (model == "plugin") return make_plugin_model(path, params);
+    if (model == kPluginModel) return make_plugin_model(path, params);
     return make_zoo_model(model, params);
 }
 

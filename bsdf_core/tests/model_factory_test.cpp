@@ -56,7 +56,7 @@ TEST(ModelFactory, NamesAndSchemas) {
             }
         }
     }
-    EXPECT_FALSE(is_zoo_model("plugin"));
+    EXPECT_FALSE(is_zoo_model(kPluginModel));
     const std::vector<ModelParamSpec>& epic = zoo_model_schema("epic");
     ASSERT_EQ(epic.back().name, "energy");
     EXPECT_EQ(epic.back().kind, ParamKind::Choice);
@@ -70,6 +70,22 @@ TEST(ModelFactory, NamesAndSchemas) {
               std::string::npos);
     EXPECT_NE(model_error([] { zoo_model_schema("kajiya"); }).find("unknown model 'kajiya'; allowed: kajiya_kay, epic"),
               std::string::npos);
+}
+
+// model_names() is the one list of names: the factory knows each (the plugin from a path; the schema
+// lookup is make_model's, without building Yan's tables) and its error for an unknown name lists exactly them.
+TEST(ModelFactory, ModelNamesAreThoseTheFactoryBuilds) {
+    std::vector<std::string> expected = zoo_model_names();
+    expected.push_back("cycles_hair");
+    expected.push_back(kPluginModel);
+    EXPECT_EQ(model_names(), expected);
+    for (const std::string& name : model_names()) {
+        if (name == kPluginModel) continue;
+        EXPECT_NO_THROW(model_schema(name)) << name;
+    }
+    std::string all;
+    for (const std::string& name : model_names()) all += (all.empty() ? "" : ", ") + name;
+    EXPECT_NE(model_error([] { make_model("kajiya", "", {}); }).find("allowed: " + all), std::string::npos);
 }
 
 // With no values every model equals the one its header's default parameters make (d'Eon: the

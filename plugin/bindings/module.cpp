@@ -16,6 +16,7 @@
 #include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
+#include "hairbsdf/param_kinds.h"
 #include "hairbsdf/params/cycles_hair.h"
 #include "hairbsdf/params/deon.h"
 #include "hairbsdf/params/epic.h"
@@ -309,7 +310,7 @@ py::list plugin_schema(const PluginLibrary& lib) {
     for (const PluginParam& p : lib.params()) {
         py::dict d;
         d["name"] = p.name;
-        d["type"] = p.rgb ? "rgb" : "float";
+        d["type"] = param_kind_name(p.rgb ? ParamKind::RGB : ParamKind::Float);
         d["default"] = p.default_value;
         d["min"] = p.min_value;
         d["max"] = p.max_value;
@@ -321,7 +322,7 @@ py::list plugin_schema(const PluginLibrary& lib) {
 
 py::dict plugin_params_dict(const PluginHair& m) {
     py::dict d, values;
-    d["model"] = "plugin";
+    d["model"] = kPluginModel;
     d["name"] = m.library().name();
     d["path"] = m.library().path();
     const auto& params = m.library().params();
@@ -401,13 +402,14 @@ py::list schema_list(const std::vector<ModelParamSpec>& schema) {
         py::dict d;
         d["name"] = p.name;
         const std::array<double, 3>& v = p.default_value;
+        d["type"] = param_kind_name(p.kind);
         switch (p.kind) {
-            case ParamKind::Float: d["type"] = "float", d["default"] = v[0]; break;
-            case ParamKind::RGB: d["type"] = "rgb", d["default"] = py::make_tuple(v[0], v[1], v[2]); break;
-            case ParamKind::Choice: d["type"] = "choice", d["default"] = p.choices[size_t(v[0])]; break;
-            case ParamKind::Bool: d["type"] = "bool", d["default"] = v[0] != 0.0; break;
-            case ParamKind::Int: d["type"] = "int", d["default"] = (long long)v[0]; break;
-            case ParamKind::Vector2: d["type"] = "vector2", d["default"] = py::make_tuple(v[0], v[1]); break;
+            case ParamKind::Float: d["default"] = v[0]; break;
+            case ParamKind::RGB: d["default"] = py::make_tuple(v[0], v[1], v[2]); break;
+            case ParamKind::Choice: d["default"] = p.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d["default"] = v[0] != 0.0; break;
+            case ParamKind::Int: d["default"] = (long long)v[0]; break;
+            case ParamKind::Vector2: d["default"] = py::make_tuple(v[0], v[1]); break;
         }
         d["min"] = p.min_value;
         d["max"] = p.max_value;
@@ -879,6 +881,11 @@ PYBIND11_MODULE(_core, m) {
 
     // The model factory (model_factory.h): the zoo's constructors and hair_model closures.
     m.def("zoo_model_names", &zoo_model_names);
+    m.def("model_names", &model_names);  // every name make_model builds
+    m.attr("PLUGIN_MODEL") = kPluginModel;
+    py::list kinds;  // the parameter kinds' names, in ParamKind's order
+    for (ParamKind k : kParamKinds) kinds.append(param_kind_name(k));
+    m.attr("PARAM_KINDS") = py::tuple(kinds);
     // (name, title, summary) per zoo model, from the tables (Blender's override menu).
     m.def("zoo_models", []() {
         py::list out;

@@ -212,9 +212,13 @@ std::vector<SceneKey> joined(std::initializer_list<std::vector<SceneKey>> parts)
     return out;
 }
 
+constexpr int kSceneFormatVersion = 1;  // the format's version; the exporter reads it from this row (maximum)
+
 std::vector<SceneKey> make_schema() {
     return joined({{
-        Row("version", K::Int, "the format's version").range(1, 1).fallback("1"),
+        Row("version", K::Int, "the format's version")
+            .range(kSceneFormatVersion, kSceneFormatVersion)
+            .fallback(std::to_string(kSceneFormatVersion).c_str()),
 
         Row("curves", K::Dict, "all hair of all objects, concatenated"),
         Row("curves.points", K::Array, "x, y, z, radius (object space for curves with a curve_object >= 0)")
@@ -360,7 +364,7 @@ std::vector<SceneKey> make_schema() {
             .only("diffuse emission").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
             .linkable(In::Strength).field(&Closure::strength),
-        Row("materials[].closures[].model", K::ModelName, "a zoo model's name or plugin (the model factory)")
+        Row("materials[].closures[].model", K::ModelName, "a name the model factory builds (_core.model_names())")
             .required().only("hair_model"),
         Row("materials[].closures[].path", K::String, "the plugin library (docs/plugins.md); required for plugin")
             .only("hair_model"),
@@ -738,10 +742,7 @@ private:
 
     std::vector<std::string> allowed(const SceneKey& k) const {
         std::vector<std::string> out(k.allowed.begin(), k.allowed.end());
-        if (k.kind == K::ModelName) {
-            out = zoo_model_names();
-            out.push_back("plugin");
-        }
+        if (k.kind == K::ModelName) out = model_names();  // those the factory builds
         return out;
     }
 
@@ -924,7 +925,7 @@ private:
     }
 
     static void check_hair_model(py::dict& c, const std::string& key) {
-        if (std::string(py::str(c["type"])) == "hair_model" && std::string(py::str(c["model"])) == "plugin" &&
+        if (std::string(py::str(c["type"])) == "hair_model" && std::string(py::str(c["model"])) == kPluginModel &&
             !c.contains("path"))
             value_error(key + "['path']", "missing (required, see docs/scene_desc.md)");
     }

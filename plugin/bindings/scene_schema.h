@@ -48,7 +48,7 @@ enum class SceneKeyKind {
     Matrix,       // a float64 matrix: columns 4 for 4x4, 3 for 3x4 or 4x4 (kept as 3x4)
     Array,        // a NumPy array (N,) or (N, columns) of `dtype`
     Image,        // a float32 (H, W, columns) array, H, W >= 1
-    ModelName,    // a zoo model's name or "plugin" (the model factory's names)
+    ModelName,    // one of the model factory's model_names()
     ModelParams,  // {name: number | RGB triple | string | bool}, checked by the model factory
     Informational // not read
 };

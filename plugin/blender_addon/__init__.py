@@ -104,7 +104,7 @@ def register():
     except ImportError as exc:
         # A report naming the requirement, not a traceback (hairbsdf/_platform.py words it).
         _unavailable = str(exc)
-        print("hairbsdf: the HAIRBSDF engine is not available: %s" % _unavailable, file=sys.stderr, flush=True)
+        print("hairbsdf: the hairbsdf engine is not available: %s" % _unavailable, file=sys.stderr, flush=True)
         import bpy
         bpy.utils.register_class(_preferences_class())
         return

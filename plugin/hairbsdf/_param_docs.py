@@ -5,6 +5,11 @@ written once, in the table (plugin/tests/test_model_tables.py checks the docstri
 from __future__ import annotations
 
 import math
+from . import _core
+
+# The parameter kinds (a schema dict's "type"), named once in C++ (hairbsdf/param_kinds.h), in ParamKind's order.
+PARAM_KINDS = _core.PARAM_KINDS
+FLOAT, RGB, CHOICE, BOOL, INT, VECTOR2 = PARAM_KINDS
 
 HEADING = "Parameters (generated from the table, {}):"
 
@@ -17,17 +22,17 @@ def parameters_block(schema: list, source: str) -> str:
     """One line per table row: name, range or choices, default, meaning."""
     lines = [HEADING.format(source)]
     for p in schema:
-        if p["type"] == "choice":
+        if p["type"] == CHOICE:
             allowed = "one of " + ", ".join(repr(c) for c in p["choices"])
-        elif p["type"] == "bool":
+        elif p["type"] == BOOL:
             allowed = "True or False"
-        elif p["type"] == "int":
+        elif p["type"] == INT:
             allowed = f"a whole number in [{int(p['min'])}, {int(p['max'])}]"
         else:
             lo, hi = p["min"], p["max"]
             span = ("finite" if math.isinf(lo) and math.isinf(hi) else f">= {_number(lo)}" if math.isinf(hi)
                     else f"in [{_number(lo)}, {_number(hi)}]")
-            allowed = {"rgb": "RGB (or grey), each channel ", "vector2": "2 numbers, each "}.get(p["type"], "") + span
+            allowed = {RGB: "RGB (or grey), each channel ", VECTOR2: "2 numbers, each "}.get(p["type"], "") + span
         d = p["default"]
         if p["optional"]:
             default = "derived unless given"

@@ -18,6 +18,7 @@ import numpy as np
 
 from . import _core
 from . import _validate as check
+from ._param_docs import FLOAT, RGB
 from .closure import Closure, SampleResult
 
 PluginError = _core.PluginError
@@ -28,7 +29,7 @@ class ParamSpec(NamedTuple):
     """One parameter of a plugin's schema."""
 
     name: str
-    type: str          # "float" or "rgb"
+    type: str          # FLOAT or RGB (_param_docs: the kinds' names)
     default: object    # float, or an RGB tuple
     min: float         # inclusive range (every channel of an RGB)
     max: float
@@ -52,7 +53,7 @@ class PluginConstructor:
         self.has_lobes: bool = library.has_lobes
         self.params: dict[str, ParamSpec] = {}
         for p in library.params:
-            default = tuple(p["default"]) if p["type"] == "rgb" else float(p["default"][0])
+            default = tuple(p["default"]) if p["type"] == RGB else float(p["default"][0])
             self.params[p["name"]] = ParamSpec(p["name"], p["type"], default, p["min"], p["max"], p["description"])
         lines = [f"{self.name}(**params) -> Closure: {self.description or 'hair BSDF plugin'}", "", "Parameters:"]
         for p in self.params.values():
@@ -71,7 +72,7 @@ class PluginConstructor:
         for name, value in params.items():
             spec = self.params[name]
             allowed = f"allowed [{_fmt(spec.min)}, {_fmt(spec.max)}]"
-            if spec.type == "float":
+            if spec.type == FLOAT:
                 v = check.real(name, value)
                 if not spec.min <= v <= spec.max:
                     raise ValueError(f"{name}={value!r} is out of range; {allowed}")
@@ -90,7 +91,7 @@ class PluginConstructor:
         flat = []
         for name, spec in self.params.items():
             v = values[name]
-            flat.extend(v if spec.type == "rgb" else (v, v, v))
+            flat.extend(v if spec.type == RGB else (v, v, v))
         core = self._library.create(flat)
         shown = ", ".join(f"{k}={v!r}" for k, v in params.items())
         return Closure(core, f"{self.name}({shown})")

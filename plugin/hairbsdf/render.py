@@ -18,6 +18,7 @@ called, so ``import hairbsdf`` never loads TBB (bpy ships its own libtbb.so.12).
 
 from __future__ import annotations
 
+import functools
 import numbers
 from typing import Callable, Optional
 
@@ -32,6 +33,35 @@ def scene_schema() -> list:
 
 def _allowed(path: str) -> tuple:
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
+
+
+@functools.cache
+def schema_default(path: str, closure_type: str = ""):
+    """The default of the scene key `path` as a Python value (a bool, int, float, RGB tuple or name), read from
+    its schema row, whose default is the renderer's field (render/scene.h); `closure_type` picks the row of keys
+    that differ by closure type. KeyError for an unknown key, ValueError for a default that is no value
+    (required, or derived from another key)."""
+    rows = [k for k in scene_schema() if k["path"] == path and (not k["only_for"] or closure_type in
+                                                                  k["only_for"].split())]
+    if not rows:
+        raise KeyError(f"{path}: no such scene key" + (f" for closure type {closure_type!r}" if closure_type else ""))
+    kind, text = rows[0]["kind"], rows[0]["default"]
+    try:
+        if kind == "bool" and text in ("True", "False"):
+            return text == "True"
+        if kind in ("int", "float"):
+            return int(text) if kind == "int" else float(text)
+        if kind == "vector":
+            return tuple(float(x) for x in text.strip("()").split(","))
+        if kind == "enum" and text in rows[0]["allowed"]:
+            return text
+    except ValueError:
+        pass
+    raise ValueError(f"{path}: its default {text!r} is not a value")
+
+
+# The scene format's version the renderer reads (the exporter writes it): the schema's `version` row.
+SCENE_DESC_VERSION = int(next(k["maximum"] for k in scene_schema() if k["path"] == "version"))
 
 
 # integrator["passes"]' names; _core.render_passes() gives the result keys each adds (docs/engine.md)

@@ -2,6 +2,8 @@
 reference, energy, the environment variant, the multiple-scattering fake with `shadow`, sampler,
 fuzzing."""
 
+import inspect
+
 import numpy as np
 import pytest
 
@@ -82,7 +84,7 @@ def test_eval_matches_reference(kw, rng):
     wi /= np.linalg.norm(wi, axis=1)[:, None]
     shadow = rng.random(n)
     ref_kw = {k: v for k, v in kw.items() if k != "variant"}
-    ref_kw.setdefault("base_color", hairbsdf.zoo.EPIC_DEFAULTS["base_color"])
+    ref_kw.setdefault("base_color", inspect.signature(hairbsdf.epic_hair).parameters["base_color"].default)
     C = ref_kw.pop("base_color")
     ref = reference(wo, wi, np.broadcast_to(C, 3), env=kw.get("variant") == "environment", shadow=shadow[:, None],
                     **ref_kw)

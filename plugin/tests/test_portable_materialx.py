@@ -79,3 +79,32 @@ def test_missing_colours_are_cycles_default_surface(tmp_path):
     text = path.read_text()
     written = ", ".join(repr(float(c)) for c in grey)
     assert text.count(f'value="{written}"') == 2, text
+
+
+def test_missing_keys_take_the_schemas_defaults():
+    """A description without a key reads it as the renderer does: the scene schema's default. Principled Hair's
+    Offset defaults to Blender's 2 degrees, so a hair without "offset" is tilted (a limit under tilt 4.2), and a
+    description without a tilt has the schema's."""
+    from hairbsdf.render import schema_default
+
+    untold = hair()
+    del untold["closures"][0]["inputs"]["offset"]
+    assert schema_default("materials[].closures[].inputs.offset") != 0.0
+    assert any(x.startswith("the tilt convention") for x in materialx_limits(desc(untold))["hair"])
+    assert materialx_limits(desc(untold, tilt="3.4")) == {"hair": []}
+    assert schema_default("integrator.tilt") == "4.2"
+    assert any(x.startswith("the tilt convention") for x in materialx_limits(dict(materials=[untold]))["hair"])
+
+
+def test_render_settings_fill_the_schemas_defaults():
+    from hairbsdf.compare.portable import render_settings
+    from hairbsdf.render import schema_default
+
+    d = dict(integrator=dict(samples=4, filter_type="GAUSSIAN", filter_width=1.5, clamp_direct=2.0),
+             camera=dict(resolution=(8, 6)), lights=[dict(type="SUN")], world={})
+    s = render_settings(d, {}, [0], [0], [4, 5, 0])
+    assert s["clamp"] == dict(direct=2.0, indirect=schema_default("integrator.clamp_indirect"))
+    assert s["exposure"]["film_exposure"] == schema_default("integrator.exposure")
+    assert s["light_sampling"]["multiple_importance_sampling"] == {"SUN_0": schema_default("lights[].use_mis")}
+    assert s["curves"] == dict(shape=schema_default("curve_shape"), subdivisions=schema_default("curve_subdivisions"),
+                               backface_culling=schema_default("curve_backface_culling"))

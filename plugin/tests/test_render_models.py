@@ -154,6 +154,17 @@ def test_errors_name_the_material_and_parameter(tmp_path):
         render(_one_strand_scene(_material("plugin", {}, tmp_path / "missing.so")))
 
 
+def test_the_scene_allows_the_names_the_factory_builds():
+    """One list of model names (_core.model_names()): the scene's check names it, and a name outside the zoo
+    (the legacy Hair BSDF) renders as the factory builds it."""
+    with pytest.raises(ValueError, match=r"'yan' is not allowed; use one of \[%s\]"
+                       % ", ".join(repr(n) for n in hairbsdf._core.model_names())):
+        validate_scene(_one_strand_scene(_material("yan", {})))
+    got, expected = _pixels_vs_eval(_material("cycles_hair", {"roughness_u": 0.3}),
+                                    hairbsdf.cycles_hair_bsdf(roughness_u=0.3), (0.3, 0.5, 0.8), (-0.3, 0.5, 0.8))
+    _assert_equal_pixels(got, expected)
+
+
 def test_schema_matches_the_constructors():
     """model_schema's defaults are the Python constructors' defaults (one table)."""
     import inspect

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hairbsdf import _core
 from hairbsdf.render import scene_schema, validate_scene
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene_desc.md"
@@ -41,7 +42,7 @@ def _allowed(k):
     if k["allowed"]:
         return ", ".join(f"`{a}`" for a in k["allowed"])
     if k["kind"] == "model name":
-        return "a zoo model, `plugin`"
+        return ", ".join(["a zoo model"] + [f"`{m}`" for m in _core.model_names() if m not in _core.zoo_model_names()])
     if k["minimum"] is None:
         return ""
     lo, hi = k["minimum"], k["maximum"]

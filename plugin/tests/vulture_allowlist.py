@@ -93,3 +93,9 @@ _.DEFAULT_SCENE
 
 # Read by libraries outside the repository.
 _.binary_location  # selenium's ChromeOptions: ChromeDriver starts this browser (lab/report_picture.py)
+
+# Cut-offs the library scenes read by name from hairbsdf/_blender_versions.py (fiber_gonio.VERSIONS, runpy).
+_.HAIR_MODEL_ENUM_FROM
+_.WORLD_ALWAYS_NODES_FROM
+# inspect.signature reads a function's __signature__ (hairbsdf.zoo's constructors built from their tables).
+_.__signature__

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._blender_versions import tilt_convention
+
 
 class ExportError(Exception):
     """A scene the renderer cannot render at all (no camera, unsupported camera type...).
@@ -58,7 +60,7 @@ def blender_version() -> tuple:
 
 def default_tilt() -> str:
     """Principled Hair tilt convention of the running Blender (docs/cycles.md §0, §5b)."""
-    return "4.2" if blender_version() >= (4, 2, 0) else "3.4"
+    return tilt_convention(blender_version())
 
 
 def matrix_to_numpy(m) -> np.ndarray:

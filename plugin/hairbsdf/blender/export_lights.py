@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._blender_versions import LIGHTS_4_FROM
 from ._common import blender_version, find_socket, matrix_to_numpy, rgb
 
 
@@ -66,7 +67,7 @@ def export_light(obj, matrix, report):
     z = m[:3, 2]
     nz = np.linalg.norm(z)
     zdir = z / nz if nz > 0 else np.array([0.0, 0.0, 1.0])
-    legacy = blender_version() < (4, 0, 0)  # Cycles 3.x light semantics (module docstring)
+    legacy = blender_version() < LIGHTS_4_FROM  # Cycles 3.x light semantics (module docstring)
     if hasattr(light, "use_soft_falloff"):
         soft = bool(light.use_soft_falloff)
     else:

@@ -26,6 +26,8 @@ import functools
 import os
 
 from .. import _core
+from .._blender_versions import EMISSION_SAMPLING_FROM
+from ..zoo import PLUGIN_MODEL
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
 
@@ -344,7 +346,7 @@ def emission_sampling(material) -> str:
     Blender >= 4.0's Settings > Emission Sampling ("AUTO" is resolved by the engine, by Cycles' rule),
     Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold)."""
     settings = getattr(material, "cycles", None)
-    if blender_version() >= (4, 0, 0):
+    if blender_version() >= EMISSION_SAMPLING_FROM:
         return str(getattr(settings, "emission_sampling", "AUTO"))
     return "FRONT_BACK" if getattr(settings, "sample_as_light", True) else "NONE"
 
@@ -418,10 +420,10 @@ def override_closures(material, closures: list, warn) -> list:
         warn(f"hair model override '{s.override}' set, but the material has no Principled Hair closure")
         return closures
     model = {"type": "hair_model", "model": s.override, "params": override_params(s)}
-    if s.override == "plugin":
+    if s.override == PLUGIN_MODEL:
         path = override_plugin_path(s)
         if not path:
-            warn("hair model override 'plugin' has no plugin path; the Principled Hair closures are rendered")
+            warn(f"hair model override '{PLUGIN_MODEL}' has no plugin path; the Principled Hair closures are rendered")
             return closures
         model["path"] = path
     return [dict(model, weight=c["weight"]) if c.get("type") == "principled_hair" else c for c in closures]

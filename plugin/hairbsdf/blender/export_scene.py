@@ -24,18 +24,10 @@ from .export_materials import MaterialTable
 from .export_mesh import MESH_LIKE, MeshBuffer, MeshCache, export_mesh_object
 from .export_world import export_world
 from . import passes
+from .._blender_versions import (CHIANG_LCG_BEFORE, CURVE_CULLING_BEFORE, HUANG_GLASS_TABLES_5_FROM,
+                                 LIGHT_TREE_FROM)
+from ..render import SCENE_DESC_VERSION
 from ..scene_file import load_scene, save_scene  # noqa: F401 (re-exported: no bpy needed to read a file)
-
-SCENE_DESC_VERSION = 1
-
-
-# Blender versions before this one cull back faces of 3D curves (their Embree 3 build; 3.6 moved
-# to Embree 4, which reports the inner wall to rays starting inside a tube).
-CURVE_CULLING_BEFORE = (3, 6, 0)
-CHIANG_LCG_BEFORE = (3, 6, 0)  # blender/cycles 598483b43, first released in 3.6
-# Cycles 5.x renders Huang hair with regenerated energy-compensation tables (32^3, sqrt(mu) axis); measured
-# in 5.3 (docs/blender5.md); 5.0 assumed, not checked.
-HUANG_GLASS_TABLES_5_FROM = (5, 0, 0)
 
 
 def engine_settings(scene) -> dict:
@@ -101,7 +93,7 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "film_transparent": bool(scene.render.film_transparent),
         "light_sampling_threshold": float(cy.light_sampling_threshold),
         # Cycles 4.x picks NEE lights with its light tree (on by default); 3.x has none.
-        "light_tree": bool(cy.use_light_tree) if blender_version() >= (4, 0, 0) else False,
+        "light_tree": bool(cy.use_light_tree) if blender_version() >= LIGHT_TREE_FROM else False,
         # Cycles < 3.6 draws Chiang's longitudinal sample numbers from a per-hit LCG (correlated).
         "chiang_lcg": blender_version() < CHIANG_LCG_BEFORE,
         "filter_glossy": float(cy.blur_glossy),

@@ -62,7 +62,7 @@ def _read_file(path: str):
     """((H, W, 4) float32, alpha associated in the file, 8 bits per channel) from the file with
     OpenImageIO, or (None, False, False) when it cannot be read."""
     from .._deps import require
-    oiio = require("OpenImageIO", "compare", "the HAIRBSDF engine's image textures")
+    oiio = require("OpenImageIO", "compare", "the hairbsdf engine's image textures")
     # As Cycles: keep unassociated alpha as it is in the file (OpenImageIO would otherwise
     # associate it on read, for 8-bit sRGB files in linear space); read_image_rgba associates.
     config = oiio.ImageSpec()

@@ -25,7 +25,8 @@ import struct
 
 import bpy
 
-from ..zoo import model_schema, zoo_models
+from .._param_docs import BOOL, CHOICE, FLOAT, INT, PARAM_KINDS, RGB
+from ..zoo import PLUGIN_MODEL, model_schema, zoo_models
 from ._common import ExportReport
 from .export_materials import MaterialTranslator, override_params, override_plugin_path
 
@@ -34,7 +35,7 @@ from .export_materials import MaterialTranslator, override_params, override_plug
 OVERRIDES = (
     ("NONE", "None", "Render the material's own closures"),
     *zoo_models(),
-    ("plugin", "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
+    (PLUGIN_MODEL, "Plugin", "A hair BSDF plugin library (docs/plugins.md)"),
 )
 PRINCIPLED_HAIR_NODE = "ShaderNodeBsdfHairPrincipled"
 
@@ -64,9 +65,9 @@ def _choice_items(self, context):
 class HairbsdfModelParam(bpy.types.PropertyGroup):
     """One model parameter (`name` is the parameter's name)."""
 
-    kind: bpy.props.EnumProperty(items=(("FLOAT", "Float", ""), ("RGB", "RGB", ""), ("CHOICE", "Choice", ""),
-                                        ("BOOL", "Bool", "")))
+    kind: bpy.props.EnumProperty(items=tuple((k, k, "") for k in PARAM_KINDS))  # the schema's "type"
     value: bpy.props.FloatProperty(name="Value", precision=4)
+    number: bpy.props.IntProperty(name="Value")  # INT
     color: bpy.props.FloatVectorProperty(name="Color", size=3, subtype="COLOR", min=0.0, soft_max=1.0)
     vector: bpy.props.FloatVectorProperty(name="Value", size=3, precision=4)  # RGB beyond [0, 1] (absorption)
     choice: bpy.props.EnumProperty(name="Choice", items=_choice_items)
@@ -81,18 +82,24 @@ class HairbsdfModelParam(bpy.types.PropertyGroup):
 
     def current(self):
         exact = json.loads(self.exact) if self.exact else []
-        if self.kind == "FLOAT":
+        if self.kind == FLOAT:
             return _exact(self.value, exact)
-        if self.kind == "RGB":
+        if self.kind == RGB:
             return tuple(_exact(c, exact) for c in (self.color if self.max <= 1.0 else self.vector))
-        if self.kind == "CHOICE":
+        if self.kind == CHOICE:
             return self.choice
+        if self.kind == INT:
+            return int(self.number)
         return bool(self.flag)
 
     def assign(self, v):
-        if self.kind == "FLOAT":
+        if self.kind == FLOAT:
             self.value = float(v)
-        elif self.kind == "RGB":
+        elif self.kind == INT:
+            if isinstance(v, bool) or not float(v).is_integer():
+                raise ValueError(f"parameter '{self.name}': expected a whole number, got {v!r}")
+            self.number = int(v)
+        elif self.kind == RGB:
             rgb = (float(v),) * 3 if isinstance(v, (int, float)) else tuple(float(c) for c in v)
             if len(rgb) != 3:
                 raise ValueError(f"parameter '{self.name}': expected an RGB triple, got {v!r}")
@@ -100,7 +107,7 @@ class HairbsdfModelParam(bpy.types.PropertyGroup):
                 self.color = rgb
             else:
                 self.vector = rgb
-        elif self.kind == "CHOICE":
+        elif self.kind == CHOICE:
             allowed = self.choices.split(",")
             if v not in allowed:
                 raise ValueError(f"parameter '{self.name}': {v!r} is not allowed; choose one of {allowed}")
@@ -111,9 +118,11 @@ class HairbsdfModelParam(bpy.types.PropertyGroup):
             self.use = True
 
     def in_range(self) -> bool:
-        if self.kind == "FLOAT":
+        if self.kind == FLOAT:
             return self.min <= self.value <= self.max
-        if self.kind == "RGB":
+        if self.kind == INT:
+            return self.min <= self.number <= self.max
+        if self.kind == RGB:
             return all(self.min <= c <= self.max for c in self.current())
         return True
 
@@ -137,11 +146,11 @@ def fill_params(settings, keep=True) -> None:
     """One item per schema parameter with its default; with `keep`, items of the same name and
     kind keep their values (switching between builds of one plugin)."""
     model = settings.override
-    path = override_plugin_path(settings) if model == "plugin" else ""
+    path = override_plugin_path(settings) if model == PLUGIN_MODEL else ""
     old = {p.name: (p.kind, p.current(), p.use) for p in settings.params} if keep else {}
     settings.params.clear()
     settings.schema_error = ""
-    if model == "NONE" or (model == "plugin" and not path):
+    if model == "NONE" or (model == PLUGIN_MODEL and not path):
         return
     try:
         schema = model_schema(model, path or None)
@@ -151,14 +160,14 @@ def fill_params(settings, keep=True) -> None:
     for spec in schema:
         item = settings.params.add()
         item.name = spec["name"]
-        item.kind = spec["type"].upper()
+        item.kind = spec["type"]
         item.min, item.max = spec["min"], spec["max"]
-        if item.kind in ("FLOAT", "RGB"):
-            default = spec["default"] if item.kind == "RGB" else [spec["default"]]
+        if item.kind in (FLOAT, RGB):
+            default = spec["default"] if item.kind == RGB else [spec["default"]]
             item.exact = json.dumps([spec["min"], spec["max"], *default])
         item.description = spec.get("description") or ""
         item.optional = bool(spec.get("optional"))
-        if item.kind == "CHOICE":
+        if item.kind == CHOICE:
             item.choices = ",".join(spec["choices"])
         item.assign(spec["default"])
         item.use = False
@@ -175,7 +184,7 @@ def set_override(material, model: str, path: str | None = None, params: dict | N
     if model not in names:
         raise ValueError(f"model {model!r} is not allowed; use one of {names}")
     s = material.hairbsdf
-    if model == "plugin":
+    if model == PLUGIN_MODEL:
         if not path:
             raise ValueError("the plugin override needs the path of the plugin library")
         s.plugin_path = path

@@ -19,6 +19,8 @@ import functools
 
 import bpy
 
+from .._constants import ENGINE_ID
+
 # The passes of the renderer's table (_core.render_passes()) that Blender's own view-layer
 # switches ask for; each other one is the engine's property `pass_<name>` below.
 BLENDER_SWITCHES = {"depth": "use_pass_z", "normal": "use_pass_normal"}
@@ -78,7 +80,7 @@ class HAIRBSDF_VIEWLAYER_PT_passes(bpy.types.Panel):
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "view_layer"
-    COMPAT_ENGINES = {"HAIRBSDF"}
+    COMPAT_ENGINES = {ENGINE_ID}
 
     @classmethod
     def poll(cls, context):

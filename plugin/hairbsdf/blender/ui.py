@@ -9,9 +9,9 @@ from __future__ import annotations
 import bpy
 
 from .. import _core
-from .model_override import fill_params
-
-ENGINE_ID = "HAIRBSDF"
+from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
+from .._param_docs import BOOL, CHOICE, FLOAT, INT
+from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
 CYCLES_PANELS = (
@@ -292,7 +292,7 @@ class HAIRBSDF_MATERIAL_PT_model_override(_MaterialPanel, bpy.types.Panel):
         layout.prop(s, "override")
         if s.override == "NONE":
             return
-        if s.override == "plugin":
+        if s.override == PLUGIN_MODEL:
             layout.prop(s, "plugin_path")
         if s.schema_error:
             box = layout.box()
@@ -309,7 +309,7 @@ class HAIRBSDF_MATERIAL_PT_model_override(_MaterialPanel, bpy.types.Panel):
                 head.prop(p, "use", text="")
                 row = head
                 row.active = p.use
-            prop = {"FLOAT": "value", "CHOICE": "choice", "BOOL": "flag"}.get(p.kind)
+            prop = {FLOAT: "value", INT: "number", CHOICE: "choice", BOOL: "flag"}.get(p.kind)
             if prop is None:
                 prop = "color" if p.max <= 1.0 else "vector"
             row.prop(p, prop, text=text)

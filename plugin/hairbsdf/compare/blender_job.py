@@ -8,9 +8,11 @@ job.json:
                    {scenes_dir, module, cfg, blend_out, info_out}; the builder's cfg gets
                    asset_dir = the folder of blend_out, for files the scene refers to
   action "render": open a .blend, set seed / samples / size / engine, render one linear EXR
-                   {blend, engine: CYCLES|HAIRBSDF, accuracy: CYCLES|EXACT, seed, spp, res,
+                   {blend, engine: CYCLES|engine_id, engine_id: our engine's bl_idname (the harness
+                    writes hairbsdf._constants.ENGINE_ID), accuracy, default_accuracy: our engine's
+                    settings (runner.ACCURACIES, from the scene schema), seed, spp, res,
                     threads, osl, force_parity, exr_out, meta_out, scenes_dir, sites,
-                    hair_model: null or {model, path, mapping, label} (--model, HAIRBSDF only),
+                    hair_model: null or {model, path, mapping, label} (--model, our engine only),
                     overrides: [{key, material, node, input, value} | {key, setting, value}] (--sweep)}
 Writes meta_out / info_out (JSON) last, so its presence means the job finished.  Uses only
 bpy and the standard library: Blender 3.4's Python has no access to the venv.
@@ -76,11 +78,11 @@ def _engines():
     return [getattr(c, "bl_idname", None) for c in bpy.types.RenderEngine.__subclasses__()]
 
 
-def ensure_hairbsdf(sites):
-    """Registers the HAIRBSDF engine: the installed add-on (scripts/install_blender_addon) or
-    the hairbsdf package (venv for the bpy module, else a staged copy).  Returns (how, errors)."""
+def ensure_hairbsdf(sites, engine_id):
+    """Registers our engine (bl_idname engine_id): the installed add-on (scripts/install_blender_addon)
+    or the hairbsdf package (venv for the bpy module, else a staged copy).  Returns (how, errors)."""
     errors = []
-    if "HAIRBSDF" in _engines():
+    if engine_id in _engines():
         return "already registered", errors
 
     def from_package():
@@ -100,7 +102,7 @@ def ensure_hairbsdf(sites):
             except Exception as exc:  # pragma: no cover
                 errors.append("add-on %s: %s" % (name, exc))
                 mod = None
-            if mod is not None and "HAIRBSDF" in _engines():
+            if mod is not None and engine_id in _engines():
                 return "add-on " + name
         raise RuntimeError("no hairbsdf add-on installed (scripts/install_blender_addon)")
 
@@ -108,7 +110,7 @@ def ensure_hairbsdf(sites):
     for fn in order:
         try:
             how = fn()
-            if "HAIRBSDF" in _engines():
+            if engine_id in _engines():
                 return how, errors
             errors.append("%s: engine not registered" % fn.__name__)
         except Exception as exc:
@@ -175,7 +177,7 @@ def _fault_hook(job):
 
 def do_render(job):
     t0 = time.time()
-    meta = dict(ok=False, engine=job["engine"], accuracy=job.get("accuracy", "CYCLES"), seed=job["seed"],
+    meta = dict(ok=False, engine=job["engine"], accuracy=job["accuracy"], seed=job["seed"],
                 versions=_versions(), job=dict((k, v) for k, v in job.items() if k != "sites"))
     try:
         with open(job["blend"], "rb") as f:  # which geometry this render saw (the harness checks one per case)
@@ -220,21 +222,23 @@ def do_render(job):
                               scene.render.resolution_y * scene.render.resolution_percentage // 100]
         meta["samples"] = int(cy.samples)
         engine_report = job["exr_out"] + ".engine.jsonl"
-        if job["engine"] == "HAIRBSDF":
-            how, errors = ensure_hairbsdf(job.get("sites"))
+        ours = job["engine"] == job["engine_id"]
+        if ours:
+            how, errors = ensure_hairbsdf(job.get("sites"), job["engine_id"])
             meta["engine_registration"] = how
             meta["engine_registration_errors"] = errors
             meta["hairbsdf_file"] = getattr(sys.modules.get("hairbsdf"), "__file__", None)  # which copy rendered
             if how is None:
-                meta["error"] = "the HAIRBSDF engine is not available in this Blender: " + "; ".join(errors)
+                meta["error"] = "the %s engine is not available in this Blender: %s" % (job["engine_id"],
+                                                                                          "; ".join(errors))
                 meta["status"] = "NOT AVAILABLE"
                 return meta
-            scene.render.engine = "HAIRBSDF"
+            scene.render.engine = job["engine_id"]
             if hasattr(scene, "hairbsdf"):
-                scene.hairbsdf.accuracy = job.get("accuracy", "CYCLES")
+                scene.hairbsdf.accuracy = job["accuracy"]
                 if job.get("threads"):
                     scene.hairbsdf.threads = int(job["threads"])
-            elif job.get("accuracy", "CYCLES") != "CYCLES":
+            elif job["accuracy"] != job["default_accuracy"]:
                 meta["error"] = "the engine has no accuracy setting"
                 meta["status"] = "NOT AVAILABLE"
                 return meta
@@ -258,7 +262,7 @@ def do_render(job):
         res = bpy.ops.render.render(write_still=True)
         meta["render_seconds"] = time.time() - t1
         meta["operator_result"] = sorted(res) if res else None
-        if job["engine"] == "HAIRBSDF":
+        if ours:
             lines = []
             if os.path.exists(engine_report):
                 with open(engine_report) as f:

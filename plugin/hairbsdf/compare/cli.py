@@ -10,6 +10,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from .._constants import ENGINE_ID
+
 EPILOG = """\
 examples:
   hairbsdf compare                                  the swatch scene, bpy 4.5, full size -> out/compare/
@@ -52,8 +54,9 @@ def build_parser(prog="hairbsdf compare"):
     scenes = ", ".join(catalog)
     p = argparse.ArgumentParser(
         prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
-        description="Render scenes with Blender's Cycles and with the hairbsdf engine (-E HAIRBSDF in the same "
-                    "Blender), compare them with noise-aware statistics and write an HTML/JSON/JUnit report.")
+        description="Render scenes with Blender's Cycles and with the hairbsdf engine (-E %s in the same "
+                    "Blender), compare them with noise-aware statistics and write an HTML/JSON/JUnit report."
+                    % ENGINE_ID)
     p.add_argument("--scene", action="append", metavar="NAME|FILE.blend",
                    help="library scene (%s; NAME:VARIANT for one variant; 'all'), or any .blend file; repeat or "
                         "comma-separate (default: %s)" % (scenes, default_scene))
@@ -97,9 +100,9 @@ def build_parser(prog="hairbsdf compare"):
                         "through it instead of the scheduler, and the Cycles cache lives in DIR/cache")
     p.add_argument("--scheduler-timeout", type=count_arg(1), default=30, metavar="S",
                    help="seconds to wait for the scheduler and for a first worker (default 30; then exit 3)")
-    p.add_argument("--engine", default="HAIRBSDF",
-                   help="engine under test (default HAIRBSDF; CYCLES renders Cycles on other seeds, a null test of "
-                        "the statistics)")
+    p.add_argument("--engine", default=ENGINE_ID,
+                   help="engine under test (default %s; CYCLES renders Cycles on other seeds, a null test of "
+                        "the statistics)" % ENGINE_ID)
     p.add_argument("--force-parity", action="store_true",
                    help="for user .blend files: apply the parity settings (no denoising, clamps 0, ...) before "
                         "rendering; without it they are only reported")
@@ -186,8 +189,8 @@ def run_compare(args, argv_text=""):
         except ModelSpecError as exc:
             print("error: --model %s: %s" % (args.model, exc), file=sys.stderr)
             return 2
-        if args.engine.upper() != "HAIRBSDF":
-            print("error: --model needs --engine HAIRBSDF (the override is our engine's)", file=sys.stderr)
+        if args.engine.upper() != ENGINE_ID:
+            print("error: --model needs --engine %s (the override is our engine's)" % ENGINE_ID, file=sys.stderr)
             return 2
     try:
         thr = Thresholds.load(args.thresholds or default_thresholds())
@@ -350,7 +353,7 @@ def reproduce_command(res, args):
                      ("--force-parity", args.force_parity)):
         if on:
             cmd.append(flag)
-    if args.engine.upper() != "HAIRBSDF":
+    if args.engine.upper() != ENGINE_ID:
         cmd += ["--engine", args.engine.upper()]
     for opt, val in (("--model", args.model), ("--thresholds", args.thresholds)):
         if val:

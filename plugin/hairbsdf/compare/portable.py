@@ -51,19 +51,33 @@ class UsageError(ValueError):
     pass
 
 
+# --------------------------------------------------------------------------- scene keys
+
+def _key(section: dict, path: str, closure_type: str = ""):
+    """section's value of the scene key `path` (its last part), or the key's default from the scene schema."""
+    from ..render import schema_default
+
+    name = path.rsplit(".", 1)[-1]
+    return section[name] if section.get(name) is not None else schema_default(path, closure_type)
+
+
+CLOSURE = "materials[].closures[]."
+INPUT = CLOSURE + "inputs."
+
+
 # --------------------------------------------------------------------------- MaterialX
 
 def materialx_limits(desc) -> dict:
     """{material name: [what MaterialX's chiang_hair_bsdf cannot express exactly]} for every material
-    of the description (an empty list: exact)."""
-    tilt = desc.get("integrator", {}).get("tilt", "4.2")
+    of the description (an empty list: exact). Keys not given take the scene schema's defaults."""
+    tilt = _key(desc.get("integrator", {}), "integrator.tilt")
     out = {}
     for m in desc.get("materials", []):
         limits = []
         if m.get("program"):
             limits.append("node networks on closure inputs (evaluated per hit by our shading VM)")
         closures = m.get("closures", [])
-        weights = [c.get("weight", (1, 1, 1)) for c in closures]  # {"register": k}: a computed Mix Shader weight
+        weights = [_key(c, CLOSURE + "weight") for c in closures]  # {"register": k}: a computed Mix Shader weight
         if len(closures) > 1 or any(isinstance(w, dict) or tuple(w) != (1.0, 1.0, 1.0) for w in weights):
             limits.append("Mix / Add of closures")
         for c in closures:
@@ -75,15 +89,15 @@ def materialx_limits(desc) -> dict:
             elif t == "principled_hair":
                 # an input driven by a node network ({"register": k}) counts as possibly non-zero
                 inp = {k: (1.0 if isinstance(v, dict) else v) for k, v in c.get("inputs", {}).items()}
-                if c.get("model", "CHIANG") == "HUANG":
+                if _key(c, CLOSURE + "model", t) == "HUANG":
                     limits.append("the Huang model")
                     continue
-                if float(inp.get("coat", 0.0) or 0.0) != 0.0:
+                if float(_key(inp, INPUT + "coat")) != 0.0:
                     limits.append("Coat")
-                if tilt != "3.4" and float(inp.get("offset", 0.0) or 0.0) != 0.0:
+                if tilt != "3.4" and float(_key(inp, INPUT + "offset")) != 0.0:
                     limits.append("the tilt convention (Blender 4.2+ tilts the outgoing direction; chiang_hair_bsdf's "
                                   "cuticle_angle follows Blender 3.4's convention)")
-                if float(inp.get("random_color", 0.0) or 0.0) or float(inp.get("random_roughness", 0.0) or 0.0):
+                if float(_key(inp, INPUT + "random_color")) or float(_key(inp, INPUT + "random_roughness")):
                     limits.append("per-strand Random Color / Random Roughness (a node graph on the primvar "
                                   "hairbsdf_random)")
             elif t not in ("diffuse", "emission"):
@@ -110,8 +124,8 @@ def write_materialx(desc, path):
             inputs = {k: v for k, v in c.get("inputs", {}).items() if k != "random" and v is not None}
             inputs = {k: (tuple(float(x) for x in v) if hasattr(v, "__len__") else float(v)) for k, v in inputs.items()}
             part = mx.createDocument()
-            mx.readFromXmlString(part, materialx.export(None, parametrization=c.get("parametrization", "COLOR").lower(),
-                                                        name=name, **inputs))
+            parametrization = _key(c, CLOSURE + "parametrization", c["type"]).lower()
+            mx.readFromXmlString(part, materialx.export(None, parametrization=parametrization, name=name, **inputs))
             for elem in part.getChildren():
                 copy = doc.addChildOfCategory(elem.getCategory(), elem.getName())
                 copy.copyContentFrom(elem)
@@ -155,7 +169,9 @@ def _plain(x):
 
 
 def render_settings(desc, blender_settings, seeds, blender_seeds, blender_version):
+    """What a renderer needs besides the scene files; keys not given take the scene schema's defaults."""
     integ, cam = desc["integrator"], desc["camera"]
+    setting = lambda name: _key(integ, "integrator." + name)  # noqa: E731
     return {
         "resolution": [int(v) for v in cam["resolution"]],
         "spp": int(integ["samples"]),
@@ -165,22 +181,22 @@ def render_settings(desc, blender_settings, seeds, blender_seeds, blender_versio
                                                  "transmission_bounces", "transparent_bounces",
                                                  "min_light_bounces") if k in integ},
         "pixel_filter": dict(type=integ["filter_type"], width_px=float(integ["filter_width"])),
-        "exposure": dict(film_exposure=float(integ.get("exposure", 1.0)),
+        "exposure": dict(film_exposure=float(setting("exposure")),
                          note="a linear multiplier on the image (Cycles' Film > Exposure)"),
         "colour_space": dict(working="scene-linear Rec.709 primaries, D65 (Blender's default 'Linear Rec.709')",
                              references="linear float32 RGBA OpenEXR, no view transform, alpha = coverage",
                              view_transform=blender_settings.get("view_settings.view_transform")),
-        "light_sampling": dict(light_tree=bool(integ.get("light_tree", False)),
-                               light_threshold=float(integ.get("light_sampling_threshold", 0.0)),
+        "light_sampling": dict(light_tree=bool(setting("light_tree")),
+                               light_threshold=float(setting("light_sampling_threshold")),
                                multiple_importance_sampling={
-                                   "%s_%d" % (lt.get("type", "?"), i): bool(lt.get("use_mis", True))
+                                   "%s_%d" % (lt.get("type", "?"), i): bool(_key(lt, "lights[].use_mis"))
                                    for i, lt in enumerate(desc.get("lights", []))},
-                               world_mis=bool(desc.get("world", {}).get("mis", True))),
-        "filter_glossy": float(integ.get("filter_glossy", 0.0)),
-        "clamp": dict(direct=float(integ.get("clamp_direct", 0.0)), indirect=float(integ.get("clamp_indirect", 0.0))),
-        "film_transparent": bool(integ.get("film_transparent", False)),
-        "curves": dict(shape=desc.get("curve_shape"), subdivisions=int(desc.get("curve_subdivisions", 2)),
-                       backface_culling=bool(desc.get("curve_backface_culling", False))),
+                               world_mis=bool(_key(desc.get("world", {}), "world.mis"))),
+        "filter_glossy": float(setting("filter_glossy")),
+        "clamp": dict(direct=float(setting("clamp_direct")), indirect=float(setting("clamp_indirect"))),
+        "film_transparent": bool(setting("film_transparent")),
+        "curves": dict(shape=_key(desc, "curve_shape"), subdivisions=int(_key(desc, "curve_subdivisions")),
+                       backface_culling=bool(_key(desc, "curve_backface_culling"))),
         "principled_hair_tilt": integ.get("tilt"),
         "blender_version": blender_version,
         "blender": blender_settings,
@@ -248,6 +264,7 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
     """Exports library scenes (names: scene, scene:variant or 'all') into out. Returns a list of
     {case, ok, path, error}."""
     from .. import _version
+    from .._blender_versions import SCENES_EXPORT_FROM
     from .runner import Options, Runner, Target, TargetError, blender_seed, default_cache_dir, expand_cases, \
         resolve_target, safe
     say = _progress(progress)
@@ -259,7 +276,7 @@ def export_scenes(names, out, *, tar=False, blender="bpy", cache=None, jobs=2, t
         target = resolve_target(blender)
     except TargetError as exc:
         raise UsageError("--blender %s: %s" % (blender, exc))
-    if target.kind != "bpy" or target.version < (4, 0, 0):
+    if target.kind != "bpy" or target.version < SCENES_EXPORT_FROM:
         raise UsageError("--blender %s: export needs the bpy module of Blender 4.x or 5.x (USD export; Debian's "
                          "Blender 3.4 has none), e.g. bpy or bpy5" % blender)
     try:

@@ -18,6 +18,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from .._constants import ENGINE_ID
 from . import images as I
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
@@ -74,7 +75,7 @@ def write_case_assets(out_dir, result, maps):
     cdir.mkdir(parents=True, exist_ok=True)
     imgs = {}
     rel = lambda p: os.path.relpath(p, out_dir)  # noqa: E731
-    ours_name = result.get("engine_label") or ("hairbsdf" if result.get("engine", "HAIRBSDF") == "HAIRBSDF"
+    ours_name = result.get("engine_label") or ("hairbsdf" if result.get("engine", ENGINE_ID) == ENGINE_ID
                                                 else "Cycles (self-check)")
     ref_name = result.get("ref_label") or "Cycles"  # `hairbsdf judge`: REF
 

@@ -30,7 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _version
+from .. import _blender_versions, _version
+from .._constants import ENGINE_ID
+from ..render import _allowed
 from . import judge, metrics
 from .progress import Progress
 from .thresholds import Thresholds
@@ -96,17 +98,22 @@ def _sha(*parts):
     return h.hexdigest()[:16]
 
 
-# Cycles before 3.6 seeds Chiang's per-hit LCG with hash(x, y) ^ seed, and an LCG is linear in its
-# state: seeds 0..7 differ in the three low bits only, which shifts the LCG's second number by
+# Cycles before CHIANG_LCG_BEFORE seeds Chiang's per-hit LCG with hash(x, y) ^ seed, and an LCG is linear
+# in its state: seeds 0..7 differ in the three low bits only, which shifts the LCG's second number by
 # multiples of about 0.502 (mod 1), so every pixel gets nearly the same number on every seed. Such
 # renders share a per-pixel error that their spread does not show, and the Welch test fails on
 # noise. Those Blenders get seeds that differ in all bits (blender_seed).
-LCG_SEEDS_BEFORE = (3, 6, 0)
+
+
+# The engine's accuracy settings as Blender's enum names them: the scene schema's integrator.accuracy choices
+# (scene_schema.cpp), upper case, in its order: Cycles' truncated series (the default), exact functions.
+ACCURACIES = tuple(a.upper() for a in _allowed("integrator.accuracy"))
+CYCLES_ACCURACY, EXACT_ACCURACY = ACCURACIES
 
 
 def blender_seed(version, index):
     """The scene seed of render number `index` for a Blender of `version`."""
-    if tuple(version) >= LCG_SEEDS_BEFORE:
+    if tuple(version) >= _blender_versions.CHIANG_LCG_BEFORE:
         return int(index)
     x = (int(index) + 0x9E3779B9) & 0xFFFFFFFF  # a 32-bit integer mix (splitmix-style finaliser)
     x = ((x ^ (x >> 16)) * 0x85EBCA6B) & 0xFFFFFFFF
@@ -414,7 +421,7 @@ class Options:
     use_cache: bool = True
     refresh: bool = False
     osl: bool = False
-    engine: str = "HAIRBSDF"
+    engine: str = ENGINE_ID
     force_parity: bool = False
     thresholds: Thresholds = dataclasses.field(default_factory=Thresholds)
     flip: bool = True
@@ -438,7 +445,7 @@ class Runner:
     # ----------------------------------------------------------------- keys
     def _builder_hash(self, case):
         files = [self.sdir / "catalog.py", self.sdir / "scene_lib.py", self.sdir / "fiber_gonio.py",
-                 self.sdir / (case.meta["module"] + ".py"), JOB_SCRIPT]
+                 self.sdir / (case.meta["module"] + ".py"), JOB_SCRIPT, Path(_blender_versions.__file__)]
         return _sha(*[p.read_bytes() for p in files if p.exists()])
 
     def _cfg(self, case):
@@ -483,7 +490,7 @@ class Runner:
         """One render.  Cycles renders are cached by the .blend's bytes, not by the recipe that built
         it: Blender distributes particle hair anew on every build, so a rebuilt scene may have other
         strands (docs/compare.md, "One geometry per case").  Others go into the case's renders/ folder."""
-        cycles = engine == "CYCLES" and accuracy == "CYCLES" and self.o.engine != "CYCLES_SELF"
+        cycles = engine == "CYCLES" and accuracy == CYCLES_ACCURACY and self.o.engine != "CYCLES_SELF"
         spp = case.spp
         res = list(case.res) if case.res else None
         osl = self.o.osl if engine == "CYCLES" else None
@@ -498,11 +505,12 @@ class Runner:
         else:
             rd = case_dir / "renders"
             rd.mkdir(parents=True, exist_ok=True)
-            tag = {"CYCLES": "cycles_self", "HAIRBSDF": "hairbsdf"}.get(engine, safe(engine.lower()))
-            base = rd / ("%s%s_s%d" % (tag, "_exact" if accuracy == "EXACT" else "", seed))
+            tag = {"CYCLES": "cycles_self", ENGINE_ID: "hairbsdf"}.get(engine, safe(engine.lower()))
+            base = rd / ("%s%s_s%d" % (tag, "_exact" if accuracy == EXACT_ACCURACY else "", seed))
         exr, meta_path = str(base) + ".exr", str(base) + ".json"
-        job = dict(action="render", blend=blend, engine=engine, accuracy=accuracy, seed=bseed, spp=spp, res=res,
-                   threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
+        job = dict(action="render", blend=blend, engine=engine, engine_id=ENGINE_ID, accuracy=accuracy,
+                   default_accuracy=CYCLES_ACCURACY, seed=bseed,
+                   spp=spp, res=res, threads=self.threads, osl=osl, force_parity=self.o.force_parity, exr_out=exr,
                    meta_out=meta_path, scenes_dir=str(self.sdir), sites=self.sites,
                    hair_model=None if engine == "CYCLES" else self.o.hair_model, overrides=case.overrides)
         if cycles:  # a shared cache entry: render to unique names, rename when complete (atomic)
@@ -606,13 +614,13 @@ class Runner:
 
         futs = dict(cycles=[], ours=[], exact=[])
         for s in range(c.seeds):
-            futs["cycles"].append(pool.submit(task("CYCLES", "CYCLES", s, "Cycles")))
+            futs["cycles"].append(pool.submit(task("CYCLES", CYCLES_ACCURACY, s, "Cycles")))
         # With --engine CYCLES the "engine" is Cycles again on disjoint seeds: a null test of the harness.
         off = 1000 if ours_engine == "CYCLES" else 0
         for s in range(c.seeds):
-            futs["ours"].append(pool.submit(task(ours_engine, "CYCLES", s + off, self._ours_label())))
+            futs["ours"].append(pool.submit(task(ours_engine, CYCLES_ACCURACY, s + off, self._ours_label())))
         for s in range(c.exact_seeds):
-            futs["exact"].append(pool.submit(task(ours_engine, "EXACT", s + off, self._ours_label() + " exact")))
+            futs["exact"].append(pool.submit(task(ours_engine, EXACT_ACCURACY, s + off, self._ours_label() + " exact")))
         if ours_engine == "CYCLES":
             futs["exact"] = []
         return futs
@@ -620,7 +628,7 @@ class Runner:
     def _ours_label(self):
         if self.o.hair_model:
             return "hairbsdf [%s]" % self.o.hair_model["label"]
-        return {"HAIRBSDF": "hairbsdf", "CYCLES": "Cycles (self-check)", "CYCLES_SELF": "Cycles (self-check)"}.get(
+        return {ENGINE_ID: "hairbsdf", "CYCLES": "Cycles (self-check)", "CYCLES_SELF": "Cycles (self-check)"}.get(
             self.o.engine, self.o.engine)
 
     # ----------------------------------------------------------------- results

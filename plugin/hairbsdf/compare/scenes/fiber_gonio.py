@@ -25,6 +25,8 @@ This equals ``-dot(P - C, Y) / r`` with Cycles' ``Y = normalize(X x wo)`` (= -Yc
 """
 
 import math
+import os
+import runpy
 
 import bpy
 
@@ -49,14 +51,20 @@ def blender_version_string():
     return bpy.app.version_string
 
 
+# The package's named version cut-offs (hairbsdf/_blender_versions.py), read by path: this file runs inside
+# Blender without the package.
+VERSIONS = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir,
+                                       "_blender_versions.py"))
+
+
 def has_hair_model_enum():
-    """Blender >= 4.0 has ShaderNodeBsdfHairPrincipled.model (CHIANG/HUANG)."""
-    return blender_version() >= (4, 0, 0)
+    """Whether ShaderNodeBsdfHairPrincipled has its model enum (CHIANG/HUANG)."""
+    return blender_version() >= VERSIONS["HAIR_MODEL_ENUM_FROM"]
 
 
 def default_tilt_convention():
-    """'3.4' for Blender < 4.2 (tilt on the light angle), '4.2' otherwise."""
-    return "4.2" if blender_version() >= (4, 2, 0) else "3.4"
+    """The running Blender's Principled Hair tilt convention: '3.4' (tilt on the light angle) or '4.2'."""
+    return VERSIONS["tilt_convention"](blender_version())
 
 
 # --------------------------------------------------------------------------
@@ -158,7 +166,7 @@ def set_world_color(world, color):
     False), and a new world comes with a Background of 0.05 grey: that node gets the colour
     (docs/blender5.md)."""
     world.color = tuple(color[:3])
-    if blender_version() < (5, 0, 0):
+    if blender_version() < VERSIONS["WORLD_ALWAYS_NODES_FROM"]:
         world.use_nodes = False
         return
     nt = world.node_tree

@@ -43,7 +43,7 @@ def version():
 
 
 def has_model_enum():
-    return version() >= (4, 0, 0)
+    return fg.has_hair_model_enum()
 
 
 def default_tilt():

@@ -1,0 +1,185 @@
+"""Names the Python side shares are written in one place (issue 26): the others read them from there.
+Each test fails when a copy reappears as a literal."""
+
+import ast
+import re
+from pathlib import Path
+
+from hairbsdf._constants import ENGINE_ID
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "plugin" / "hairbsdf"
+
+
+def string_literals(path: Path):
+    """(line, text) of each string constant in a Python file, docstrings left out (prose may name things)."""
+    tree = ast.parse(path.read_text(), str(path))
+    docstrings = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                docstrings.add(id(first.value))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+            yield node.lineno, node.value
+
+
+def python_sources():
+    """The package, the add-on and the scripts' Python files."""
+    for folder in (PACKAGE, ROOT / "plugin" / "blender_addon", ROOT / "scripts"):
+        yield from sorted(folder.rglob("*.py"))
+
+
+def shell_scripts():
+    """scripts/ files that are not Python (bash, some with Python in a here-document)."""
+    return sorted(p for p in (ROOT / "scripts").iterdir() if p.is_file() and p.suffix != ".py")
+
+
+def test_engine_id_is_written_only_in_constants():
+    word = re.compile(r"\b%s\b" % re.escape(ENGINE_ID))
+    one_place = PACKAGE / "_constants.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text[:80])
+              for p in python_sources() if p != one_place
+              for line, text in string_literals(p) if word.search(text)]
+    quoted = re.compile(r"[\"']%s[\"']" % re.escape(ENGINE_ID))
+    copies += ["%s:%d" % (p.relative_to(ROOT), n) for p in shell_scripts()
+               for n, text in enumerate(p.read_text(errors="replace").splitlines(), 1) if quoted.search(text)]
+    assert not copies, "the engine id %r is spelled outside hairbsdf/_constants.py; import ENGINE_ID (or, in a " \
+                       "job script, read job['engine_id']):\n%s" % (ENGINE_ID, "\n".join(copies))
+
+
+def test_plugin_model_name_is_written_only_in_the_factory():
+    """model_factory.h's kPluginModel, read as _core.PLUGIN_MODEL (hairbsdf.zoo.PLUGIN_MODEL); the model
+    names are one list, _core.model_names(), that the scene's hair_model closure allows too."""
+    from hairbsdf import _core
+
+    name = _core.PLUGIN_MODEL
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text)
+              for p in sorted(PACKAGE.rglob("*.py"))
+              for line, text in string_literals(p) if text == name or text.startswith(name + ":")]
+    assert not copies, "the plugin model's name %r is spelled in Python; use hairbsdf.zoo.PLUGIN_MODEL:\n%s" % (
+        name, "\n".join(copies))
+    assert _core.model_names()[-1] == name and set(_core.zoo_model_names()) < set(_core.model_names())
+
+
+def version_comparisons(path: Path):
+    """(line, tuple) of each comparison with a literal version tuple, such as `blender_version() < (4, 0, 0)`."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Compare):
+            for side in [node.left, *node.comparators]:
+                if isinstance(side, ast.Tuple) and len(side.elts) == 3 and all(
+                        isinstance(e, ast.Constant) and isinstance(e.value, int) for e in side.elts):
+                    yield node.lineno, tuple(e.value for e in side.elts)
+
+
+def test_blender_version_cutoffs_are_named_once():
+    """Every Blender version the package compares with is a named cut-off in hairbsdf/_blender_versions.py (the
+    library scenes, which run without the package, read that file by its path)."""
+    one_place = PACKAGE / "_blender_versions.py"
+    copies = ["%s:%d: %s" % (p.relative_to(ROOT), line, version)
+              for p in sorted(PACKAGE.rglob("*.py")) if p != one_place for line, version in version_comparisons(p)]
+    assert not copies, "compare with a named cut-off of hairbsdf/_blender_versions.py:\n" + "\n".join(copies)
+    from hairbsdf import _blender_versions as versions
+    assert versions.tilt_convention((4, 1, 9)) == "3.4" and versions.tilt_convention(versions.TILT_ON_VIEW_FROM) == "4.2"
+
+
+def test_scene_format_version_is_the_schemas():
+    """The scene description's version is read from the schema's `version` row (scene_schema.cpp), never
+    written as a number in the package (`SCENE_DESC_VERSION = 1`, `{"version": 1}`)."""
+    from hairbsdf.render import SCENE_DESC_VERSION, scene_schema
+
+    (row,) = [k for k in scene_schema() if k["path"] == "version"]
+    assert SCENE_DESC_VERSION == row["minimum"] == row["maximum"] == int(row["default"])
+    copies = []
+    for p in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant) and any(
+                    isinstance(t, ast.Name) and t.id == "SCENE_DESC_VERSION" for t in node.targets):
+                copies.append("%s:%d" % (p.relative_to(ROOT), node.lineno))
+            if isinstance(node, ast.Dict):
+                copies += ["%s:%d" % (p.relative_to(ROOT), node.lineno) for key, value in zip(node.keys, node.values)
+                           if isinstance(key, ast.Constant) and key.value == "version"
+                           and isinstance(value, ast.Constant) and isinstance(value.value, int)]
+    assert not copies, "the scene format's version is written as a number; use hairbsdf.render." \
+                       "SCENE_DESC_VERSION:\n" + "\n".join(copies)
+
+
+def literal_fallbacks(function: ast.FunctionDef, names: set, choices: set):
+    """(line, key) of each `x.get(key, literal)` in a function whose key is one of `names` and whose literal is
+    a value a key could default to: a number, a bool, a tuple of numbers or one of the `choices`."""
+    def value_like(e):
+        return isinstance(e, ast.Constant) and (isinstance(e.value, (int, float)) or e.value in choices)
+
+    for node in ast.walk(function):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get"
+                and len(node.args) == 2 and isinstance(node.args[0], ast.Constant) and node.args[0].value in names):
+            fallback = node.args[1]
+            if value_like(fallback) or (isinstance(fallback, ast.Tuple) and all(map(value_like, fallback.elts))):
+                yield node.lineno, node.args[0].value
+
+
+def test_portable_reads_the_schemas_defaults():
+    """portable.py's materialx_limits and render_settings take a missing key's default from the scene schema
+    (portable._key), never from a literal fallback. (write_materialx's grey and strength fallbacks are left to
+    the change that names the grey once.)"""
+    from hairbsdf.render import scene_schema
+
+    names = {k["path"].rsplit(".", 1)[-1].removesuffix("[]") for k in scene_schema()}
+    choices = {c for k in scene_schema() for c in k["allowed"]}
+    path = PACKAGE / "compare" / "portable.py"
+    functions = {n.name: n for n in ast.parse(path.read_text()).body if isinstance(n, ast.FunctionDef)}
+    copies = ["portable.py:%d: %s" % hit for name in ("materialx_limits", "render_settings")
+              for hit in literal_fallbacks(functions[name], names, choices)]
+    assert not copies, "a scene key's default written again; use portable._key:\n" + "\n".join(copies)
+
+
+def accuracy_literals(path: Path, ids: set):
+    """(line, what) where the harness spells an accuracy id: a literal compared with an expression that mentions
+    `accuracy`, passed as `accuracy=` or as .get("accuracy", ...)'s fallback, or any literal accuracy id that
+    is not also an engine id (CYCLES is both)."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any("accuracy" in ast.unparse(s) for s in sides) and any(
+                    isinstance(s, ast.Constant) and s.value in ids for s in sides):
+                yield node.lineno, ast.unparse(node)
+        elif isinstance(node, ast.keyword) and node.arg == "accuracy" and isinstance(node.value, ast.Constant):
+            yield node.value.lineno, "accuracy=%r" % node.value.value
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get"
+              and len(node.args) == 2 and isinstance(node.args[0], ast.Constant) and node.args[0].value == "accuracy"):
+            yield node.lineno, ast.unparse(node)
+        elif isinstance(node, ast.Constant) and node.value in ids - {"CYCLES"}:
+            yield node.lineno, repr(node.value)
+
+
+def test_harness_reads_the_accuracy_ids_from_the_schema():
+    """The harness's accuracy settings (runner.ACCURACIES) are the scene schema's integrator.accuracy choices;
+    blender_job.py gets them in job.json."""
+    from hairbsdf.compare import runner
+    from hairbsdf.render import _allowed
+
+    assert runner.ACCURACIES == tuple(a.upper() for a in _allowed("integrator.accuracy"))
+    copies = ["%s:%d: %s" % (p.name, line, what) for p in (PACKAGE / "compare").glob("*.py")
+              for line, what in accuracy_literals(p, set(runner.ACCURACIES))]
+    assert not copies, "an accuracy id spelled in the harness; use runner.ACCURACIES:\n" + "\n".join(copies)
+
+
+def test_parameter_kind_names_come_from_the_core():
+    """The parameter kinds' names (a schema dict's "type") are C++'s (hairbsdf/param_kinds.h), read as
+    _core.PARAM_KINDS and unpacked once in hairbsdf/_param_docs.py; no module compares a kind with a literal."""
+    from hairbsdf import _core, _param_docs, zoo
+
+    assert _param_docs.PARAM_KINDS == _core.PARAM_KINDS
+    assert {row["type"] for m in zoo.zoo_model_names() + ["cycles_hair"] for row in zoo.model_schema(m)} <= set(
+        _core.PARAM_KINDS)
+    names = set(_core.PARAM_KINDS) | {k.upper() for k in _core.PARAM_KINDS}
+    copies = []
+    for p in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                if any(re.search(r"""\[["']type["']\]|\.type\b|\.kind\b""", ast.unparse(s)) for s in sides) and any(
+                        isinstance(s, ast.Constant) and s.value in names for s in sides):
+                    copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
+    assert not copies, "a parameter kind spelled again; use hairbsdf._param_docs' names:\n" + "\n".join(copies)
