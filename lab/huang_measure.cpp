@@ -6,7 +6,8 @@
 //              often as needed) versus our deterministic rules at the same error;
 //   speed_trt [M [alpha]]  the same for TRT + TRRT+, against the mean of M Cycles evaluations
 //              (default 2e6; M / 4 at alpha 0.02); HUANG_MEASURE_VERBOSE=1 prints each configuration;
-//   trt_lobes alpha index M max_points  TRT and TRRT+ separately at one of speed_trt's configurations.
+//   trt_lobes alpha index M max_points  TRT and TRRT+ separately at one of speed_trt's configurations;
+//   trt_variance alpha near|far rows points  where the TRT rule's variance is (issue 28).
 // Build: cmake --build build/cpp --target huang_measure; run: build/cpp/lab/huang_measure [mode]
 #include <chrono>
 #include <cstdio>
@@ -17,6 +18,7 @@
 
 #include "hairbsdf/models/huang.h"
 #include "hairbsdf/models/huang_lab.h"
+#include "hairbsdf/math_quadrature.h"
 
 using namespace hairbsdf;
 
@@ -379,6 +381,71 @@ void trt_lobes(double alpha, size_t index, long m, long max_points) {
     }
 }
 
+// Where the TRT rule's variance is (issue 28): per random row (far or near field), each node's
+// TRT + TRRT+ points (`points` scrambled Sobol' points per node) give the spread of one point relative
+// to the row's total (the points a 0.5 % standard error needs: (spread / 0.005)^2), the spread of TRT
+// and TRRT+ each relative to its own mean, the most that allocating points over the nodes by weight x
+// spread can gain (K sum var / (sum sd)^2), and the share of the variance that comes from the entry
+// normal (Var E[f | entry] / Var f, from pairs of points sharing the entry).
+void trt_variance(double alpha, bool near, int rows, uint32_t points) {
+    HuangHairParams p = base(alpha, 1, 1, 1);
+    p.tolerance = 1e-2;
+    p.trt_points = 0;
+    const HuangHair m(p);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> uni;
+    const Sobol& so = sobol();
+    std::printf("\n## TRT variance, alpha %.2f, %s field, %u points per node\n", alpha, near ? "near" : "far", points);
+    std::printf("| row | nodes | TRT+TRRT+ share | spread per point (of total) | points for 0.5 %% | TRT spread | TRRT+ spread | "
+                "allocation gain bound | entry share |\n|---|---|---|---|---|---|---|---|---|\n");
+    for (int row = 0; row < rows; ++row) {
+        const double th_o = (140 * uni(rng) - 70) * kPi / 180, th_i = (140 * uni(rng) - 70) * kPi / 180;
+        const double dphi = (2 * uni(rng) - 1) * kPi, h = 1.8 * uni(rng) - 0.9;
+        ShadingContext ctx;
+        ctx.wo = {std::sin(th_o), std::cos(th_o), 0};
+        ctx.h = h;
+        ctx.near_field = near;
+        ctx.pixel_coverage = near ? 1.0 / 60 : 1.5;
+        const auto sp = m.prepare(ctx);
+        if (!sp.valid) continue;
+        const Vec3 O = m.to_local(sp, {std::sin(th_i), std::cos(th_i) * std::cos(dphi), std::cos(th_i) * std::sin(dphi)});
+        const auto lobes = m.eval_local(sp, O);
+        const double total = lum(lobes[0]) + lum(lobes[1]) + lum(lobes[2]) + lum(lobes[3]);
+        double var = 0, sd = 0, var_entry = 0, trt_mean = 0, trt_var = 0, trrt_mean = 0, trrt_var = 0;
+        int k = 0;
+        for (const HuangHair::Node& n : sp.residual_nodes) {
+            const double gamma = m.h_to_gamma(n.h, sp.I), w = n.weight * m.dgamma_dh(sp.sin_phi_i, sp.cos_phi_i, gamma);
+            if (!(w != 0.0 && std::isfinite(w))) continue;
+            ++k;
+            const uint32_t shift = 0x2545F491u * uint32_t(k);
+            double s = 0, s2 = 0, s_pair = 0, s_other = 0, a = 0, a2 = 0, b = 0, b2 = 0;
+            for (uint32_t i = 0; i < points; ++i) {
+                double u[4], u_other[4];
+                for (int d = 0; d < 4; ++d) u[d] = double(so.point(i, d) ^ (shift + uint32_t(d) * 0x9E3779B9u)) * 0x1p-32;
+                RGB trt, trrt, trt2, trrt2;
+                HuangLab::trt_point(m, sp, O, gamma, w, u, trt, trrt);
+                u_other[0] = u[0], u_other[1] = u[1], u_other[2] = uni(rng), u_other[3] = uni(rng);
+                HuangLab::trt_point(m, sp, O, gamma, w, u_other, trt2, trrt2);
+                const double v = lum(trt) + lum(trrt), v2 = lum(trt2) + lum(trrt2);
+                s += v, s2 += v * v, s_pair += v * v2, s_other += v2;
+                a += lum(trt), a2 += sqr(lum(trt)), b += lum(trrt), b2 += sqr(lum(trrt));
+            }
+            const double n_pts = double(points), mean = s / n_pts, var_k = std::max(s2 / n_pts - mean * mean, 0.0);
+            var += var_k;
+            sd += std::sqrt(var_k);
+            var_entry += s_pair / n_pts - mean * s_other / n_pts;
+            trt_mean += a / n_pts, trt_var += std::max(a2 / n_pts - sqr(a / n_pts), 0.0);
+            trrt_mean += b / n_pts, trrt_var += std::max(b2 / n_pts - sqr(b / n_pts), 0.0);
+        }
+        if (k == 0 || !(total > 0)) continue;
+        const double spread = std::sqrt(k * var) / total;
+        std::printf("| %d | %d | %.2f | %.2f | %.0f | %.1f | %.1f | %.2f | %.2f |\n", row, k, (trt_mean + trrt_mean) / total,
+                    spread, sqr(spread / 0.005), std::sqrt(k * trt_var) / std::max(trt_mean, 1e-300),
+                    std::sqrt(k * trrt_var) / std::max(trrt_mean, 1e-300), k * var / std::max(sd * sd, 1e-300),
+                    var_entry / std::max(var, 1e-300));
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -386,17 +453,31 @@ int main(int argc, char** argv) {
     const bool help = what == "-h" || what == "--help";
     auto usage = [&] {
         std::fprintf(help ? stdout : stderr,
-                     "usage: huang_measure [all|simpson|speed|speed_trt [M [alpha]]|trt_lobes alpha index M max_points]\n"
+                     "usage: huang_measure [all|simpson|speed|speed_trt [M [alpha]]|trt_lobes alpha index M max_points|\n"
+                     "                     trt_variance alpha near|far rows points]\n"
                      "  simpson    Cycles' Simpson rule over h vs the converged integral, per lobe\n"
                      "  speed      R and TT: cost at equal error, ours vs Cycles' rule (~4 min)\n"
                      "  speed_trt  TRT + TRRT+: the same against the mean of M Cycles evals per configuration\n"
                      "             (M >= 100, default 2000000; M / 4 at alpha 0.02; alpha: only 0.3, 0.1 or 0.02)\n"
                      "  trt_lobes  TRT and TRRT+ separately at speed_trt's configuration index (0-11): Cycles' mean\n"
                      "             over M evals, ours at 1024, 4096, ... up to max_points points per node\n"
+                     "  trt_variance  where the TRT rule's variance is, per random row: spread per point, per lobe,\n"
+                     "             the gain bound of allocating points over the nodes, the entry normal's share\n"
                      "  HUANG_MEASURE_VERBOSE=1 prints speed_trt's configurations. docs/huang.md sections 5 and 9.\n");
         return help ? 0 : 2;
     };
     auto alpha_ok = [](double a) { return a == 0.3 || a == 0.1 || a == 0.02; };
+    if (what == "trt_variance") {
+        if (argc != 6) return usage();
+        const double alpha = std::atof(argv[2]);
+        const std::string field = argv[3];
+        const int rows = std::atoi(argv[4]);
+        const long points = std::atol(argv[5]);
+        if (!alpha_ok(alpha) || (field != "near" && field != "far") || rows < 1 || points < 16 || points > (1L << 24))
+            return usage();
+        trt_variance(alpha, field == "near", rows, uint32_t(points));
+        return 0;
+    }
     if (what == "trt_lobes") {
         if (argc != 6) return usage();
         const double alpha = std::atof(argv[2]);

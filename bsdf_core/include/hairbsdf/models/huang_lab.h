@@ -16,6 +16,18 @@ struct HuangLab {
         model.simpson_refinement_ = std::max(refinement, 1);
         return model;
     }
+    // One point of the deterministic eval's TRT rule (trt_mis_point) at the node gamma whose Simpson
+    // weight times |d gamma / dh| is `weight`, for the unit point u: TRT and TRRT+ in eval units.
+    static void trt_point(const HuangHair& m, const HuangHair::ShadingPoint& sp, Vec3 O, double gamma, double weight,
+                          const double (&u)[4], RGB& trt, RGB& trrt) {
+        const Vec3 I = sp.I;
+        const double final_scale = sp.norm * m.inv_eta_ * m.inv_eta_;
+        const double trrt_scale = m.trrt_m_.eval(I.y, std::sqrt(I.x * I.x + I.z * I.z), O.y,
+                                                 std::sqrt(O.x * O.x + O.z * O.z)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+        m.trt_mis_point(sp, O, gamma, u[0], kTwoPi * u[1], u[2], u[3], 2.0 * u[0] * weight, trt, trrt);
+        trt = (m.factors_[2] * final_scale) * trt;
+        trrt = trrt_scale * trrt;
+    }
 };
 
 }  // namespace hairbsdf
