@@ -63,8 +63,8 @@ inline pybind11::list render_passes_as_python() {
     return out;
 }
 
-inline std::vector<const char*> render_pass_names() {
-    std::vector<const char*> names;
+inline std::vector<std::string> render_pass_names() {
+    std::vector<std::string> names;
     for (const RenderPass& p : render_passes()) names.push_back(p.name);
     return names;
 }
