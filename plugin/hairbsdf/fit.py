@@ -29,8 +29,10 @@ from .gonio import H_NODES
 from .closure import LOBES
 from .principled import PRINCIPLED_HAIR_DEFAULTS as PRINCIPLED
 from .spec import CONSTRUCTORS, SpecError, build, format_spec, parse_spec
-from .zoo import DEON_DEFAULTS as DEON, EPIC_DEFAULTS as EPIC, KAJIYA_KAY_DEFAULTS as KAJIYA_KAY
-from .zoo import MARSCHNER_DEFAULTS as MARSCHNER, SCHEUERMANN_DEFAULTS as SCHEUERMANN, YAN_FUR_DEFAULTS as YAN_FUR
+from .zoo import model_defaults
+
+DEON, EPIC, KAJIYA_KAY, MARSCHNER, SCHEUERMANN, YAN_FUR = (
+    model_defaults(m) for m in ("deon", "epic", "kajiya_kay", "marschner", "scheuermann", "yan_fur"))
 
 
 # --- Free parameters ------------------------------------------------------------------------------

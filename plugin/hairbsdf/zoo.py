@@ -53,7 +53,8 @@ def make_model(model: str, params: dict | None = None, *, path: str | None = Non
     return Closure(core, f"make_model({model!r}, {{{args}}}" + (f", path={path!r})" if path else ")"))
 
 
-def _defaults(model: str) -> dict:
+def model_defaults(model: str) -> dict:
+    """A zoo model's parameters that have a default, by name: its table's (model_schema)."""
     return {p["name"]: p["default"] for p in _core.model_schema(model, "") if not p["optional"]}
 
 
@@ -174,7 +175,7 @@ def deon_hair():
 # --- Cycles' legacy Hair BSDF node ----------------------------------------------------------------
 # The node's sockets, Blender's defaults and the allowed ranges: its table (params/cycles_hair.h), which
 # also checks the values (make_model).
-CYCLES_HAIR_DEFAULTS = _defaults("cycles_hair")
+CYCLES_HAIR_DEFAULTS = model_defaults("cycles_hair")
 
 
 @_from_table("cycles_hair")

@@ -99,3 +99,7 @@ _.HAIR_MODEL_ENUM_FROM
 _.WORLD_ALWAYS_NODES_FROM
 # inspect.signature reads a function's __signature__ (hairbsdf.zoo's constructors built from their tables).
 _.__signature__
+# The view layer's pass switches, read by name: getattr(settings, "pass_" + name) for each pass of the
+# renderer's table (blender/passes.py).
+_.pass_hair_lobes
+_.pass_variance
