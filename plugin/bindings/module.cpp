@@ -286,21 +286,18 @@ ClosureSum principled_huang(int parametrization, const py::dict& inputs, const p
     return ClosureSum({Closure{RGB(1.0), HuangHair(huang_options(p, options))}});
 }
 
+template <class P>
+py::dict table_dict(const P& p);  // below
+
 py::dict huang_params_dict(const HuangHair& m) {
     const HuangHairParams& p = m.params();
-    py::dict d;
-    d["model"] = "huang";
+    py::dict d = table_dict(p);  // "model" and the options, named by their table (params/huang.h)
     d["sigma_a"] = std::array<double, 3>{p.sigma_a.r, p.sigma_a.g, p.sigma_a.b};
     d["roughness"] = m.alpha();
     d["offset"] = p.offset;
     d["eta"] = p.eta;
     d["aspect_ratio"] = m.aspect_ratio();
     d["factors"] = std::array<double, 3>{std::max(p.r_factor, 0.0), std::max(p.tt_factor, 0.0), std::max(p.trt_factor, 0.0)};
-    d["quadrature"] = p.quadrature == HuangQuadrature::Cycles ? "cycles" : "converged";
-    d["sampler"] = p.sampler == HuangSampler::Mixture ? "mixture" : "cycles";
-    d["tolerance"] = p.tolerance;
-    d["trt_points"] = p.trt_points;
-    d["glass_albedo_table"] = p.glass_albedo_table == GlassAlbedoTable::Cycles5 ? "5.x" : "4.x";
     return d;
 }
 

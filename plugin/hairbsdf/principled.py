@@ -10,10 +10,26 @@ from . import _validate as check
 from ._param_docs import with_parameters
 from .closure import Closure
 
-PARAMETRIZATIONS = {"color": 0, "melanin": 1, "absorption": 2}
-ACCURACIES = {"cycles": 0, "exact": 1}
-TILTS = {"4.2": 0, "3.4": 1}
-MODELS = ("chiang", "huang")
+_SCENE_SCHEMA = _core.scene_schema()
+
+
+def _choices(path: str) -> dict:
+    """A scene-schema enum's names in lower case -> the index C++ takes (the row lists the
+    C++ enum's names in the enum's order), the default first. The one place these names are written
+    is the schema row (plugin/bindings/scene_schema.cpp)."""
+    row = next(r for r in _SCENE_SCHEMA if r["path"] == path and r["allowed"])
+    names = {name.lower(): index for index, name in enumerate(row["allowed"])}
+    default = row["default"].lower()
+    return {default: names.pop(default), **names}
+
+
+PARAMETRIZATIONS = _choices("materials[].closures[].parametrization")
+ACCURACIES = _choices("integrator.accuracy")
+TILTS = _choices("integrator.tilt")
+MODELS = tuple(_choices("materials[].closures[].model"))
+# The defaults: each table's first entry (the schema row's default).
+DEFAULT_MODEL, DEFAULT_PARAMETRIZATION, DEFAULT_ACCURACY, DEFAULT_TILT = (
+    next(iter(t)) for t in (MODELS, PARAMETRIZATIONS, ACCURACIES, TILTS))
 
 # Huang's options (accuracy, sampler, tolerance, max_evaluations, trt_points, color_roughness,
 # glass_albedo_table): their table beside C++ HuangHairParams (params/huang.h) gives the names,
@@ -45,7 +61,6 @@ def _node_defaults(schema: list, hair_model: str) -> dict:
     return out
 
 
-_SCENE_SCHEMA = _core.scene_schema()
 PRINCIPLED_HAIR_DEFAULTS = _node_defaults(_SCENE_SCHEMA, "CHIANG")
 # Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
@@ -54,8 +69,8 @@ del _SCENE_SCHEMA
 _COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 
 
-def principled_hair(model: str = "chiang", parametrization: str = "color", *, accuracy: str = "cycles",
-                    tilt: str = "4.2", **inputs) -> Closure:
+def principled_hair(model: str = DEFAULT_MODEL, parametrization: str = DEFAULT_PARAMETRIZATION, *,
+                    accuracy: str = DEFAULT_ACCURACY, tilt: str = DEFAULT_TILT, **inputs) -> Closure:
     """Blender's Principled Hair BSDF as Cycles renders it.
 
     Keywords are the node's socket names in snake_case (defaults: Blender 4.5):
@@ -96,12 +111,12 @@ def principled_hair(model: str = "chiang", parametrization: str = "color", *, ac
     core = _core.principled_chiang(arguments)
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
     extra = "".join(f", {k}={v!r}" for k, v in (("accuracy", accuracy), ("tilt", tilt))
-                    if v != {"accuracy": "cycles", "tilt": "4.2"}[k])
+                    if v != {"accuracy": DEFAULT_ACCURACY, "tilt": DEFAULT_TILT}[k])
     return Closure(core, f"principled_hair(model='chiang', parametrization={parametrization!r}"
                          f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
-def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accuracy"], tilt="4.2",
+def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accuracy"], tilt=DEFAULT_TILT,
                       sampler=HUANG_OPTION_DEFAULTS["sampler"], tolerance=HUANG_TOLERANCE,
                       max_evaluations=HUANG_OPTION_DEFAULTS["max_evaluations"],
                       trt_points=HUANG_OPTION_DEFAULTS["trt_points"],
@@ -112,8 +127,8 @@ def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accura
         parametrization = parametrization.lower()
     check.choice("parametrization", parametrization, PARAMETRIZATIONS)
     check.choice("accuracy", accuracy, HUANG_ACCURACIES)
-    if tilt != "4.2":
-        raise ValueError("tilt: the Huang model has no tilt convention option (only '4.2')")
+    if tilt != DEFAULT_TILT:
+        raise ValueError(f"tilt: the Huang model has no tilt convention option (only {DEFAULT_TILT!r})")
     check.choice("sampler", sampler, HUANG_SAMPLERS)
     check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
     check.choice("glass_albedo_table", glass_albedo_table, HUANG_GLASS_ALBEDO_TABLES)
