@@ -165,5 +165,5 @@ def test_a_failing_native_module_is_reported_not_a_traceback(packages, tmp_path)
     res, log, _ = install_and_render("4.5", packages["extension"], tmp_path, plant_import_error=True)
     assert res["enabled"] and not res["engine_registered"], res
     assert "glibc >= 2.34" in (res["unavailable"] or ""), res
-    assert "hairbsdf: the HAIRBSDF engine is not available" in log and "glibc >= 2.34" in log, log[-3000:]
+    assert "hairbsdf: the hairbsdf engine is not available" in log and "glibc >= 2.34" in log, log[-3000:]
     assert "Traceback" not in log, log[-3000:]
