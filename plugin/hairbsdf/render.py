@@ -31,7 +31,8 @@ def scene_schema() -> list:
     return _core.scene_schema()
 
 
-def _allowed(path: str) -> tuple:
+def schema_choices(path: str) -> tuple:
+    """The names the scene key `path` allows (its schema row's choices), in the row's order."""
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
 
 
@@ -65,7 +66,7 @@ SCENE_DESC_VERSION = int(next(k["maximum"] for k in scene_schema() if k["path"] 
 
 
 # integrator["passes"]' names; _core.render_passes() gives the result keys each adds (docs/engine.md)
-PASSES = _allowed("integrator.passes")
+PASSES = schema_choices("integrator.passes")
 
 
 def validate_scene(scene: dict) -> dict:

@@ -157,9 +157,9 @@ def test_harness_reads_the_accuracy_ids_from_the_schema():
     """The harness's accuracy settings (runner.ACCURACIES) are the scene schema's integrator.accuracy choices;
     blender_job.py gets them in job.json."""
     from hairbsdf.compare import runner
-    from hairbsdf.render import _allowed
+    from hairbsdf.render import schema_choices
 
-    assert runner.ACCURACIES == tuple(a.upper() for a in _allowed("integrator.accuracy"))
+    assert runner.ACCURACIES == tuple(a.upper() for a in schema_choices("integrator.accuracy"))
     copies = ["%s:%d: %s" % (p.name, line, what) for p in (PACKAGE / "compare").glob("*.py")
               for line, what in accuracy_literals(p, set(runner.ACCURACIES))]
     assert not copies, "an accuracy id spelled in the harness; use runner.ACCURACIES:\n" + "\n".join(copies)
@@ -183,3 +183,30 @@ def test_parameter_kind_names_come_from_the_core():
                         isinstance(s, ast.Constant) and s.value in names for s in sides):
                     copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
     assert not copies, "a parameter kind spelled again; use hairbsdf._param_docs' names:\n" + "\n".join(copies)
+
+
+def test_producers_read_the_schemas_choice_lists():
+    """A scene key's list of choices (all of its names in one tuple, list, set or dict's values; a subset is a
+    condition, not the list) is the schema row's: producers read it with hairbsdf.render.schema_choices(path)."""
+    from hairbsdf.render import scene_schema
+
+    choice_sets = {}
+    for row in scene_schema():
+        if row["kind"] == "enum" and len(row["allowed"]) >= 2:
+            choice_sets.setdefault(frozenset(row["allowed"]), row["path"])
+
+    def spelled_lists(path):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            items = node.values if isinstance(node, ast.Dict) else getattr(node, "elts", None)
+            if not isinstance(node, (ast.Tuple, ast.List, ast.Set, ast.Dict)) or not items or len(items) < 2:
+                continue
+            if all(isinstance(x, ast.Constant) and isinstance(x.value, str) for x in items):
+                names = frozenset(x.value for x in items)
+                if names in choice_sets:
+                    yield node.lineno, choice_sets[names], sorted(names)
+
+    # The catalog's variants are the scenes a test renders; that ribbons_vs_3d renders every shape is its choice.
+    chosen = {PACKAGE / "compare" / "scenes" / "catalog.py"}
+    copies = ["%s:%d: %s spells %s" % (p.relative_to(ROOT), line, key, names)
+              for p in python_sources() if p not in chosen for line, key, names in spelled_lists(p)]
+    assert not copies, "choice lists written again (read them with schema_choices):\n" + "\n".join(copies)

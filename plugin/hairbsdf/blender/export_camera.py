@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..render import schema_choices
 from ._common import ExportError, matrix_to_numpy
 
 
@@ -24,7 +25,7 @@ def export_camera(depsgraph, report) -> dict:
     if cam_eval.type != "CAMERA":
         raise ExportError(f"the active camera '{cam_obj.name}' is a {cam_eval.type.lower()} object, not a camera")
     cam = cam_eval.data
-    if cam.type not in ("PERSP", "ORTHO"):
+    if cam.type not in schema_choices("camera.type"):
         raise ExportError(f"camera '{cam_obj.name}': {cam.type} cameras are not supported (perspective and "
                           "orthographic only)")
     m = matrix_to_numpy(cam_eval.matrix_world)

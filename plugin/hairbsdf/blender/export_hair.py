@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from ..render import schema_choices
 from ._common import curves_object_space, radius_scale, transform_points, working_space
 from .images import srgb_to_linear
 from .shading_network import UV_ATTRIBUTE
@@ -163,7 +164,7 @@ def curves_attribute_rgba(obj, data, name, report):
     if attr is None:
         return None
     reader = ATTRIBUTE_READERS.get(attr.data_type)
-    if reader is None or attr.domain not in ("POINT", "CURVE"):
+    if reader is None or attr.domain not in schema_choices("curves.attributes[].domain"):
         report.warn(f"Curves '{obj.name}': attribute '{name}' ({attr.domain} {attr.data_type}) is not supported; "
                     "read as 0")
         return None

@@ -26,7 +26,7 @@ from .export_world import export_world
 from . import passes
 from .._blender_versions import (CHIANG_LCG_BEFORE, CURVE_CULLING_BEFORE, HUANG_GLASS_TABLES_5_FROM,
                                  LIGHT_TREE_FROM)
-from ..render import SCENE_DESC_VERSION
+from ..render import SCENE_DESC_VERSION, schema_choices, schema_default
 from ..scene_file import load_scene, save_scene  # noqa: F401 (re-exported: no bpy needed to read a file)
 
 
@@ -193,9 +193,10 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
     # 4.5.15; docs/engine.md, which also says why the cause in 3.x is not the Embree build option).
     curve_settings = cycles_settings(scene, "cycles_curves")
     shape, subdiv = str(curve_settings.shape), int(curve_settings.subdivisions)
-    if shape not in ("RIBBONS", "THICK", "THICK_LINEAR"):
-        report.warn(f"curve shape {shape} is not supported; rendered as 3D curves (THICK)")
-        shape = "THICK"
+    if shape not in schema_choices("curve_shape"):
+        shape_default = schema_default("curve_shape")
+        report.warn(f"curve shape {shape} is not supported; rendered as {shape_default}")
+        shape = shape_default
     # Linear 3D Curves (5.x) are Embree's round linear curves, to which the build's back-face
     # culling applies (docs/blender5.md), so they are culled in every Blender that has them.
     cull_curves = blender_version() < CURVE_CULLING_BEFORE or shape == "THICK_LINEAR"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..render import schema_choices, schema_default
 from ._common import find_socket, mapping_matrix, rgb
 from .export_materials import MaterialTranslator
 from .images import read_image_rgb
@@ -128,10 +129,11 @@ def _environment_texture(tr, node, output, weight) -> dict:
         # Cycles shows its missing-texture colour (magenta); say so rather than guess.
         tr.warn(f"'{node.name}' has no image; Cycles renders its missing-texture colour, hairbsdf black")
         return {}
-    interpolation = {"Closest": "CLOSEST", "Linear": "LINEAR"}.get(node.interpolation)
-    if interpolation is None:
-        tr.warn(f"'{node.name}': interpolation {node.interpolation} is not supported; using Linear")
-        interpolation = "LINEAR"
+    interpolation = str(node.interpolation).upper()  # Blender's "Closest", "Linear", ...
+    if interpolation not in schema_choices("world.texture.interpolation"):
+        fallback = schema_default("world.texture.interpolation")
+        tr.warn(f"'{node.name}': interpolation {node.interpolation} is not supported; using {fallback.title()}")
+        interpolation = fallback
     matrix = _lookup_matrix(tr, node)
     pixels, srgb_encoded = read_image_rgb(node.image, tr.warn)
     if pixels is None or matrix is None:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import _blender_versions, _version
 from .._constants import ENGINE_ID
-from ..render import _allowed
+from ..render import schema_choices
 from . import judge, metrics
 from .progress import Progress
 from .thresholds import Thresholds
@@ -107,7 +107,7 @@ def _sha(*parts):
 
 # The engine's accuracy settings as Blender's enum names them: the scene schema's integrator.accuracy choices
 # (scene_schema.cpp), upper case, in its order: Cycles' truncated series (the default), exact functions.
-ACCURACIES = tuple(a.upper() for a in _allowed("integrator.accuracy"))
+ACCURACIES = tuple(a.upper() for a in schema_choices("integrator.accuracy"))
 CYCLES_ACCURACY, EXACT_ACCURACY = ACCURACIES
 
 
