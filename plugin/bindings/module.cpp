@@ -590,9 +590,41 @@ py::array output_array(const py::object& out, const char* name, std::vector<py::
 
 // Runs op on the kernels. Returns None when they do not apply (the caller then validates and
 // takes the scalar path, which also names any argument that is not allowed).
-// The per-row inputs (docs/simd.md), in the order of ChiangBatchRowInputs; absorption_coefficient is (N, 3).
-constexpr const char* kRowInputNames[6] = {"roughness", "radial_roughness", "coat", "random", "melanin",
-                                           "absorption_coefficient"};
+// The Principled Hair inputs the Chiang batch calls take per row (docs/simd.md), each by the
+// ClosureDesc::Input its scene-schema row drives: that row gives its name (the row's key) and its
+// shape (a number: (N,); a vector: (N, columns)).
+struct ChiangRowInput {
+    render::ClosureDesc::Input input;
+    const void* ChiangBatchRowInputs::*kernel;       // where the kernels read the rows
+    double PrincipledHairInputs::*number = nullptr;  // where the scalar path writes row i's value
+    RGB PrincipledHairInputs::*rgb = nullptr;        // (an RGB input)
+    std::string name = {};
+    int columns = 0;  // 0: (N,)
+};
+using In = render::ClosureDesc::Input;
+const std::vector<ChiangRowInput>& chiang_row_inputs() {
+    static const std::vector<ChiangRowInput> inputs = [] {
+        std::vector<ChiangRowInput> out = {
+            {In::Roughness, &ChiangBatchRowInputs::roughness, &PrincipledHairInputs::roughness},
+            {In::RadialRoughness, &ChiangBatchRowInputs::radial_roughness, &PrincipledHairInputs::radial_roughness},
+            {In::Coat, &ChiangBatchRowInputs::coat, &PrincipledHairInputs::coat},
+            {In::Random, &ChiangBatchRowInputs::random, &PrincipledHairInputs::random},
+            {In::Melanin, &ChiangBatchRowInputs::melanin, &PrincipledHairInputs::melanin},
+            {In::AbsorptionCoefficient, &ChiangBatchRowInputs::absorption, nullptr,
+             &PrincipledHairInputs::absorption_coefficient}};
+        for (ChiangRowInput& r : out) {
+            for (const auto& [key, row] : principled_input_rows())
+                if (row->link_input == int(r.input)) {
+                    r.name = key;
+                    r.columns = row->kind == bindings::SceneKeyKind::Vector ? row->columns : 0;
+                }
+            if (r.name.empty() || (r.columns == 3) != bool(r.rgb) || (r.columns == 0) != bool(r.number))
+                throw std::logic_error("a Chiang row input has no Principled Hair schema row of its shape");
+        }
+        return out;
+    }();
+    return inputs;
+}
 
 py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, py::handle wo, py::handle second,
                        py::handle h, const py::object& out, const py::dict& inputs);
@@ -627,28 +659,21 @@ py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, 
     }
     // Per-row inputs: in the rows' float type (float64 converted to float32 here, as the rows are
     // under set_batch_kernel(float64="float32")), C-contiguous, N rows.
-    std::array<py::array, 6> row_inputs;
-    const void* row_ptrs[6] = {};
-    for (int k = 0; k < 6; ++k) {
-        if (!inputs.contains(kRowInputNames[k])) continue;
-        py::handle given = inputs[kRowInputNames[k]];
-        if (!is_float_array(given, k == 5 ? 2 : 1)) return py::none();
-        py::array& a = row_inputs[size_t(k)];
-        a = py::reinterpret_borrow<py::array>(given);
+    ChiangBatchRows rows;
+    std::vector<py::array> row_inputs;
+    for (const ChiangRowInput& r : chiang_row_inputs()) {
+        if (!inputs.contains(r.name)) continue;
+        py::handle given = inputs[py::str(r.name)];
+        if (!is_float_array(given, r.columns ? 2 : 1)) return py::none();
+        py::array a = py::reinterpret_borrow<py::array>(given);
         if (f64)
             a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
         else
             a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
         if (a.shape(0) != n) return py::none();
-        row_ptrs[k] = a.data();
+        rows.inputs.*r.kernel = a.data();
+        row_inputs.push_back(std::move(a));
     }
-    ChiangBatchRows rows;
-    rows.inputs.roughness = row_ptrs[0];
-    rows.inputs.radial_roughness = row_ptrs[1];
-    rows.inputs.coat = row_ptrs[2];
-    rows.inputs.random = row_ptrs[3];
-    rows.inputs.melanin = row_ptrs[4];
-    rows.inputs.absorption = row_ptrs[5];
     rows.wo = in[0].data();
     (op == ChiangBatchOp::Sample ? rows.u : rows.wi) = in[1].data();
     rows.h = in[2].data();
@@ -694,13 +719,11 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
     check_rows(wo, n, 3, "wo");
     check_rows(second, n, 3, op == ChiangBatchOp::Sample ? "u" : "wi");
     check_rows(h, n, 0, "h");
-    std::vector<Array> keep(6);
-    const double* row_ptrs[6] = {};
-    for (int k = 0; k < 6; ++k) {
-        if (!inputs.contains(kRowInputNames[k])) continue;
-        keep[size_t(k)] = inputs[kRowInputNames[k]].cast<Array>();
-        check_rows(keep[size_t(k)], n, k == 5 ? 3 : 0, kRowInputNames[k]);
-        row_ptrs[k] = keep[size_t(k)].data();
+    std::vector<std::pair<const ChiangRowInput*, Array>> given;  // the inputs given, with their rows
+    for (const ChiangRowInput& r : chiang_row_inputs()) {
+        if (!inputs.contains(r.name)) continue;
+        given.emplace_back(&r, inputs[py::str(r.name)].cast<Array>());
+        check_rows(given.back().second, n, r.columns, r.name.c_str());
     }
     auto value = new_array({py::ssize_t(n), 3}), pdf = new_array({py::ssize_t(n)});
     auto wi = new_array({py::ssize_t(op == ChiangBatchOp::Sample ? n : 0), 3});
@@ -714,12 +737,12 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
             ClosureSum::ShadingPoint point;
             for (size_t i = b; i < e; ++i) {
                 PrincipledHairInputs in = base;
-                if (row_ptrs[0]) in.roughness = row_ptrs[0][i];
-                if (row_ptrs[1]) in.radial_roughness = row_ptrs[1][i];
-                if (row_ptrs[2]) in.coat = row_ptrs[2][i];
-                if (row_ptrs[3]) in.random = row_ptrs[3][i];
-                if (row_ptrs[4]) in.melanin = row_ptrs[4][i];
-                if (row_ptrs[5]) in.absorption_coefficient = vec_rgb(row_ptrs[5], i);
+                for (const auto& [r, values] : given) {
+                    if (r->rgb)
+                        in.*r->rgb = vec_rgb(values.data(), i);
+                    else
+                        in.*r->number = values.data()[i];
+                }
                 const ClosureSum bsdf({Closure{weight, ChiangHair(chiang_params_from_principled(in, accuracy, tilt))}});
                 bsdf.prepare(fibre_context(pwo, ph, i), point);
                 if (op == ChiangBatchOp::Sample) {
@@ -911,8 +934,12 @@ PYBIND11_MODULE(_core, m) {
     // Per-row Principled Hair inputs on a Chiang closure (docs/simd.md); op 0 eval, 1 pdf, 2 sample.
     m.def("chiang_rows", &chiang_rows, py::arg("op"), py::arg("principled"), py::arg("weight"), py::arg("inputs"),
           py::arg("wo"), py::arg("second"), py::arg("h"), py::arg("out"), py::arg("scalar"));
-    m.attr("CHIANG_ROW_INPUTS") = py::make_tuple(kRowInputNames[0], kRowInputNames[1], kRowInputNames[2],
-                                                 kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
+    // name -> columns (0: one number a row, 3: an RGB triple a row), from the scene schema's rows.
+    m.attr("CHIANG_ROW_INPUTS") = [] {
+        py::dict d;
+        for (const ChiangRowInput& r : chiang_row_inputs()) d[py::str(r.name)] = r.columns;
+        return d;
+    }();
     m.def("principled_huang", &principled_huang, py::arg("parametrization"), py::arg("inputs"), py::arg("options"));
     // Huang's options (params/huang.h): the table as model_schema's dicts, and name -> default.
     m.def("huang_option_schema", [] { return schema_list(param_specs<HuangHairParams>()); });

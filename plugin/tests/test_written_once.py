@@ -210,3 +210,21 @@ def test_producers_read_the_schemas_choice_lists():
     copies = ["%s:%d: %s spells %s" % (p.relative_to(ROOT), line, key, names)
               for p in python_sources() if p not in chosen for line, key, names in spelled_lists(p)]
     assert not copies, "choice lists written again (read them with schema_choices):\n" + "\n".join(copies)
+
+
+def test_chiang_row_inputs_are_the_schemas_rows():
+    """The inputs that may vary per row (closure.ROW_INPUTS, from C++ chiang_row_inputs) are named and shaped by
+    the scene schema's Principled Hair rows; closure.py tells a number from an RGB input by that shape, never by
+    comparing with an input's name."""
+    from hairbsdf.closure import ROW_INPUTS
+    from hairbsdf.render import principled_hair_input_rows
+
+    rows = principled_hair_input_rows()
+    assert ROW_INPUTS and set(ROW_INPUTS) <= set(rows)
+    assert ROW_INPUTS == {name: rows[name]["columns"] if rows[name]["kind"] == "vector" else 0 for name in ROW_INPUTS}
+    path = PACKAGE / "closure.py"
+    copies = ["closure.py:%d: %s" % (node.lineno, ast.unparse(node))
+              for node in ast.walk(ast.parse(path.read_text(), str(path))) if isinstance(node, ast.Compare)
+              for side in [node.left, *node.comparators] if isinstance(side, ast.Constant) and side.value in rows]
+    assert not copies, "a per-row input compared by name; use ROW_INPUTS[name] (its columns):\n" + "\n".join(copies)
+
