@@ -9,6 +9,7 @@ from . import _core
 from . import _validate as check
 from ._param_docs import with_parameters
 from .closure import Closure
+from .render import principled_hair_input_rows
 
 _SCENE_SCHEMA = _core.scene_schema()
 
@@ -42,17 +43,13 @@ HUANG_ACCURACIES, HUANG_SAMPLERS, HUANG_COLOR_ROUGHNESS, HUANG_GLASS_ALBEDO_TABL
     for name in ("accuracy", "sampler", "color_roughness", "glass_albedo_table"))
 
 
-def _node_defaults(schema: list, hair_model: str) -> dict:
+def _node_defaults(hair_model: str) -> dict:
     """The Principled Hair node's Blender 4.5 defaults (docs/cycles.md §1; offset in radians) for
     `hair_model` ("CHIANG" or "HUANG"), read from the scene schema's input rows, whose defaults are
     the C++ PrincipledHairInputs struct's: the one place they are written."""
-    prefix = "materials[].closures[].inputs."
     out = {}
-    for row in schema:
-        key = row["path"][len(prefix):]
-        if not row["path"].startswith(prefix) or key == "random":
-            continue
-        if hair_model in row["hair_models"].split():
+    for key, row in principled_hair_input_rows().items():
+        if key != "random" and hair_model in row["hair_models"].split():
             text = row["default"].strip("()")
             values = tuple(float(v) for v in text.split(","))
             out[key] = values if row["kind"] == "vector" else values[0]
@@ -61,10 +58,10 @@ def _node_defaults(schema: list, hair_model: str) -> dict:
     return out
 
 
-PRINCIPLED_HAIR_DEFAULTS = _node_defaults(_SCENE_SCHEMA, "CHIANG")
+PRINCIPLED_HAIR_DEFAULTS = _node_defaults("CHIANG")
 # Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
-HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults(_SCENE_SCHEMA, "HUANG"))
+HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults("HUANG"))
 del _SCENE_SCHEMA
 _COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
 

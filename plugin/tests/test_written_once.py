@@ -228,3 +228,14 @@ def test_chiang_row_inputs_are_the_schemas_rows():
               for side in [node.left, *node.comparators] if isinstance(side, ast.Constant) and side.value in rows]
     assert not copies, "a per-row input compared by name; use ROW_INPUTS[name] (its columns):\n" + "\n".join(copies)
 
+
+def test_principled_hair_inputs_path_is_written_once():
+    """The scene key of Principled Hair's inputs is hairbsdf.render.PRINCIPLED_HAIR_INPUTS; the others read its
+    rows with render.principled_hair_input_rows()."""
+    from hairbsdf.render import PRINCIPLED_HAIR_INPUTS
+
+    one_place = PACKAGE / "render.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in python_sources() if p != one_place
+              for line, text in string_literals(p) if PRINCIPLED_HAIR_INPUTS in text]
+    assert not copies, "the Principled Hair inputs' path spelled again; use hairbsdf.render's " \
+                       "principled_hair_input_rows:\n" + "\n".join(copies)

@@ -27,7 +27,7 @@ import os
 
 from .. import _core
 from .._blender_versions import EMISSION_SAMPLING_FROM
-from ..render import schema_choices, schema_default
+from ..render import principled_hair_input_rows, schema_choices, schema_default
 from ..zoo import PLUGIN_MODEL
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
@@ -44,11 +44,8 @@ def principled_hair_inputs(model: str) -> tuple:
     """(key in scene_desc, socket identifier, kind) of the Principled Hair inputs `model` reads
     (Random apart): the scene schema's rows (plugin/bindings/scene_schema.cpp), so the exporter,
     the renderer and docs/scene_desc.md share one table."""
-    from hairbsdf.render import scene_schema  # lazily, as the VM's instruction set
-
-    prefix = "materials[].closures[].inputs."
-    return tuple((k["path"][len(prefix):], k["socket"], k["socket_kind"]) for k in scene_schema()
-                 if k["path"].startswith(prefix) and model in k["hair_models"].split())
+    return tuple((key, k["socket"], k["socket_kind"]) for key, k in principled_hair_input_rows().items()
+                 if model in k["hair_models"].split())
 
 
 @functools.cache
