@@ -120,16 +120,16 @@ def literal_fallbacks(function: ast.FunctionDef, names: set, choices: set):
 
 
 def test_portable_reads_the_schemas_defaults():
-    """portable.py's materialx_limits and render_settings take a missing key's default from the scene schema
-    (portable._key), never from a literal fallback. (write_materialx's grey and strength fallbacks are left to
-    the change that names the grey once.)"""
+    """portable.py's materialx_limits, write_materialx and render_settings take a missing key's default from the
+    scene schema (portable._key), never from a literal fallback. (write_materialx's grey, _core's
+    DEFAULT_SURFACE_COLOR, is no literal.)"""
     from hairbsdf.render import scene_schema
 
     names = {k["path"].rsplit(".", 1)[-1].removesuffix("[]") for k in scene_schema()}
     choices = {c for k in scene_schema() for c in k["allowed"]}
     path = PACKAGE / "compare" / "portable.py"
     functions = {n.name: n for n in ast.parse(path.read_text()).body if isinstance(n, ast.FunctionDef)}
-    copies = ["portable.py:%d: %s" % hit for name in ("materialx_limits", "render_settings")
+    copies = ["portable.py:%d: %s" % hit for name in ("materialx_limits", "write_materialx", "render_settings")
               for hit in literal_fallbacks(functions[name], names, choices)]
     assert not copies, "a scene key's default written again; use portable._key:\n" + "\n".join(copies)
 

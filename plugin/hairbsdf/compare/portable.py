@@ -139,7 +139,8 @@ def write_materialx(desc, path):
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
             surface.setConnectedNode("bsdf", node)
         else:  # emission
-            col = [float(v) * float(c.get("strength", 1.0)) for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
+            strength = float(_key(c, CLOSURE + "strength", c["type"]))
+            col = [float(v) * strength for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
             node = doc.addNode("uniform_edf", name + "_edf", "EDF")
             node.setInputValue("color", ", ".join(repr(v) for v in col), "color3")
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
