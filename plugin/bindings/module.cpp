@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <sstream>
 #include <atomic>
 #include <vector>
 
@@ -260,12 +261,33 @@ P inputs_from_table(const py::dict& given) {
 
 // Huang's options by their table's names (params/huang.h): a choice as its index, else the
 // number; each bound row writes its field (a choice's index names its enum value through the table).
+// The one check of the options' kinds and ranges (a row's), and of trt_points' rule (models/huang.h).
 HuangHairParams huang_options(HuangHairParams p, const py::dict& given) {
     for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows()) {
         if (!row.set) continue;  // color_roughness: an input of the node conversion
-        const double x = given[py::str(row.spec.name)].cast<double>();
+        const ModelParamSpec& spec = row.spec;
+        const py::handle v = given[py::str(spec.name)];
+        const bool integer = spec.kind == ParamKind::Int || spec.kind == ParamKind::Choice;
+        if (integer && (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v)))
+            throw py::type_error(spec.name + ": expected an integer, got " + std::string(py::repr(v)));
+        const double x = v.cast<double>();
+        const double hi = spec.kind == ParamKind::Choice ? double(spec.choices.size()) - 1 : spec.max_value;
+        const double lo = spec.kind == ParamKind::Choice ? 0.0 : spec.min_value;
+        if (!(x >= lo && x <= hi)) {
+            auto text = [integer](double bound) {
+                if (integer) return std::to_string((long long)bound);
+                std::ostringstream os;
+                os << bound;
+                return os.str();
+            };
+            throw py::value_error(spec.name + "=" + std::string(py::repr(v)) + ": must be in [" + text(lo) + ", " +
+                                  text(hi) + "]");
+        }
         row.set(p, {x, x, x});
     }
+    if (!trt_points_allowed(p.trt_points))
+        throw py::value_error("trt_points=" + std::to_string(p.trt_points) + ": must be 0 (points set by `tolerance`) or "
+                              "an integer >= " + std::to_string(kMinFixedTrtPoints));
     return p;
 }
 

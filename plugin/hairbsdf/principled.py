@@ -133,8 +133,7 @@ def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accura
     lowest = int(HUANG_OPTIONS["max_evaluations"]["min"])
     if not isinstance(max_evaluations, int) or max_evaluations < lowest:
         raise ValueError(f"max_evaluations: must be an integer >= {lowest}")
-    if not isinstance(trt_points, int) or isinstance(trt_points, bool) or not (trt_points == 0 or trt_points >= 16):
-        raise ValueError(f"trt_points={trt_points!r}: must be 0 (points set by `tolerance`) or an integer >= 16")
+    # trt_points: checked by the core (its kind, range and rule, models/huang.h).
     check.keywords("principled_hair(model='huang')", inputs, HUANG_DEFAULTS)
     values = dict(HUANG_DEFAULTS)
     for key, value in inputs.items():
