@@ -139,6 +139,30 @@ py::array_t<double> albedo_arrays(const ClosureSum& bsdf, const Array& wo, const
     return out;
 }
 
+// Reads the dict `given` into a struct by table rows: apply(row, value) for each row whose name
+// (name_of(row)) is a key of `given`; rows not given keep the struct's defaults. A key that no row
+// names is a ValueError naming it and the allowed names: "<where>['<key>']: not <what>; allowed: a, b".
+template <class Rows, class NameOf, class Apply>
+void read_by_rows(const py::dict& given, const Rows& rows, NameOf name_of, Apply apply, const std::string& where,
+                  const std::string& what) {
+    size_t used = 0;
+    for (const auto& row : rows) {
+        const py::str name(name_of(row));
+        if (!given.contains(name)) continue;
+        apply(row, given[name]);
+        ++used;
+    }
+    if (used == given.size()) return;
+    std::string allowed;
+    for (const auto& row : rows) allowed += (allowed.empty() ? "" : ", ") + std::string(name_of(row));
+    for (const auto& item : given) {
+        const std::string key = py::str(item.first);
+        bool known = false;
+        for (const auto& row : rows) known = known || key == name_of(row);
+        if (!known) throw py::value_error(where + "['" + key + "']: not " + what + "; allowed: " + allowed);
+    }
+}
+
 // The scene schema's rows of Principled Hair's inputs ("materials[].closures[].inputs.*", bound to
 // PrincipledHairInputs' fields: the one table of the node's inputs), with their keys; found once.
 using PrincipledInputRows = std::vector<std::pair<std::string, const bindings::SceneKey*>>;
@@ -159,25 +183,15 @@ const PrincipledInputRows& principled_input_rows() {
 PrincipledHairInputs principled_inputs_from(int parametrization, const py::dict& inputs) {
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
-    size_t used = 0;
-    for (const auto& [key, row] : principled_input_rows()) {
-        if (!inputs.contains(key)) continue;
-        py::object value = inputs[py::str(key)];
-        if (row->kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
-        row->field.assign(*row, &in, value);
-        ++used;
-    }
-    if (used != inputs.size()) {
-        std::string unknown, allowed;
-        for (const auto& item : inputs) {
-            const std::string key = py::str(item.first);
-            bool known = false;
-            for (const auto& row : principled_input_rows()) known = known || row.first == key;
-            if (!known) unknown = key;
-        }
-        for (const auto& row : principled_input_rows()) allowed += (allowed.empty() ? "" : ", ") + row.first;
-        throw py::value_error("inputs['" + unknown + "']: not a Principled Hair input; allowed: " + allowed);
-    }
+    read_by_rows(
+        inputs, principled_input_rows(), [](const auto& row) -> const std::string& { return row.first; },
+        [&in](const auto& row, py::handle given) {
+            const bindings::SceneKey& key = *row.second;
+            py::object value = py::reinterpret_borrow<py::object>(given);
+            if (key.kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
+            key.field.assign(key, &in, value);
+        },
+        "inputs", "a Principled Hair input");
     return in;
 }
 
@@ -235,81 +249,103 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
 template <class P>
 P inputs_from_table(const py::dict& given) {
     P p;
-    size_t used = 0;
-    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
-        const py::str name(row.spec.name);
-        if (!row.set || !given.contains(name)) continue;
-        const py::handle v = given[name];
-        ParamValue x{};
-        if (py::isinstance<py::sequence>(v)) {
-            const std::vector<double> seq = v.cast<std::vector<double>>();
-            if (seq.empty() || seq.size() > 3) throw py::value_error(std::string(name) + ": expected 1 to 3 numbers");
-            std::copy(seq.begin(), seq.end(), x.begin());
-        } else {
-            x.fill(v.cast<double>());
-        }
-        row.set(p, x);
-        ++used;
-    }
-    if (used != given.size()) {
-        std::string known;
-        for (const ParamRow<P>& row : ParamTable<P>::rows()) known += (known.empty() ? "" : ", ") + row.spec.name;
-        throw py::value_error(std::string(ParamTable<P>::model) + ": unknown input; allowed: " + known);
-    }
+    std::vector<const ParamRow<P>*> rows;  // the rows that take an input
+    for (const ParamRow<P>& row : ParamTable<P>::rows())
+        if (row.set) rows.push_back(&row);
+    read_by_rows(
+        given, rows, [](const ParamRow<P>* row) -> const std::string& { return row->spec.name; },
+        [&p](const ParamRow<P>* row, py::handle v) {
+            ParamValue x{};
+            if (py::isinstance<py::sequence>(v)) {
+                const std::vector<double> seq = v.cast<std::vector<double>>();
+                if (seq.empty() || seq.size() > 3) throw py::value_error(row->spec.name + ": expected 1 to 3 numbers");
+                std::copy(seq.begin(), seq.end(), x.begin());
+            } else {
+                x.fill(v.cast<double>());
+            }
+            row->set(p, x);
+        },
+        ParamTable<P>::model, "an input");
     return p;
 }
 
 // Huang's options by their table's names (params/huang.h): a choice as its index, else the
-// number; each bound row writes its field (a choice's index names its enum value through the table).
-// The one check of the options' kinds and ranges (a row's), and of trt_points' rule (models/huang.h).
+// number; each bound row writes its field (a choice's index names its enum value through the table),
+// an option not given keeps p's (the table's default). The one check of the options' kinds and
+// ranges (their rows'), and of trt_points' rule (models/huang.h).
 HuangHairParams huang_options(HuangHairParams p, const py::dict& given) {
-    for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows()) {
-        if (!row.set) continue;  // color_roughness: an input of the node conversion
-        const ModelParamSpec& spec = row.spec;
-        const py::handle v = given[py::str(spec.name)];
-        const bool integer = spec.kind == ParamKind::Int || spec.kind == ParamKind::Choice;
-        if (integer && (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v)))
-            throw py::type_error(spec.name + ": expected an integer, got " + std::string(py::repr(v)));
-        const double x = v.cast<double>();
-        const double hi = spec.kind == ParamKind::Choice ? double(spec.choices.size()) - 1 : spec.max_value;
-        const double lo = spec.kind == ParamKind::Choice ? 0.0 : spec.min_value;
-        if (!(x >= lo && x <= hi)) {
-            auto text = [integer](double bound) {
-                if (integer) return std::to_string((long long)bound);
-                std::ostringstream os;
-                os << bound;
-                return os.str();
-            };
-            throw py::value_error(spec.name + "=" + std::string(py::repr(v)) + ": must be in [" + text(lo) + ", " +
-                                  text(hi) + "]");
-        }
-        row.set(p, {x, x, x});
-    }
+    using Row = ParamRow<HuangHairParams>;
+    read_by_rows(
+        given, ParamTable<HuangHairParams>::rows(), [](const Row& row) -> const std::string& { return row.spec.name; },
+        [&p](const Row& row, py::handle v) {
+            const ModelParamSpec& spec = row.spec;
+            const bool integer = spec.kind == ParamKind::Int || spec.kind == ParamKind::Choice;
+            if (integer && (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v)))
+                throw py::type_error(spec.name + ": expected an integer, got " + std::string(py::repr(v)));
+            const double x = v.cast<double>();
+            const double lo = spec.kind == ParamKind::Choice ? 0.0 : spec.min_value;
+            const double hi = spec.kind == ParamKind::Choice ? double(spec.choices.size()) - 1 : spec.max_value;
+            if (!(x >= lo && x <= hi)) {
+                auto text = [integer](double bound) {
+                    if (integer) return std::to_string((long long)bound);
+                    std::ostringstream os;
+                    os << bound;
+                    return os.str();
+                };
+                throw py::value_error(spec.name + "=" + std::string(py::repr(v)) + ": must be in [" + text(lo) + ", " +
+                                      text(hi) + "]");
+            }
+            if (row.set) row.set(p, {x, x, x});  // color_roughness: an input of the node conversion
+        },
+        "options", "an option of principled_hair(model='huang')");
     if (!trt_points_allowed(p.trt_points))
         throw py::value_error("trt_points=" + std::to_string(p.trt_points) + ": must be 0 (points set by `tolerance`) or "
                               "an integer >= " + std::to_string(kMinFixedTrtPoints));
     return p;
 }
 
-// The table's color_roughness choice at `index`.
-HuangColorRoughness huang_color_roughness(int index) {
+// The table's color_roughness choice in `options` (its index), or the row's default.
+HuangColorRoughness huang_color_roughness(const py::dict& options) {
     for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows())
-        if (row.spec.name == "color_roughness")
-            return row.spec.choices.at(size_t(index)) == "osl" ? HuangColorRoughness::Osl : HuangColorRoughness::Svm;
+        if (row.spec.name == "color_roughness") {
+            const py::str name(row.spec.name);
+            const size_t index = options.contains(name) ? options[name].cast<size_t>() : size_t(row.spec.default_value[0]);
+            return row.spec.choices.at(index) == "osl" ? HuangColorRoughness::Osl : HuangColorRoughness::Svm;
+        }
     throw std::logic_error("params/huang.h has no color_roughness row");
 }
 
-// principled_hair(model="huang"): the node's inputs as principled_inputs_from reads them, and every
-// option of Huang's table.
+// principled_hair(model="huang"): the node's inputs as principled_inputs_from reads them, and
+// Huang's options (any not given: its table's default).
 ClosureSum principled_huang(int parametrization, const py::dict& inputs, const py::dict& options) {
     const PrincipledHairInputs in = principled_inputs_from(parametrization, inputs);
-    const HuangColorRoughness color_roughness = huang_color_roughness(options["color_roughness"].cast<int>());
-    const HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, color_roughness);
+    HuangHairParams p;  // the options' defaults, for their check before the conversion reads color_roughness
+    huang_options(p, options);
+    p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, huang_color_roughness(options));
     return ClosureSum({Closure{RGB(1.0), HuangHair(huang_options(p, options))}});
 }
 
+// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
+// choice's name or a bool per bound row.
 template <class P>
-py::dict table_dict(const P& p);  // below
+py::dict table_dict(const P& p) {
+    py::dict d;
+    d["model"] = ParamTable<P>::model;
+    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+        if (!row.get) continue;  // an input the builder derived fields from
+        const ParamValue v = row.get(p);
+        const py::str name(row.spec.name);
+        switch (row.spec.kind) {
+            case ParamKind::Float: d[name] = v[0]; break;
+            case ParamKind::RGB: d[name] = v; break;
+            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
+            case ParamKind::Int: d[name] = (long long)v[0]; break;
+            case ParamKind::Vector2: d[name] = std::array<double, 2>{v[0], v[1]}; break;
+        }
+    }
+    return d;
+}
 
 py::dict huang_params_dict(const HuangHair& m) {
     const HuangHairParams& p = m.params();
@@ -365,27 +401,6 @@ py::dict model_dict(const HuangHair& m) { return huang_params_dict(m); }
 py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
     d["v"] = std::vector<double>{scales[0] * scales[0]};
     d["s"] = std::vector<double>{scales[1]};
-    return d;
-}
-// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
-// choice's name or a bool per bound row.
-template <class P>
-py::dict table_dict(const P& p) {
-    py::dict d;
-    d["model"] = ParamTable<P>::model;
-    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
-        if (!row.get) continue;  // an input the builder derived fields from
-        const ParamValue v = row.get(p);
-        const py::str name(row.spec.name);
-        switch (row.spec.kind) {
-            case ParamKind::Float: d[name] = v[0]; break;
-            case ParamKind::RGB: d[name] = v; break;
-            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
-            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
-            case ParamKind::Int: d[name] = (long long)v[0]; break;
-            case ParamKind::Vector2: d[name] = std::array<double, 2>{v[0], v[1]}; break;
-        }
-    }
     return d;
 }
 py::dict model_dict(const KajiyaKayHair& m) {
