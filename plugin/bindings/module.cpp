@@ -921,6 +921,7 @@ PYBIND11_MODULE(_core, m) {
     // Cycles' default surface colour (render/scene.h): the exporter's fallback diffuse.
     const RGB grey = render::kDefaultSurfaceColor;
     m.attr("DEFAULT_SURFACE_COLOR") = py::make_tuple(grey.r, grey.g, grey.b);
+    m.attr("LUMINANCE_WEIGHTS") = py::make_tuple(kLuminanceWeights[0], kLuminanceWeights[1], kLuminanceWeights[2]);
     py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")
         .def_property_readonly("name", &PluginLibrary::name)
         .def_property_readonly("path", &PluginLibrary::path)

@@ -239,3 +239,31 @@ def test_principled_hair_inputs_path_is_written_once():
               for line, text in string_literals(p) if PRINCIPLED_HAIR_INPUTS in text]
     assert not copies, "the Principled Hair inputs' path spelled again; use hairbsdf.render's " \
                        "principled_hair_input_rows:\n" + "\n".join(copies)
+
+
+def float_literals(path: Path):
+    """(line, value) of each float constant in a Python file."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Constant) and isinstance(node.value, float):
+            yield node.lineno, node.value
+
+
+def test_luminance_weights_are_written_once():
+    """The Rec.709 luminance weights of C++ luminance() (math.h) reach Python as _core.LUMINANCE_WEIGHTS (gonio,
+    compare.metrics); Cycles' rgb_to_y in Linear Rec.709 (more digits: Blender's colour -> float conversion) is
+    another fact, written once in blender/_common.py. No other module spells either."""
+    import numpy as np
+
+    from hairbsdf import _core, gonio
+    from hairbsdf.blender._common import CYCLES_REC709_RGB_TO_Y
+    from hairbsdf.compare import metrics
+
+    assert tuple(gonio.REC709) == _core.LUMINANCE_WEIGHTS
+    assert tuple(metrics.luminance(np.eye(3)[None])[0]) == _core.LUMINANCE_WEIGHTS
+    one_place = PACKAGE / "blender" / "_common.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, value) for p in python_sources()
+              for line, value in float_literals(p)
+              if value in _core.LUMINANCE_WEIGHTS or (value in CYCLES_REC709_RGB_TO_Y and p != one_place)]
+    assert not copies, "luminance weights spelled again; use _core.LUMINANCE_WEIGHTS (or, for Blender's " \
+                       "conversion, _common.CYCLES_REC709_RGB_TO_Y):\n" + "\n".join(copies)
+
