@@ -267,3 +267,17 @@ def test_luminance_weights_are_written_once():
     assert not copies, "luminance weights spelled again; use _core.LUMINANCE_WEIGHTS (or, for Blender's " \
                        "conversion, _common.CYCLES_REC709_RGB_TO_Y):\n" + "\n".join(copies)
 
+
+def test_cycles_addon_is_checked_once():
+    """Export requires the Cycles add-on, checked once (export_scene.cycles_settings raises ExportError without it);
+    the exporter then reads an object's Cycles settings (light.cycles, world.cycles, material.cycles) directly, with
+    no fallback for a missing add-on (getattr(x, "cycles", None))."""
+    copies = []
+    for p in sorted((PACKAGE / "blender").glob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "hasattr")
+                    and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+                    and str(node.args[1].value).startswith("cycles")):
+                copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
+    assert not copies, "a fallback for a missing Cycles add-on (export_scene.cycles_settings already requires " \
+                       "it); read x.cycles:\n" + "\n".join(copies)

@@ -107,9 +107,9 @@ def export_light(obj, matrix, report):
     if hidden:
         report.warn(f"light '{obj.name}': ray visibility ({', '.join(hidden)} off) is not supported; it lights "
                     "all rays")
-    cl = getattr(light, "cycles", None)
-    if cl is not None and hasattr(cl, "use_multiple_importance_sampling"):
+    cl = light.cycles  # the Cycles add-on's light settings (export requires the add-on)
+    if hasattr(cl, "use_multiple_importance_sampling"):
         out["use_mis"] = bool(cl.use_multiple_importance_sampling)
-    if cl is not None and hasattr(cl, "cast_shadow") and not cl.cast_shadow:
+    if hasattr(cl, "cast_shadow") and not cl.cast_shadow:
         report.warn(f"light '{obj.name}': Cast Shadow off is not supported; it casts shadows")
     return out

@@ -344,7 +344,7 @@ def emission_sampling(material) -> str:
     """Which sides of the material's emissive triangles Cycles light-samples (docs/scene_desc.md):
     Blender >= 4.0's Settings > Emission Sampling ("AUTO" is resolved by the engine, by Cycles' rule),
     Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold)."""
-    settings = getattr(material, "cycles", None)
+    settings = material.cycles  # the Cycles add-on's material settings (export requires the add-on)
     if blender_version() >= EMISSION_SAMPLING_FROM:
         return str(getattr(settings, "emission_sampling", "AUTO"))
     return "FRONT_BACK" if getattr(settings, "sample_as_light", True) else "NONE"
