@@ -24,7 +24,7 @@ def _number(x):
 def _type(k):
     kind, cols = k["kind"], k["columns"]
     text = {
-        "array": f"{k['dtype']} (N,)" if cols == 0 else f"{k['dtype']} (N, {cols})",
+        "array": f"{k['dtype']} ({k['rows'] or 'N'},)" if cols == 0 else f"{k['dtype']} ({k['rows'] or 'N'}, {cols})",
         "image": f"{k['dtype']} (H, W, {cols})",
         "vector": f"{cols} numbers",
         "matrix": "float64 (4, 4)" if cols == 4 else "float64 (3, 4) or (4, 4)",
