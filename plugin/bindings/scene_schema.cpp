@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <type_traits>
 
@@ -947,17 +948,21 @@ private:
     // The length rules of the arrays of the dict at `path` and of its lists' items, from the rows:
     // offsets, one row per count item, indices into a count, counts an Int must reach.
     void check_counts(const std::string& path, const py::dict& d, const std::string& key) {
+        static const std::set<std::string> counted = [] {  // the dicts whose rows define a count
+            std::set<std::string> paths;
+            for (const SceneKey& k : scene_schema())
+                if (k.defines != SceneCount::None) paths.insert(parent(k.path));
+            return paths;
+        }();
+        if (!counted.count(path)) return;
         const std::vector<const SceneKey*> rows = rows_under(path, "");
         Counts counts;
-        bool any = false;
         for (const SceneKey* k : rows) {
             if (k->defines == SceneCount::None) continue;
-            any = true;
             counts.row[size_t(k->defines)] = k;
             const long n = rows_of(d, leaf(k->path));
             counts.of(k->defines) = k->offsets_into == SceneCount::None || n < 0 ? n : std::max(n - 1, 0L);
         }
-        if (!any) return;
         for (const SceneKey* k : rows) {
             if (k->offsets_into != SceneCount::None) check_offsets(*k, d, key, counts);
             if (k->index_into != SceneCount::None && d.contains(leaf(k->path).c_str())) {
