@@ -942,7 +942,12 @@ private:
         std::array<const SceneKey*, size_t(SceneCount::ByDomain)> row{};
         Counts() { n.fill(-1); }
         long& of(SceneCount c) { return n[size_t(c)]; }
-        const SceneKey* defining(SceneCount c) const { return row[size_t(c)]; }
+        const SceneKey* defining(SceneCount c) const {
+            if (!row[size_t(c)])
+                throw std::logic_error(std::string("scene schema: no sibling row defines the number of ") +
+                                       count_name(c) + "s");
+            return row[size_t(c)];
+        }
     };
 
     // The length rules of the arrays of the dict at `path` and of its lists' items, from the rows:
@@ -1011,6 +1016,7 @@ private:
     static void count(const py::dict& d, const SceneKey& k, SceneCount per, Counts& counts, const std::string& key) {
         const std::string name = leaf(k.path);
         const long n = rows_of(d, name), want = counts.of(per);
+        counts.defining(per);  // a table without the row defining it is a logic_error
         if (n >= 0 && n != want)
             value_error(key + "['" + name + "']", "expected " + std::string(k.per_item) + " per " + count_name(per) +
                                                       " (" + std::to_string(want) + "), got " + std::to_string(n));
