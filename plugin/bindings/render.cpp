@@ -57,36 +57,18 @@ py::array_t<T, py::array::c_style | py::array::forcecast> array_shape(py::handle
 }
 
 // ----- the scene: check_scene (scene_schema.h) has checked every key, its type, shape, dtype,
-// allowed values and the rules between keys, and dropped None; the readers below only copy.
-// Plain values go through the schema's field bindings (bindings::read_fields); arrays and
-// keys with rules of their own are copied here. -----
+// allowed values, array lengths and the rules between keys, and dropped None; the readers below
+// only copy. Plain values and arrays go through the schema's field bindings
+// (bindings::read_fields, bindings::read_list); keys with rules of their own are copied here. -----
 
 template <class T>
 py::array_t<T, py::array::c_style | py::array::forcecast> checked_array(const py::dict& d, const char* name) {
     return py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(d[name]);  // contiguous, its dtype
 }
 
-// Copies a checked (N, columns) array into a vector of N rows.
-template <class Row, class T>
-void copy_rows(const py::dict& d, const char* name, std::vector<Row>& dst) {
-    const auto a = checked_array<T>(d, name);
-    dst.resize(size_t(a.shape(0)));
-    if (!dst.empty()) std::memcpy(dst.data(), a.data(), size_t(a.size()) * sizeof(T));
-}
-
-template <class T>
-void copy_values(const py::dict& d, const char* name, std::vector<T>& dst) {
-    const auto a = checked_array<T>(d, name);
-    dst.assign(a.data(), a.data() + a.size());
-}
-
 py::dict dict_at(const py::dict& d, const char* name) { return py::reinterpret_borrow<py::dict>(d[name]); }
 
 void read_environment(const py::dict& t, EnvironmentDesc& env, int32_t& weight_register) {
-    const auto px = checked_array<float>(t, "pixels");
-    env.height = int(px.shape(0));
-    env.width = int(px.shape(1));
-    env.pixels.assign(px.data(), px.data() + px.size());
     bindings::read_fields("world.texture", t, env, [&](int, int reg) { weight_register = reg; });
 }
 
@@ -94,52 +76,23 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("curves")) return;
     const py::dict c = dict_at(scene, "curves");
     CurveData& cd = out.curves;
-    copy_values(c, "curve_offsets", cd.offsets);
-    if (cd.offsets.empty()) {  // and no points
+    bindings::read_fields("curves", c, cd);
+    if (cd.offsets.empty()) {  // no curves, no points: nothing else is read
+        cd = CurveData{};
         return;
     }
-    copy_rows<std::array<float, 4>, float>(c, "points", cd.points);
-    copy_values(c, "curve_random", cd.random);
-    copy_values(c, "curve_material", cd.material);
-    if (c.contains("normals")) copy_rows<std::array<float, 3>, float>(c, "normals", cd.normals);
-    if (c.contains("point_intercept")) copy_values(c, "point_intercept", cd.intercept);
-    if (c.contains("curve_intercept_total")) copy_values(c, "curve_intercept_total", cd.length);
-    if (c.contains("curve_object")) {
-        copy_values(c, "curve_object", cd.object);
-        copy_rows<std::array<double, 12>, double>(c, "object_transforms", cd.object_transforms);
-    }
-    if (c.contains("attributes")) {
-        for (py::handle item : py::reinterpret_borrow<py::list>(c["attributes"])) {
-            const py::dict a = py::reinterpret_borrow<py::dict>(item);
-            CurveData::Attribute attr;
-            bindings::read_fields("curves.attributes[]", a, attr);
-            copy_rows<std::array<float, 4>, float>(a, "data", attr.rgba);
-            cd.attributes.push_back(std::move(attr));
-        }
-    }
+    bindings::read_list("curves.attributes", c, cd.attributes);
 }
 
 // An image the programs sample: an item of `images`, checked.
 ImageDesc read_image(const py::dict& d) {
     ImageDesc im;
     bindings::read_fields("images[]", d, im);
-    const auto a = checked_array<float>(d, "pixels");
-    im.height = int(a.shape(0));
-    im.width = int(a.shape(1));
-    im.pixels.assign(a.data(), a.data() + size_t(a.size()));
     return im;
-}
-
-void read_images(const py::dict& scene, SceneDesc& out) {
-    if (!scene.contains("images")) return;
-    for (py::handle h : py::reinterpret_borrow<py::list>(scene["images"]))
-        out.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
 }
 
 ShadingProgram read_program(const py::dict& d, const std::string& path = "materials[].program") {
     ShadingProgram p;
-    copy_values(d, "code", p.code);
-    copy_values(d, "constants", p.constants);
     bindings::read_fields(path, d, p);
     return p;
 }
@@ -147,26 +100,8 @@ ShadingProgram read_program(const py::dict& d, const std::string& path = "materi
 void read_meshes(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("meshes")) return;
     const py::dict m = dict_at(scene, "meshes");
-    MeshData& md = out.meshes;
-    copy_rows<std::array<float, 3>, float>(m, "vertices", md.vertices);
-    copy_rows<std::array<int32_t, 3>, int32_t>(m, "triangles", md.triangles);
-    copy_values(m, "triangle_material", md.material);
-    if (m.contains("triangle_normals")) copy_rows<std::array<float, 9>, float>(m, "triangle_normals", md.normals);
-    if (m.contains("triangle_object")) copy_values(m, "triangle_object", md.object);
-    if (m.contains("triangle_reversed")) {
-        std::vector<int32_t> reversed;
-        copy_values(m, "triangle_reversed", reversed);
-        md.reversed.assign(reversed.begin(), reversed.end());
-    }
-    if (m.contains("attributes")) {
-        for (py::handle item : py::reinterpret_borrow<py::list>(m["attributes"])) {
-            const py::dict a = py::reinterpret_borrow<py::dict>(item);
-            MeshData::CornerAttribute attr;
-            bindings::read_fields("meshes.attributes[]", a, attr);
-            copy_rows<std::array<float, 12>, float>(a, "data", attr.corners);
-            md.attributes.push_back(std::move(attr));
-        }
-    }
+    bindings::read_fields("meshes", m, out.meshes);
+    bindings::read_list("meshes.attributes", m, out.meshes.attributes);
 }
 
 ClosureDesc read_closure(const py::dict& c, const std::string& key) {
@@ -256,7 +191,7 @@ SceneDesc scene_from_dict(py::handle scene_dict) {
     read_curves(scene, out);
     read_meshes(scene, out);
     read_materials(scene, out);
-    read_images(scene, out);
+    bindings::read_list("images", scene, out.images);
     read_camera(scene, out);
     read_lights(scene, out);
     if (scene.contains("world")) {

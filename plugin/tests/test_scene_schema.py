@@ -24,7 +24,7 @@ def _number(x):
 def _type(k):
     kind, cols = k["kind"], k["columns"]
     text = {
-        "array": f"{k['dtype']} (N,)" if cols == 0 else f"{k['dtype']} (N, {cols})",
+        "array": f"{k['dtype']} ({k['rows'] or 'N'},)" if cols == 0 else f"{k['dtype']} ({k['rows'] or 'N'}, {cols})",
         "image": f"{k['dtype']} (H, W, {cols})",
         "vector": f"{cols} numbers",
         "matrix": "float64 (4, 4)" if cols == 4 else "float64 (3, 4) or (4, 4)",
@@ -107,6 +107,10 @@ def test_schema_rows_are_well_formed():
     assert inputs and all(k["socket"] and k["socket_kind"] in ("float", "color", "vector") for k in inputs)
     assert all(set(k["hair_models"].split()) <= set(models) for k in inputs)
     assert all(k["socket_kind"] == "float" for k in inputs if k["kind"] == "float")
+    # the geometry's arrays say which count their length is or matches: the walker checks it, the docs show it
+    uncounted = [k["path"] for k in rows if k["kind"] == "array" and k["path"].split(".")[0] in ("curves", "meshes")
+                 and not k["rows"]]
+    assert uncounted == []
 
 
 def test_optional_plain_keys_have_their_default_from_the_scene_struct():

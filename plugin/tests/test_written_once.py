@@ -281,3 +281,31 @@ def test_cycles_addon_is_checked_once():
                 copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
     assert not copies, "a fallback for a missing Cycles add-on (export_scene.cycles_settings already requires " \
                        "it); read x.cycles:\n" + "\n".join(copies)
+
+
+def cpp_string_literals(text: str, first_line: int = 1):
+    """(line, text) of each string literal in C++ source, comments and prose (a docstring of sentences) left out."""
+    literal = re.compile(r'"(?:[^"\\\n]|\\.)*"|//[^\n]*|/\*.*?\*/', re.S)
+    for m in literal.finditer(text):
+        if m.group().startswith('"') and not re.search(r"\w\. [A-Z]", m.group()):
+            yield first_line + text.count("\n", 0, m.start()), m.group()[1:-1]
+
+
+def test_array_keys_are_named_only_in_the_schemas_rows():
+    """The scene's array and image keys (curves.points, meshes.triangles, attributes' data, programs' code, ...) are
+    named once, in their scene_schema.cpp rows, which bind each to its vector and say which count its length matches:
+    render.cpp reads them with read_fields / read_list, and the walker's length checks take the names from the rows."""
+    from hairbsdf.render import scene_schema
+
+    names = {k["path"].rsplit(".", 1)[-1] for k in scene_schema() if k["kind"] in ("array", "image")}
+    assert {"points", "curve_offsets", "triangles", "data", "code", "pixels"} <= names
+    word = re.compile(r"\b(%s)\b" % "|".join(sorted(names)))
+    bindings = ROOT / "plugin" / "bindings"
+    schema = (bindings / "scene_schema.cpp").read_text()
+    table_end = schema.index("\nstd::string leaf(")  # the walker and the readers follow the table
+    sources = {"render.cpp": ((bindings / "render.cpp").read_text(), 1),
+               "scene_schema.cpp": (schema[table_end:], schema.count("\n", 0, table_end) + 1)}
+    copies = ["%s:%d: %r" % (name, line, text) for name, (source, first_line) in sources.items()
+              for line, text in cpp_string_literals(source, first_line) if word.search(text)]
+    assert not copies, "an array key spelled outside its schema row; read its row (SceneKey::defines, per, ...):\n" + \
+                       "\n".join(copies)
