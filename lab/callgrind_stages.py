@@ -5,13 +5,14 @@
         .venv/bin/python lab/profile_render.py --samples 1 --threads 1 --modules build/profile/plugin
     .venv/bin/python lab/callgrind_stages.py build/cg/render.out build/profile/plugin
 
-The module must be the profiling build's (lab/README.md, "A profiling build"): GCC inlines the hit's
-frame, the closure eval and MIS into trace_path, so only its line tables say which statement an
-instruction belongs to. Every instruction of trace_path, and every call it makes (with all below it), goes
-to the stage of its trace_path statement (addr2line -i: the innermost frame of the inline chain on a line
-of trace_path, so a lambda's body counts where it is written), refined by what was called or inlined
-there (the rules below). Outside trace_path: camera rays, the film and the
-BVH build. Shares are of all instructions inside RenderJob::run.
+The module must be the profiling build's (lab/README.md, "A profiling build"), the very build that was
+profiled (the addresses are looked up in it): GCC inlines the hit's frame, the closure eval and MIS into
+trace_path, so only its line tables say which statement an instruction belongs to. Every instruction of
+trace_path, and every call it makes (with all below it), goes to the stage of its trace_path statement
+(addr2line -i: the innermost frame of the inline chain on a line of trace_path, so a lambda's body counts
+where it is written), refined by what was called or inlined there (the rules below). Outside trace_path:
+camera rays and the film, and the BVH build. Shares are of the render loop: RenderJob::run without the
+BVH build and scene preparation.
 """
 
 import argparse
