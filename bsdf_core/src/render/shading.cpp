@@ -24,14 +24,14 @@ uint64_t next_material_id() {
     return ++last;
 }
 
-// A Principled Hair closure's model for its (per-hit) inputs.
-HairModel principled_hair_model(const MaterialShader& material, const MaterialShader::MaterialClosure& m,
-                                const PrincipledHairInputs& in) {
+// Builds a Principled Hair closure's model for its (per-hit) inputs in `out`, in place.
+const HairModel& build_principled_hair(const MaterialShader& material, const MaterialShader::MaterialClosure& m,
+                                       const PrincipledHairInputs& in, std::optional<HairModel>& out) {
     if (m.huang)
-        return HairModel(std::in_place_type<HuangHair>,
-                         render_huang_params(in, material.huang_sampler(), material.huang_glass_albedo_table()));
-    return HairModel(std::in_place_type<ChiangHair>,
-                     chiang_params_from_principled(in, material.accuracy(), material.tilt()));
+        return out.emplace(std::in_place_type<HuangHair>,
+                           render_huang_params(in, material.huang_sampler(), material.huang_glass_albedo_table()));
+    return out.emplace(std::in_place_type<ChiangHair>,
+                       chiang_params_from_principled(in, material.accuracy(), material.tilt()));
 }
 
 bool hair_depends_on_random(const PrincipledHairInputs& in) {
@@ -224,7 +224,7 @@ void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, dou
             bool random_from_curve = m.random_from_curve;
             if (g.registers) apply_links(m.links, g.registers, in, random_from_curve);
             if (random_from_curve) in.random = g.random;
-            model = &hit_models_[slot].emplace(principled_hair_model(material, m, in));
+            model = &build_principled_hair(material, m, in, hit_models_[slot]);
         }
         if (blur_roughness > 0 && blur_model(*model, blur_roughness, hit_models_[slot])) model = &*hit_models_[slot];
         sum_.add_at_hit(weight, *model, ctx);
@@ -246,7 +246,7 @@ const HairModel& Bsdf::curve_model(const MaterialShader& material, size_t closur
         const MaterialShader::MaterialClosure& m = material.closures()[closure];
         PrincipledHairInputs in = m.hair;
         if (m.random_from_curve) in.random = random;
-        e.model.emplace(principled_hair_model(material, m, in));
+        build_principled_hair(material, m, in, e.model);
         e.material = material.id();
         e.closure = closure;
         e.random_bits = bits;
