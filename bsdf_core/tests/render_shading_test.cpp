@@ -40,17 +40,17 @@ ShadingGeometry fibre_hit(double random, double h) {
 
 // Evaluates the hits in order with one Bsdf (its kept models), and each with the material whose Random
 // is the curve's as a constant (a model built for it): equal bits.
-void expect_kept_models_exact(const std::vector<std::pair<ClosureDesc::HairModel, double>>& kinds) {
+void expect_kept_models_exact(const std::vector<std::pair<ClosureDesc::HairModel, double>>& kinds, int curves = 3000) {
     std::vector<MaterialShader> materials;
     for (const auto& [model, roughness] : kinds) materials.push_back(hair_material(model, roughness));
     Bsdf kept;
     const Vec3 wi = normalize(Vec3{-0.2, -0.6, 0.7});
     int compared = 0;
-    // 3000 curves, visited twice, with every material: more curves than a slot keeps, so entries are
+    // The curves, visited twice, with every material: more hits than a slot keeps, so entries are
     // replaced, found again and shared by materials and Randoms that land on the same entry.
     for (int round = 0; round < 2; ++round) {
-        for (int curve = 0; curve < 3000; ++curve) {
-            const double random = double(float((curve * 7919 % 3000) / 3000.0));
+        for (int curve = 0; curve < curves; ++curve) {
+            const double random = double(float((curve * 7919 % curves) / double(curves)));
             for (size_t k = 0; k < kinds.size(); ++k) {
                 const ShadingGeometry g = fibre_hit(random, 0.3);
                 const MaterialShader constant = hair_material(kinds[k].first, kinds[k].second, random);
@@ -64,11 +64,18 @@ void expect_kept_models_exact(const std::vector<std::pair<ClosureDesc::HairModel
             }
         }
     }
-    EXPECT_EQ(compared, 2 * 3000 * int(kinds.size()));
+    EXPECT_EQ(compared, 2 * curves * int(kinds.size()));
 }
 
 TEST(RenderShading, KeptCurveModelsEqualNewOnesChiang) {
     expect_kept_models_exact({{ClosureDesc::HairModel::Chiang, 0.2}, {ClosureDesc::HairModel::Chiang, 0.6}});
+}
+
+// Many materials with the same Randoms: an entry found by another material's model must not be used.
+TEST(RenderShading, KeptCurveModelsEqualNewOnesManyMaterials) {
+    std::vector<std::pair<ClosureDesc::HairModel, double>> kinds;
+    for (int k = 0; k < 40; ++k) kinds.push_back({ClosureDesc::HairModel::Chiang, 0.2 + 0.01 * k});
+    expect_kept_models_exact(kinds, 300);
 }
 
 TEST(RenderShading, KeptCurveModelsEqualNewOnesHuangAndChiang) {

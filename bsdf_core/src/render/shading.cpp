@@ -234,14 +234,12 @@ void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, dou
 const HairModel& Bsdf::curve_model(const MaterialShader& material, size_t closure, size_t slot, double random) {
     uint64_t bits;
     std::memcpy(&bits, &random, sizeof bits);
-    // The entry: a 64-bit mix (splitmix64's finaliser) of the Random, the material and the closure, so
-    // that materials sharing a Random do not take turns in one entry.
-    uint64_t h = bits ^ (material.id() * 0x9e3779b97f4a7c15ull) ^ (uint64_t(closure) << 52);
-    h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
-    h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;
-    h ^= h >> 31;
+    // The entry: multiplicative hashing (the top bits of the product with 2^64 / golden ratio) of the
+    // Random, the material and the closure, so that materials sharing a Random do not take turns in one entry.
+    const uint64_t key = bits ^ (material.id() << 40) ^ (uint64_t(closure) << 56);
+    const uint64_t entry = (key * 0x9e3779b97f4a7c15ull) >> (64 - kCurveModelBits);
     if (!curve_models_[slot]) curve_models_[slot] = std::make_unique<CurveModel[]>(kCurveModels);
-    CurveModel& e = curve_models_[slot][h & (kCurveModels - 1)];
+    CurveModel& e = curve_models_[slot][entry];
     if (e.material != material.id() || e.closure != closure || e.random_bits != bits || !e.model) {
         const MaterialShader::MaterialClosure& m = material.closures()[closure];
         PrincipledHairInputs in = m.hair;

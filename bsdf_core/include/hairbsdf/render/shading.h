@@ -142,7 +142,8 @@ private:
         std::optional<HairModel> model;
     };
     // Entries per slot (about 0.85 MB), indexed by a hash of the material, the closure and the Random.
-    static constexpr size_t kCurveModels = 1024;
+    static constexpr int kCurveModelBits = 10;
+    static constexpr size_t kCurveModels = size_t(1) << kCurveModelBits;
     std::array<std::unique_ptr<CurveModel[]>, kMaxBsdfClosures> curve_models_;  // a slot's on its first use
     mutable uint32_t eval_state_ = 0;  // the stochastic evals' random state, advanced by each eval
     bool lobes_ = false;
