@@ -124,7 +124,7 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("scatter", 0.0, 1.0, EPIC["scatter"], doc="multiple-scattering fake (shadow = 1)")),
         lambda v: {"base_color": _rgb(v, "base_color"), "specular": v["specular"], "roughness": v["roughness"],
                    "shift": v["shift"], "scatter": v["scatter"]},
-        fixed=_defaults_of(EPIC, "variant"), lobe_of_slot=("R", "TT", "TRT", None),
+        fixed=_defaults_of(EPIC, "variant"), lobe_of_slot=(*LOBES[:3], None),
         note="slot 3 (multiple-scattering fake) has no Principled Hair counterpart"),
     FitModel(
         "kajiya_kay", "kajiya_kay_hair",
@@ -154,7 +154,7 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("glint_scale", 0.0, 5.0, MARSCHNER["glint_scale"], doc="k_G")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "alpha_r": v["alpha_r"], "beta_r": v["beta_r"],
                    "glint_scale": v["glint_scale"]},
-        fixed={**_defaults_of(MARSCHNER, "eta"), "eccentricity": 1.0}, lobe_of_slot=("R", "TT", "TRT", None),
+        fixed={**_defaults_of(MARSCHNER, "eta"), "eccentricity": 1.0}, lobe_of_slot=(*LOBES[:3], None),
         note="circular fibre (eccentricity 1) like Principled Hair; no TRRT+ lobe"),
     FitModel(
         "deon", "deon_hair",
@@ -163,7 +163,7 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("roughness", 0.03, 0.6, DEON["roughness"], doc="beta_R, radians"),
          FreeParam("tilt", -0.2, 0.2, DEON["tilt"], doc="cuticle tilt, radians")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "roughness": v["roughness"], "tilt": v["tilt"]},
-        fixed=_defaults_of(DEON, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+")),
+        fixed=_defaults_of(DEON, "eta"), lobe_of_slot=LOBES),
     FitModel(
         "principled", "principled_hair",
         (FreeParam("melanin", 0.0, 0.999, PRINCIPLED["melanin"]),
@@ -171,7 +171,7 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("roughness", 0.05, 1.0, PRINCIPLED["roughness"]),
          FreeParam("radial_roughness", 0.05, 1.0, PRINCIPLED["radial_roughness"]),
          FreeParam("offset", -0.2, 0.2, PRINCIPLED["offset"], doc="radians")),
-        lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=("R", "TT", "TRT", "TRRT+"),
+        lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=LOBES,
         depends_on_h=True, note=f"Chiang (Principled Hair) in the melanin parametrization, coat {PRINCIPLED['coat']:g}, "
                                 f"IOR {PRINCIPLED['ior']:g}"),
     FitModel(
@@ -182,7 +182,7 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("alpha", -0.2, 0.2, YAN_FUR["alpha"], doc="cuticle tilt, radians")),
         lambda v: {"cortex_absorption": _rgb(v, "cortex_absorption"), "roughness": v["roughness"],
                    "radial_roughness": v["radial_roughness"], "alpha": v["alpha"]},
-        fixed=_defaults_of(YAN_FUR, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+", None, None), depends_on_h=True,
+        fixed=_defaults_of(YAN_FUR, "eta"), lobe_of_slot=(*LOBES, None, None), depends_on_h=True,
         note=f"the medulla at Yan 2015's fit (kappa {YAN_FUR['medulla_ratio']:g}); TTs / TRTs have no Principled "
              "Hair counterpart (in the total only); each evaluation with a new cortex_absorption builds a table (~1 s)"),
 )}

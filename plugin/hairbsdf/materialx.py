@@ -453,10 +453,11 @@ def principled_inputs_from_node(node) -> dict:
     if not hasattr(node, "inputs") or not hasattr(node, "parametrization"):
         raise TypeError(f"node: expected a Principled Hair BSDF node (with .inputs and .parametrization), "
                         f"got {type(node).__name__}")
-    model = getattr(node, "model", "CHIANG")
-    if str(model).upper() != "CHIANG":
+    from .principled import DEFAULT_MODEL, PARAMETRIZATIONS, PRINCIPLED_HAIR_DEFAULTS
+
+    model = getattr(node, "model", DEFAULT_MODEL)  # no .model (Blender 3.x): the default model
+    if str(model).lower() != DEFAULT_MODEL:
         raise ValueError(f"node: model {model!r} is not allowed; chiang_hair_bsdf is the Chiang model ('CHIANG')")
-    from .principled import PARAMETRIZATIONS, PRINCIPLED_HAIR_DEFAULTS
 
     # Blender's parametrization enum names are PARAMETRIZATIONS' keys in upper case.
     parametrization = str(node.parametrization).lower()

@@ -63,7 +63,8 @@ PRINCIPLED_HAIR_DEFAULTS = _node_defaults("CHIANG")
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
 HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults("HUANG"))
 del _SCENE_SCHEMA
-_COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
+# The RGB inputs: the schema rows of kind "vector" (the others are numbers).
+_COLOR_INPUTS = frozenset(key for key, row in principled_hair_input_rows().items() if row["kind"] == "vector")
 
 
 def principled_hair(model: str = DEFAULT_MODEL, parametrization: str = DEFAULT_PARAMETRIZATION, *,

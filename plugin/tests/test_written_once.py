@@ -309,3 +309,101 @@ def test_array_keys_are_named_only_in_the_schemas_rows():
               for line, text in cpp_string_literals(source, first_line) if word.search(text)]
     assert not copies, "an array key spelled outside its schema row; read its row (SceneKey::defines, per, ...):\n" + \
                        "\n".join(copies)
+
+
+def name_groups(path: Path):
+    """(line, names) of each tuple, list or set literal of two or more string constants (None elements allowed)."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and all(isinstance(e, ast.Constant) for e in node.elts):
+            names = [e.value for e in node.elts if e.value is not None]
+            if len(names) >= 2 and all(isinstance(n, str) for n in names):
+                yield node.lineno, names
+
+
+def test_principled_color_inputs_come_from_the_schema():
+    """Principled Hair's RGB inputs are its schema rows of kind "vector"; no module lists them again."""
+    from hairbsdf.principled import _COLOR_INPUTS
+    from hairbsdf.render import principled_hair_input_rows
+
+    assert _COLOR_INPUTS == {k for k, row in principled_hair_input_rows().items() if row["kind"] == "vector"}
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources()
+              for line, names in name_groups(p) if set(names) <= _COLOR_INPUTS]
+    assert not copies, "Principled Hair's RGB inputs listed again; read the schema rows' kind:\n" + "\n".join(copies)
+
+
+def test_lobe_names_are_written_only_in_closure():
+    """The lobe names are closure.LOBES (and YAN_FUR_LOBES); no other module lists them (fit's lobe_of_slot uses
+    LOBES)."""
+    from hairbsdf.closure import YAN_FUR_LOBES
+
+    one_place = PACKAGE / "closure.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources() if p != one_place
+              for line, names in name_groups(p) if set(names) <= set(YAN_FUR_LOBES)]
+    assert not copies, "lobe names listed again; use hairbsdf.closure.LOBES:\n" + "\n".join(copies)
+
+
+def defaulted_reads(path: Path):
+    """(line, key, default, source) of each getattr(x, "key", default) and x.get("key", default) whose default is a
+    literal (a constant, a tuple of them, or np.pi / math.pi as "pi"): a fallback value written at the read."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.Call) or len(node.args) < 2:
+            continue
+        is_getattr = isinstance(node.func, ast.Name) and node.func.id == "getattr" and len(node.args) == 3
+        is_get = isinstance(node.func, ast.Attribute) and node.func.attr == "get" and len(node.args) == 2
+        key, default = node.args[-2], node.args[-1]
+        if not ((is_getattr or is_get) and isinstance(key, ast.Constant) and isinstance(key.value, str)):
+            continue
+        if isinstance(default, ast.Attribute) and default.attr == "pi":
+            yield node.lineno, key.value, "pi", ast.unparse(node)
+            continue
+        try:
+            value = ast.literal_eval(default)
+        except ValueError:
+            continue
+        if value is not None:
+            yield node.lineno, key.value, value, ast.unparse(node)
+
+
+def scene_defaults_by_leaf() -> dict:
+    """A scene key's last name -> its rows' defaults: the value (render.schema_default) and the row's text,
+    strings in lower case."""
+    from hairbsdf.render import schema_default, scene_schema
+
+    out = {}
+    for row in scene_schema():
+        defaults = out.setdefault(row["path"].rsplit(".", 1)[-1], set())
+        if row["default"]:
+            defaults.add(row["default"].lower())
+        for closure_type in row["only_for"].split() or [""]:
+            try:
+                value = schema_default(row["path"], closure_type)
+            except (KeyError, ValueError):
+                continue
+            defaults.add(value.lower() if isinstance(value, str) else value)
+    return out
+
+
+def test_fallbacks_do_not_repeat_scene_defaults():
+    """A scene key's default is its schema row's (the renderer's field): a reader of a Blender attribute or a keyword
+    that names a scene key leaves the key out when it is missing, or reads render.schema_default / the one named
+    default (principled.DEFAULT_MODEL, _common.TILT_AUTO); it never writes the default again as a fallback. The tilt
+    setting's "AUTO" is written once, in blender/_common.py. (compare/scenes/ builds Blender scenes in Blender
+    itself: its node settings are not scene keys.)"""
+    from hairbsdf.blender._common import TILT_AUTO
+
+    defaults = scene_defaults_by_leaf()
+    assert {"spread", "visible_camera", "emission_sampling", "model"} <= set(defaults)
+
+    def repeats(key, value):
+        value = value.lower() if isinstance(value, str) else value
+        return key in defaults and (value in defaults[key] if not isinstance(value, (list, dict)) else False)
+
+    sources = [p for p in sorted(PACKAGE.rglob("*.py")) if "scenes" not in p.relative_to(PACKAGE).parts]
+    copies = ["%s:%d: %s" % (p.relative_to(ROOT), line, source) for p in sources
+              for line, key, value, source in defaulted_reads(p) if repeats(key, value)]
+    blender = PACKAGE / "blender"
+    copies += ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in sorted(blender.glob("*.py"))
+               if p != blender / "_common.py" for line, text in string_literals(p) if text == TILT_AUTO[0]]
+    assert not copies, "a scene key's default written again as a fallback; leave the key out or read the " \
+                       "schema's default:\n" + "\n".join(copies)
+
