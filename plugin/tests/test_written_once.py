@@ -407,3 +407,19 @@ def test_fallbacks_do_not_repeat_scene_defaults():
     assert not copies, "a scene key's default written again as a fallback; leave the key out or read the " \
                        "schema's default:\n" + "\n".join(copies)
 
+
+def test_huang_options_are_named_only_in_their_table():
+    """Huang's options (params/huang.h's table, principled.HUANG_OPTIONS) give _principled_huang its signature and
+    are passed on by row: principled.py spells none of their names (only those principled_hair itself takes)."""
+    import inspect
+
+    from hairbsdf import principled
+
+    signature = inspect.signature(principled._principled_huang).parameters
+    assert {name: signature[name].default for name in principled.HUANG_OPTIONS} == principled.HUANG_OPTION_DEFAULTS
+    own = set(inspect.signature(principled.principled_hair).parameters)
+    path = PACKAGE / "principled.py"
+    copies = ["principled.py:%d: %r" % (line, text) for line, text in string_literals(path)
+              if text in principled.HUANG_OPTIONS and text not in own]
+    assert not copies, "a Huang option named again; read principled.HUANG_OPTIONS:\n" + "\n".join(copies)
+
