@@ -423,3 +423,19 @@ def test_huang_options_are_named_only_in_their_table():
               if text in principled.HUANG_OPTIONS and text not in own]
     assert not copies, "a Huang option named again; read principled.HUANG_OPTIONS:\n" + "\n".join(copies)
 
+
+def test_zoo_constructors_are_named_only_by_their_decorator():
+    """Each zoo model's constructor is recorded by zoo._from_table (zoo.CONSTRUCTOR_OF_MODEL); spec's names and
+    aliases and fit's models derive from it, so no module writes a constructor's name as a string (the package's
+    __all__, its public names, aside)."""
+    from hairbsdf import fit, spec
+    from hairbsdf.zoo import CONSTRUCTOR_OF_MODEL, zoo_model_names
+
+    constructors = {CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names()}
+    assert constructors <= set(spec.CONSTRUCTORS)
+    assert all(spec.ALIASES.get(m, m) == CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names())
+    assert all(fit.fit_model(CONSTRUCTOR_OF_MODEL[m]).name == m for m in zoo_model_names() if m in fit.FIT_MODELS)
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in python_sources() if p != PACKAGE / "__init__.py"
+              for line, text in string_literals(p) if text in constructors - set(zoo_model_names())]
+    assert not copies, "a zoo constructor's name written as a string; read zoo.CONSTRUCTOR_OF_MODEL:\n" + \
+                       "\n".join(copies)
