@@ -2,6 +2,7 @@
 Each test fails when a copy reappears as a literal."""
 
 import ast
+import inspect
 import re
 from pathlib import Path
 
@@ -411,8 +412,6 @@ def test_fallbacks_do_not_repeat_scene_defaults():
 def test_huang_options_are_named_only_in_their_table():
     """Huang's options (params/huang.h's table, principled.HUANG_OPTIONS) give _principled_huang its signature and
     are passed on by row: principled.py spells none of their names (only those principled_hair itself takes)."""
-    import inspect
-
     from hairbsdf import principled
 
     signature = inspect.signature(principled._principled_huang).parameters
@@ -439,3 +438,25 @@ def test_zoo_constructors_are_named_only_by_their_decorator():
               for line, text in string_literals(p) if text in constructors - set(zoo_model_names())]
     assert not copies, "a zoo constructor's name written as a string; read zoo.CONSTRUCTOR_OF_MODEL:\n" + \
                        "\n".join(copies)
+
+
+def test_materialx_inputs_are_named_only_in_their_tables():
+    """The MaterialX node helpers' signatures, checks and dicts come from their tables (params/materialx.h, read
+    through _core.materialx_schema): those functions spell no input name and tell an input's kind by its row's type
+    (no prefix test such as "roughness_"), its lower bound by its row's min. (The simple_hair graph and the .mtlx
+    writer wire the nodes' inputs by name: a graph is not a table.)"""
+    from hairbsdf import _core, materialx
+
+    nodes = ("chiang_hair_bsdf", "chiang_hair_roughness", "chiang_hair_absorption_from_color",
+             "deon_hair_absorption_from_melanin")
+    names = {row["name"] for node in nodes for row in _core.materialx_schema(node)}
+    assert all(tuple(inspect.signature(getattr(materialx, node)).parameters)[-len(_core.materialx_schema(node)):]
+               == tuple(row["name"] for row in _core.materialx_schema(node)) for node in nodes)
+    path = PACKAGE / "materialx.py"
+    helpers = [node for node in ast.parse(path.read_text()).body
+               if isinstance(node, ast.FunctionDef) and node.name in {*nodes, "_pair", "_checked", "_from_table"}]
+    assert len(helpers) == len(nodes) + 3
+    copies = ["materialx.py:%d: %r" % (n.lineno, n.value) for helper in helpers for n in ast.walk(helper)
+              if isinstance(n, ast.Constant) and isinstance(n.value, str)
+              and (n.value in names or (n.value.endswith("_") and any(name.startswith(n.value) for name in names)))]
+    assert not copies, "a MaterialX input named again; read its table row:\n" + "\n".join(copies)
