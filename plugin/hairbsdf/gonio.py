@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
+from .principled import DEFAULT_MODEL
 
 REC709 = np.array(_core.LUMINANCE_WEIGHTS)  # Rec.709 luminance weights, C++ luminance()'s (math.h)
 # Gauss-Legendre nodes in h for the far field of h-dependent models. Chiang's value at one h is
@@ -37,7 +38,7 @@ def depends_on_h(name: str, kwargs: dict) -> bool:
     zoo models have no h."""
     if name == "yan_fur":
         return True
-    return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() != "huang"
+    return name == "principled_hair" and str(kwargs.get("model", DEFAULT_MODEL)).lower() != "huang"
 
 
 def far_field_lobes(closure, wo, wi, h_count: int, h_dependent: bool, **eval_kw) -> np.ndarray:

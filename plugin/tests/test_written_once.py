@@ -2,6 +2,7 @@
 Each test fails when a copy reappears as a literal."""
 
 import ast
+import inspect
 import re
 from pathlib import Path
 
@@ -309,3 +310,153 @@ def test_array_keys_are_named_only_in_the_schemas_rows():
               for line, text in cpp_string_literals(source, first_line) if word.search(text)]
     assert not copies, "an array key spelled outside its schema row; read its row (SceneKey::defines, per, ...):\n" + \
                        "\n".join(copies)
+
+
+def name_groups(path: Path):
+    """(line, names) of each tuple, list or set literal of two or more string constants (None elements allowed)."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and all(isinstance(e, ast.Constant) for e in node.elts):
+            names = [e.value for e in node.elts if e.value is not None]
+            if len(names) >= 2 and all(isinstance(n, str) for n in names):
+                yield node.lineno, names
+
+
+def test_principled_color_inputs_come_from_the_schema():
+    """Principled Hair's RGB inputs are its schema rows of kind "vector"; no module lists them again."""
+    from hairbsdf.principled import _COLOR_INPUTS
+    from hairbsdf.render import principled_hair_input_rows
+
+    assert _COLOR_INPUTS == {k for k, row in principled_hair_input_rows().items() if row["kind"] == "vector"}
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources()
+              for line, names in name_groups(p) if set(names) <= _COLOR_INPUTS]
+    assert not copies, "Principled Hair's RGB inputs listed again; read the schema rows' kind:\n" + "\n".join(copies)
+
+
+def test_lobe_names_are_written_only_in_closure():
+    """The lobe names are closure.LOBES (and YAN_FUR_LOBES); no other module lists them (fit's lobe_of_slot uses
+    LOBES)."""
+    from hairbsdf.closure import YAN_FUR_LOBES
+
+    one_place = PACKAGE / "closure.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources() if p != one_place
+              for line, names in name_groups(p) if set(names) <= set(YAN_FUR_LOBES)]
+    assert not copies, "lobe names listed again; use hairbsdf.closure.LOBES:\n" + "\n".join(copies)
+
+
+def defaulted_reads(path: Path):
+    """(line, key, default, source) of each getattr(x, "key", default) and x.get("key", default) whose default is a
+    literal (a constant, a tuple of them, or np.pi / math.pi as "pi"): a fallback value written at the read."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.Call) or len(node.args) < 2:
+            continue
+        is_getattr = isinstance(node.func, ast.Name) and node.func.id == "getattr" and len(node.args) == 3
+        is_get = isinstance(node.func, ast.Attribute) and node.func.attr == "get" and len(node.args) == 2
+        key, default = node.args[-2], node.args[-1]
+        if not ((is_getattr or is_get) and isinstance(key, ast.Constant) and isinstance(key.value, str)):
+            continue
+        if isinstance(default, ast.Attribute) and default.attr == "pi":
+            yield node.lineno, key.value, "pi", ast.unparse(node)
+            continue
+        try:
+            value = ast.literal_eval(default)
+        except ValueError:
+            continue
+        if value is not None:
+            yield node.lineno, key.value, value, ast.unparse(node)
+
+
+def scene_defaults_by_leaf() -> dict:
+    """A scene key's last name -> its rows' defaults: the value (render.schema_default) and the row's text,
+    strings in lower case."""
+    from hairbsdf.render import schema_default, scene_schema
+
+    out = {}
+    for row in scene_schema():
+        defaults = out.setdefault(row["path"].rsplit(".", 1)[-1], set())
+        if row["default"]:
+            defaults.add(row["default"].lower())
+        for closure_type in row["only_for"].split() or [""]:
+            try:
+                value = schema_default(row["path"], closure_type)
+            except (KeyError, ValueError):
+                continue
+            defaults.add(value.lower() if isinstance(value, str) else value)
+    return out
+
+
+def test_fallbacks_do_not_repeat_scene_defaults():
+    """A scene key's default is its schema row's (the renderer's field): a reader of a Blender attribute or a keyword
+    that names a scene key leaves the key out when it is missing, or reads render.schema_default / the one named
+    default (principled.DEFAULT_MODEL, _common.TILT_AUTO); it never writes the default again as a fallback. The tilt
+    setting's "AUTO" is written once, in blender/_common.py. (compare/scenes/ builds Blender scenes in Blender
+    itself: its node settings are not scene keys.)"""
+    from hairbsdf.blender._common import TILT_AUTO
+
+    defaults = scene_defaults_by_leaf()
+    assert {"spread", "visible_camera", "emission_sampling", "model"} <= set(defaults)
+
+    def repeats(key, value):
+        value = value.lower() if isinstance(value, str) else value
+        return key in defaults and (value in defaults[key] if not isinstance(value, (list, dict)) else False)
+
+    sources = [p for p in sorted(PACKAGE.rglob("*.py")) if "scenes" not in p.relative_to(PACKAGE).parts]
+    copies = ["%s:%d: %s" % (p.relative_to(ROOT), line, source) for p in sources
+              for line, key, value, source in defaulted_reads(p) if repeats(key, value)]
+    blender = PACKAGE / "blender"
+    copies += ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in sorted(blender.glob("*.py"))
+               if p != blender / "_common.py" for line, text in string_literals(p) if text == TILT_AUTO[0]]
+    assert not copies, "a scene key's default written again as a fallback; leave the key out or read the " \
+                       "schema's default:\n" + "\n".join(copies)
+
+
+def test_huang_options_are_named_only_in_their_table():
+    """Huang's options (params/huang.h's table, principled.HUANG_OPTIONS) give _principled_huang its signature and
+    are passed on by row: principled.py spells none of their names (only those principled_hair itself takes)."""
+    from hairbsdf import principled
+
+    signature = inspect.signature(principled._principled_huang).parameters
+    assert {name: signature[name].default for name in principled.HUANG_OPTIONS} == principled.HUANG_OPTION_DEFAULTS
+    own = set(inspect.signature(principled.principled_hair).parameters)
+    path = PACKAGE / "principled.py"
+    copies = ["principled.py:%d: %r" % (line, text) for line, text in string_literals(path)
+              if text in principled.HUANG_OPTIONS and text not in own]
+    assert not copies, "a Huang option named again; read principled.HUANG_OPTIONS:\n" + "\n".join(copies)
+
+
+def test_zoo_constructors_are_named_only_by_their_decorator():
+    """Each zoo model's constructor is recorded by zoo._from_table (zoo.CONSTRUCTOR_OF_MODEL); spec's names and
+    aliases and fit's models derive from it, so no module writes a constructor's name as a string (the package's
+    __all__, its public names, aside)."""
+    from hairbsdf import fit, spec
+    from hairbsdf.zoo import CONSTRUCTOR_OF_MODEL, zoo_model_names
+
+    constructors = {CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names()}
+    assert constructors <= set(spec.CONSTRUCTORS)
+    assert all(spec.ALIASES.get(m, m) == CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names())
+    assert all(fit.fit_model(CONSTRUCTOR_OF_MODEL[m]).name == m for m in zoo_model_names() if m in fit.FIT_MODELS)
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in python_sources() if p != PACKAGE / "__init__.py"
+              for line, text in string_literals(p) if text in constructors - set(zoo_model_names())]
+    assert not copies, "a zoo constructor's name written as a string; read zoo.CONSTRUCTOR_OF_MODEL:\n" + \
+                       "\n".join(copies)
+
+
+def test_materialx_inputs_are_named_only_in_their_tables():
+    """The MaterialX node helpers' signatures, checks and dicts come from their tables (params/materialx.h, read
+    through _core.materialx_schema): those functions spell no input name and tell an input's kind by its row's type
+    (no prefix test such as "roughness_"), its lower bound by its row's min. (The simple_hair graph and the .mtlx
+    writer wire the nodes' inputs by name: a graph is not a table.)"""
+    from hairbsdf import _core, materialx
+
+    nodes = ("chiang_hair_bsdf", "chiang_hair_roughness", "chiang_hair_absorption_from_color",
+             "deon_hair_absorption_from_melanin")
+    names = {row["name"] for node in nodes for row in _core.materialx_schema(node)}
+    assert all(tuple(inspect.signature(getattr(materialx, node)).parameters)[-len(_core.materialx_schema(node)):]
+               == tuple(row["name"] for row in _core.materialx_schema(node)) for node in nodes)
+    path = PACKAGE / "materialx.py"
+    helpers = [node for node in ast.parse(path.read_text()).body
+               if isinstance(node, ast.FunctionDef) and node.name in {*nodes, "_pair", "_checked", "_from_table"}]
+    assert len(helpers) == len(nodes) + 3
+    copies = ["materialx.py:%d: %r" % (n.lineno, n.value) for helper in helpers for n in ast.walk(helper)
+              if isinstance(n, ast.Constant) and isinstance(n.value, str)
+              and (n.value in names or (n.value.endswith("_") and any(name.startswith(n.value) for name in names)))]
+    assert not copies, "a MaterialX input named again; read its table row:\n" + "\n".join(copies)

@@ -58,6 +58,10 @@ def blender_version() -> tuple:
     return tuple(bpy.app.version)
 
 
+# The engine's tilt choice "Auto" (ui.py's tilt setting, the exporter's reading of it): default_tilt().
+TILT_AUTO = ("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
+
+
 def default_tilt() -> str:
     """Principled Hair tilt convention of the running Blender (docs/cycles.md §0, §5b)."""
     return tilt_convention(blender_version())

@@ -186,7 +186,9 @@ class MaterialTranslator:
         if program is not None:
             out["program"] = program
         if any(c.get("type") == "emission" for c in out["closures"]):
-            out["emission_sampling"] = emission_sampling(material)
+            sampling = emission_sampling(material)
+            if sampling is not None:  # None: the scene's default
+                out["emission_sampling"] = sampling
         return out
 
     def _closures(self, material) -> list:
@@ -340,13 +342,15 @@ class MaterialTranslator:
         return c
 
 
-def emission_sampling(material) -> str:
+def emission_sampling(material) -> str | None:
     """Which sides of the material's emissive triangles Cycles light-samples (docs/scene_desc.md):
     Blender >= 4.0's Settings > Emission Sampling ("AUTO" is resolved by the engine, by Cycles' rule),
-    Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold)."""
+    Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold).
+    None when the setting is missing (the scene key is then left out: its default applies)."""
     settings = material.cycles  # the Cycles add-on's material settings (export requires the add-on)
     if blender_version() >= EMISSION_SAMPLING_FROM:
-        return str(getattr(settings, "emission_sampling", "AUTO"))
+        sampling = getattr(settings, "emission_sampling", None)
+        return None if sampling is None else str(sampling)
     return "FRONT_BACK" if getattr(settings, "sample_as_light", True) else "NONE"
 
 
