@@ -112,14 +112,10 @@ ClosureDesc read_closure(const py::dict& c, const std::string& key) {
         const py::dict inputs = dict_at(c, "inputs");
         bindings::read_fields("materials[].closures[].inputs", inputs, cd.hair, link);
         cd.random_from_curve = !inputs.contains("random");  // Cycles' curve_random where unlinked
-    } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by model_factory.h
-        cd.model_name = py::str(c["model"]);
-        if (c.contains("path")) cd.model_path = py::str(c["path"]);
-        if (c.contains("params")) {
-            const std::string pk = key + "['params']";
-            cd.model_params = bindings::model_params_from_dict(
-                dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
-        }
+    } else if (cd.type == ClosureDesc::Type::Model && c.contains("params")) {  // model and path: bound rows
+        const std::string pk = key + "['params']";  // checked and built by model_factory.h
+        cd.model_params = bindings::model_params_from_dict(
+            dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
     }
     return cd;
 }

@@ -468,9 +468,9 @@ std::vector<SceneKey> make_schema() {
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
             .linkable(In::Strength).field(&Closure::strength),
         Row("materials[].closures[].model", K::ModelName, "a name the model factory builds (_core.model_names())")
-            .required().only("hair_model"),
+            .required().only("hair_model").field(&Closure::model_name),
         Row("materials[].closures[].path", K::String, "the plugin library (docs/plugins.md); required for plugin")
-            .only("hair_model"),
+            .only("hair_model").field(&Closure::model_path),
         Row("materials[].closures[].params", K::ModelParams, "the model's parameters (hairbsdf.model_schema)")
             .fallback("{}").only("hair_model"),
 

@@ -195,3 +195,13 @@ def test_validate_scene_does_not_load_tbb():
             "maps = open('/proc/self/maps').read();"
             "assert 'libtbb' not in maps and 'hairbsdf._render' not in sys.modules, 'TBB loaded'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_hair_model_reads_model_and_path_by_their_rows():
+    """A hair_model closure's model and path are bound rows (read_fields copies them; only params are read by
+    hand): the loader's folded closure gives them back."""
+    from hairbsdf import _render
+
+    material = {"name": "m", "closures": [{"type": "hair_model", "model": "kajiya_kay", "path": "unused.so"}]}
+    (model,) = _render.folded_material(material)["closures"]
+    assert (model["model"], model["path"]) == ("kajiya_kay", "unused.so")
