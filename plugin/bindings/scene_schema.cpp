@@ -1183,6 +1183,7 @@ std::vector<const SceneKey*> rows_under(const std::string& path, const std::stri
 
 void read_fields(const std::string& path, const py::dict& checked, std::type_index owner, void* target,
                  const std::function<void(int input, int reg)>& link) {
+    if (!path.empty()) scene_key(path);  // throws for a path with no row (a misspelt reader)
     const std::string type = checked.contains("type") ? std::string(py::str(checked["type"])) : std::string();
     for (const SceneKey* k : rows_under(path, type)) {
         if (!k->field) continue;
