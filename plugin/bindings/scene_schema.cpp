@@ -456,13 +456,13 @@ std::vector<SceneKey> make_schema() {
             .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
             .only("cycles_hair").field(&Closure::transmission),
         Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3)
-            .only("cycles_hair").linkable(In::Color).field(&Closure::color),
+            .only("cycles_hair").linkable(In::Color).socket("Color", "color", "").field(&Closure::color),
         Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians")
-            .only("cycles_hair").linkable(In::Offset).field(&Closure::offset),
+            .only("cycles_hair").linkable(In::Offset).socket("Offset", "float", "").field(&Closure::offset),
         Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessU).field(&Closure::roughness_u),
+            .linkable(In::RoughnessU).socket("RoughnessU", "float", "").field(&Closure::roughness_u),
         Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessV).field(&Closure::roughness_v),
+            .linkable(In::RoughnessV).socket("RoughnessV", "float", "").field(&Closure::roughness_v),
         Row("materials[].closures[].color", K::Vector, "the diffuse / emission colour").columns(3)
             .only("diffuse emission").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")

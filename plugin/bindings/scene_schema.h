@@ -86,9 +86,9 @@ struct SceneKey {
     bool register_link = false;  // may be {"register": k}: the material program's register k
     int link_input = -1;         // then the ClosureDesc::Input that register drives
     bool closed = false;         // Dict: an unknown key is an error (Principled Hair's inputs)
-    // Principled Hair inputs: the Blender node's socket, its kind for the exporter ("float",
-    // "color", "vector") and the models that read it ("CHIANG HUANG"; "" for Random, which the
-    // exporter treats apart).
+    // Principled Hair inputs and the legacy Hair BSDF's keys: the Blender node's socket, its kind
+    // for the exporter ("float", "color", "vector") and the Principled Hair models that read it
+    // ("CHIANG HUANG"; "" for Random, which the exporter treats apart, and for the Hair BSDF).
     const char* socket = "";
     const char* socket_kind = "";
     const char* hair_models = "";

@@ -107,6 +107,9 @@ def test_schema_rows_are_well_formed():
     assert inputs and all(k["socket"] and k["socket_kind"] in ("float", "color", "vector") for k in inputs)
     assert all(set(k["hair_models"].split()) <= set(models) for k in inputs)
     assert all(k["socket_kind"] == "float" for k in inputs if k["kind"] == "float")
+    # the legacy Hair BSDF's inputs likewise: each linkable cycles_hair key names its socket
+    legacy = [k for k in rows if "cycles_hair" in k["only_for"].split() and k["register_link"]]
+    assert legacy and all(k["socket"] and k["socket_kind"] in ("float", "color") for k in legacy), legacy
     # the geometry's arrays say which count their length is or matches: the walker checks it, the docs show it
     uncounted = [k["path"] for k in rows if k["kind"] == "array" and k["path"].split(".")[0] in ("curves", "meshes")
                  and not k["rows"]]
