@@ -168,7 +168,7 @@ void read_by_rows(const py::dict& given, const Rows& rows, NameOf name_of, Apply
 using PrincipledInputRows = std::vector<std::pair<std::string, const bindings::SceneKey*>>;
 const PrincipledInputRows& principled_input_rows() {
     static const PrincipledInputRows rows = [] {
-        const std::string path = "materials[].closures[].inputs";
+        const std::string path = bindings::kPrincipledHairInputsPath;
         PrincipledInputRows out;
         for (const bindings::SceneKey* k : bindings::rows_under(path, ""))
             if (k->field && k->field.owner == typeid(PrincipledHairInputs))
@@ -921,6 +921,7 @@ PYBIND11_MODULE(_core, m) {
     // Cycles' default surface colour (render/scene.h): the exporter's fallback diffuse.
     const RGB grey = render::kDefaultSurfaceColor;
     m.attr("DEFAULT_SURFACE_COLOR") = py::make_tuple(grey.r, grey.g, grey.b);
+    m.attr("PRINCIPLED_HAIR_INPUTS") = bindings::kPrincipledHairInputsPath;  // the scene key of the node's inputs
     m.attr("LUMINANCE_WEIGHTS") = py::make_tuple(kLuminanceWeights[0], kLuminanceWeights[1], kLuminanceWeights[2]);
     py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")
         .def_property_readonly("name", &PluginLibrary::name)

@@ -87,11 +87,11 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
 // An image the programs sample: an item of `images`, checked.
 ImageDesc read_image(const py::dict& d) {
     ImageDesc im;
-    bindings::read_fields("images[]", d, im);
+    bindings::read_fields(std::string(bindings::kImagesPath) + "[]", d, im);
     return im;
 }
 
-ShadingProgram read_program(const py::dict& d, const std::string& path = "materials[].program") {
+ShadingProgram read_program(const py::dict& d, const std::string& path = bindings::kMaterialProgramPath) {
     ShadingProgram p;
     bindings::read_fields(path, d, p);
     return p;
@@ -107,26 +107,22 @@ void read_meshes(const py::dict& scene, SceneDesc& out) {
 ClosureDesc read_closure(const py::dict& c, const std::string& key) {
     ClosureDesc cd;
     auto link = [&cd](int input, int reg) { cd.links.push_back({ClosureDesc::Input(input), int32_t(reg)}); };
-    bindings::read_fields("materials[].closures[]", c, cd, link);
+    bindings::read_fields(bindings::kClosuresPath, c, cd, link);
     if (cd.type == ClosureDesc::Type::PrincipledHair && c.contains("inputs")) {
         const py::dict inputs = dict_at(c, "inputs");
-        bindings::read_fields("materials[].closures[].inputs", inputs, cd.hair, link);
+        bindings::read_fields(bindings::kPrincipledHairInputsPath, inputs, cd.hair, link);
         cd.random_from_curve = !inputs.contains("random");  // Cycles' curve_random where unlinked
-    } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by model_factory.h
-        cd.model_name = py::str(c["model"]);
-        if (c.contains("path")) cd.model_path = py::str(c["path"]);
-        if (c.contains("params")) {
-            const std::string pk = key + "['params']";
-            cd.model_params = bindings::model_params_from_dict(
-                dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
-        }
+    } else if (cd.type == ClosureDesc::Type::Model && c.contains("params")) {  // model and path: bound rows
+        const std::string pk = key + "['params']";  // checked and built by model_factory.h
+        cd.model_params = bindings::model_params_from_dict(
+            dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
     }
     return cd;
 }
 
 MaterialDesc read_material(const py::dict& m, const std::string& key) {
     MaterialDesc md;
-    bindings::read_fields("materials[]", m, md);
+    bindings::read_fields(bindings::kMaterialsPath, m, md);
     if (m.contains("program")) md.program = read_program(dict_at(m, "program"));
     size_t j = 0;
     for (py::handle ch : py::reinterpret_borrow<py::list>(m["closures"]))
@@ -191,7 +187,7 @@ SceneDesc scene_from_dict(py::handle scene_dict) {
     read_curves(scene, out);
     read_meshes(scene, out);
     read_materials(scene, out);
-    bindings::read_list("images", scene, out.images);
+    bindings::read_list(bindings::kImagesPath, scene, out.images);
     read_camera(scene, out);
     read_lights(scene, out);
     if (scene.contains("world")) {
@@ -309,7 +305,7 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
                                    py::handle is_strand, py::handle attributes, py::handle images) {
     // Checked as a material's program and an `images` list are (scene_schema.h).
     const ShadingProgram p =
-        read_program(py::reinterpret_borrow<py::dict>(bindings::check_value("materials[].program", program, "program")));
+        read_program(py::reinterpret_borrow<py::dict>(bindings::check_value(bindings::kMaterialProgramPath, program, "program")));
     auto column = [](py::handle h, const char* name) {
         auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(h);
         if (!a || a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a number or a 1-D array");
@@ -336,7 +332,7 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
     std::vector<ImageDesc> image_descs;
     std::vector<ShadingImage> image_views;
     if (!images.is_none()) {
-        for (py::handle h : bindings::check_value("images", images, "images"))
+        for (py::handle h : bindings::check_value(bindings::kImagesPath, images, "images"))
             image_descs.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
         for (const ImageDesc& im : image_descs) image_views.push_back({im.width, im.height, im.pixels.data()});
     }
@@ -387,11 +383,11 @@ py::dict folded_keys(const std::string& path, const std::string& type, std::type
 // Principled Hair's `random` is None where it is the curve's.
 py::dict py_folded_material(py::handle material, int attribute_count, py::handle images) {
     if (attribute_count < 0) throw py::value_error("attribute_count: must be >= 0, got " + std::to_string(attribute_count));
-    const py::dict checked = bindings::check_value("materials[]", material, "material");
+    const py::dict checked = bindings::check_value(bindings::kMaterialsPath, material, "material");
     SceneDesc scene;
     scene.materials.push_back(read_material(checked, "material"));
     if (!images.is_none())
-        for (py::handle h : bindings::check_value("images", images, "images"))
+        for (py::handle h : bindings::check_value(bindings::kImagesPath, images, "images"))
             scene.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
     scene.curves.attributes.resize(size_t(attribute_count));
     std::vector<std::string> warnings;
@@ -399,12 +395,12 @@ py::dict py_folded_material(py::handle material, int attribute_count, py::handle
     const MaterialDesc& md = scene.materials[0];
     py::list closures;
     for (const ClosureDesc& c : md.closures) {
-        const std::string closure_path = "materials[].closures[]";
+        const std::string closure_path = bindings::kClosuresPath;
         const std::string type = py::str(bindings::fields_as_python(closure_path, "", typeid(ClosureDesc), &c)["type"]);
         py::dict d = folded_keys(closure_path, type, typeid(ClosureDesc), &c, c.links);
         if (c.type == ClosureDesc::Type::PrincipledHair) {
             py::dict inputs =
-                folded_keys(closure_path + ".inputs", "", typeid(PrincipledHairInputs), &c.hair, c.links);
+                folded_keys(bindings::kPrincipledHairInputsPath, "", typeid(PrincipledHairInputs), &c.hair, c.links);
             if (c.random_from_curve) inputs["random"] = py::none();
             d["inputs"] = inputs;
         }

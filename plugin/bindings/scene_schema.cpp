@@ -456,21 +456,21 @@ std::vector<SceneKey> make_schema() {
             .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
             .only("cycles_hair").field(&Closure::transmission),
         Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3)
-            .only("cycles_hair").linkable(In::Color).field(&Closure::color),
+            .only("cycles_hair").linkable(In::Color).socket("Color", "color", "").field(&Closure::color),
         Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians")
-            .only("cycles_hair").linkable(In::Offset).field(&Closure::offset),
+            .only("cycles_hair").linkable(In::Offset).socket("Offset", "float", "").field(&Closure::offset),
         Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessU).field(&Closure::roughness_u),
+            .linkable(In::RoughnessU).socket("RoughnessU", "float", "").field(&Closure::roughness_u),
         Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessV).field(&Closure::roughness_v),
+            .linkable(In::RoughnessV).socket("RoughnessV", "float", "").field(&Closure::roughness_v),
         Row("materials[].closures[].color", K::Vector, "the diffuse / emission colour").columns(3)
             .only("diffuse emission").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
             .linkable(In::Strength).field(&Closure::strength),
         Row("materials[].closures[].model", K::ModelName, "a name the model factory builds (_core.model_names())")
-            .required().only("hair_model"),
+            .required().only("hair_model").field(&Closure::model_name),
         Row("materials[].closures[].path", K::String, "the plugin library (docs/plugins.md); required for plugin")
-            .only("hair_model"),
+            .only("hair_model").field(&Closure::model_path),
         Row("materials[].closures[].params", K::ModelParams, "the model's parameters (hairbsdf.model_schema)")
             .fallback("{}").only("hair_model"),
 
@@ -1183,6 +1183,7 @@ std::vector<const SceneKey*> rows_under(const std::string& path, const std::stri
 
 void read_fields(const std::string& path, const py::dict& checked, std::type_index owner, void* target,
                  const std::function<void(int input, int reg)>& link) {
+    if (!path.empty()) scene_key(path);  // throws for a path with no row (a misspelt reader)
     const std::string type = checked.contains("type") ? std::string(py::str(checked["type"])) : std::string();
     for (const SceneKey* k : rows_under(path, type)) {
         if (!k->field) continue;

@@ -86,9 +86,9 @@ struct SceneKey {
     bool register_link = false;  // may be {"register": k}: the material program's register k
     int link_input = -1;         // then the ClosureDesc::Input that register drives
     bool closed = false;         // Dict: an unknown key is an error (Principled Hair's inputs)
-    // Principled Hair inputs: the Blender node's socket, its kind for the exporter ("float",
-    // "color", "vector") and the models that read it ("CHIANG HUANG"; "" for Random, which the
-    // exporter treats apart).
+    // Principled Hair inputs and the legacy Hair BSDF's keys: the Blender node's socket, its kind
+    // for the exporter ("float", "color", "vector") and the Principled Hair models that read it
+    // ("CHIANG HUANG"; "" for Random, which the exporter treats apart, and for the Hair BSDF).
     const char* socket = "";
     const char* socket_kind = "";
     const char* hair_models = "";
@@ -118,6 +118,14 @@ struct SceneKey {
 const char* count_name(SceneCount count);
 const char* count_letter(SceneCount count);
 
+// The paths the readers (render.cpp, module.cpp) walk, each a row of the table; read_fields and
+// read_list throw std::logic_error for a path with no row, so a misspelling fails at once.
+inline constexpr const char* kMaterialsPath = "materials[]";
+inline constexpr const char* kMaterialProgramPath = "materials[].program";
+inline constexpr const char* kClosuresPath = "materials[].closures[]";
+inline constexpr const char* kPrincipledHairInputsPath = "materials[].closures[].inputs";  // _core.PRINCIPLED_HAIR_INPUTS
+inline constexpr const char* kImagesPath = "images";
+
 // The table, in the docs' order.
 const std::vector<SceneKey>& scene_schema();
 
@@ -141,8 +149,9 @@ std::vector<const SceneKey*> rows_under(const std::string& path, const std::stri
 
 // Copies the bound keys of `checked` (the dict at `path` in check_scene's output) into the
 // fields of `target`, an `owner`; a key given as {"register": k} calls link(row.link_input, k)
-// instead. Keys absent keep the field's initial value. A row under `path` bound to a field of
-// another struct is a std::logic_error (the table and the reader disagree).
+// instead. Keys absent keep the field's initial value. A `path` with no row ("" is the scene), or
+// a row under it bound to a field of another struct, is a std::logic_error (the table and the
+// reader disagree).
 void read_fields(const std::string& path, const pybind11::dict& checked, std::type_index owner, void* target,
                  const std::function<void(int input, int reg)>& link = {});
 
@@ -153,9 +162,11 @@ void read_fields(const std::string& path, const pybind11::dict& checked, S& targ
 }
 
 // Reads the list at `path` ("images", "curves.attributes") of `checked` (the dict holding it), one
-// item per read_fields(path + "[]"); absent: `items` is left as it is.
+// item per read_fields(path + "[]"); absent: `items` is left as it is. A `path` with no row is a
+// std::logic_error, whether the list is there or not.
 template <class Item>
 void read_list(const std::string& path, const pybind11::dict& checked, std::vector<Item>& items) {
+    scene_key(path);  // throws for a path with no row
     const std::string name = path.substr(path.rfind('.') + 1);  // npos + 1 = 0
     if (!checked.contains(name.c_str())) return;
     for (pybind11::handle h : pybind11::reinterpret_borrow<pybind11::list>(checked[name.c_str()])) {

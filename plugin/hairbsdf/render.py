@@ -36,8 +36,8 @@ def schema_choices(path: str) -> tuple:
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
 
 
-# The scene key of Principled Hair's inputs (a closure's dict of socket values).
-PRINCIPLED_HAIR_INPUTS = "materials[].closures[].inputs"
+# The scene key of Principled Hair's inputs (a closure's dict of socket values), the scene schema's.
+PRINCIPLED_HAIR_INPUTS = _core.PRINCIPLED_HAIR_INPUTS
 
 
 @functools.cache

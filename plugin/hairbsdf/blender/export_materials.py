@@ -27,7 +27,7 @@ import os
 
 from .. import _core
 from .._blender_versions import EMISSION_SAMPLING_FROM
-from ..render import principled_hair_input_rows, schema_choices, schema_default
+from ..render import principled_hair_input_rows, scene_schema, schema_choices, schema_default
 from ..zoo import PLUGIN_MODEL
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
@@ -46,6 +46,14 @@ def principled_hair_inputs(model: str) -> tuple:
     the renderer and docs/scene_desc.md share one table."""
     return tuple((key, k["socket"], k["socket_kind"]) for key, k in principled_hair_input_rows().items()
                  if model in k["hair_models"].split())
+
+
+@functools.cache
+def cycles_hair_inputs() -> tuple:
+    """(key in scene_desc, socket identifier, kind) of the legacy Hair BSDF's inputs: the scene schema's
+    cycles_hair rows that name a socket, as principled_hair_inputs reads Principled Hair's."""
+    return tuple((k["path"].rsplit(".", 1)[1], k["socket"], k["socket_kind"]) for k in scene_schema()
+                 if k["socket"] and "cycles_hair" in k["only_for"].split())
 
 
 @functools.cache
@@ -334,10 +342,9 @@ class MaterialTranslator:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
         defaults = cycles_hair_defaults()
-        c = {"type": "cycles_hair", "weight": weight, "component": node.component.upper(),
-             **{key: defaults[key] for key in ("color", "offset", "roughness_u", "roughness_v")}}
-        for ident, kind, key in (("Color", "color", "color"), ("Offset", "float", "offset"),
-                                 ("RoughnessU", "float", "roughness_u"), ("RoughnessV", "float", "roughness_v")):
+        c = {"type": "cycles_hair", "weight": weight, "component": node.component.upper()}
+        for key, ident, kind in cycles_hair_inputs():
+            c[key] = defaults[key]
             self.per_render(node, ident, kind, c, key)
         return c
 
