@@ -168,10 +168,6 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     const py::dict in = dict_at(scene, "integrator");
     IntegratorSettings& s = out.integrator;
     bindings::read_fields("integrator", in, s);
-    s.samples = std::min(s.samples, 1 << 24);
-    for (int* bounces : {&s.max_bounces, &s.diffuse_bounces, &s.glossy_bounces, &s.transmission_bounces,
-                         &s.transparent_bounces, &s.min_light_bounces})
-        *bounces = std::min(*bounces, 1 << 20);
     if (in.contains("passes"))  // checked names of render_passes()
         for (py::handle name : py::reinterpret_borrow<py::list>(in["passes"]))
             for (const bindings::RenderPass& pass : bindings::render_passes())

@@ -29,6 +29,7 @@ using In = R::ClosureDesc::Input;
 
 std::string format_number(double x) {
     if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+    if (x == std::floor(x) && std::fabs(x) < 1e15) return std::to_string(static_cast<long long>(x));  // no 1e+06
     std::ostringstream s;
     s << x;
     return s.str();
@@ -277,6 +278,9 @@ struct Row {
 };
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
+// The engine's limits on the integrator's counts (Cycles' own sample limit is 2^24).
+constexpr double kMaxSamples = 1 << 24;
+constexpr double kMaxBounces = 1 << 20;
 constexpr const char* kHairTypes = "principled_hair";
 using Closure = R::ClosureDesc;
 using Camera = R::CameraDesc;
@@ -556,19 +560,19 @@ std::vector<SceneKey> make_schema() {
             .image_field(&R::ImageDesc::pixels, &R::ImageDesc::width, &R::ImageDesc::height),
 
         Row("integrator", K::Dict, "the render settings").required(),
-        Row("integrator.samples", K::Int, "samples per pixel").range(0, kUnbounded).required()
+        Row("integrator.samples", K::Int, "samples per pixel").range(0, kMaxSamples).required()
             .field(&Settings::samples),
         Row("integrator.seed", K::Int, "the seed (taken modulo 2^32)").field(&Settings::seed),
-        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kUnbounded).field(&Settings::max_bounces),
-        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kMaxBounces).field(&Settings::max_bounces),
+        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::diffuse_bounces),
-        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::glossy_bounces),
-        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::transmission_bounces),
-        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::transparent_bounces),
-        Row("integrator.min_light_bounces", K::Int, "bounces before Russian roulette").range(0, kUnbounded)
+        Row("integrator.min_light_bounces", K::Int, "bounces before Russian roulette").range(0, kMaxBounces)
             .field(&Settings::min_light_bounces),
         Row("integrator.filter_type", K::Enum, "the pixel filter")
             .choices<Settings::Filter>({{"BLACKMAN_HARRIS", Settings::Filter::BlackmanHarris},

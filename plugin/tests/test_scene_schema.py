@@ -114,6 +114,12 @@ def test_schema_rows_are_well_formed():
     uncounted = [k["path"] for k in rows if k["kind"] == "array" and k["path"].split(".")[0] in ("curves", "meshes")
                  and not k["rows"]]
     assert uncounted == []
+    # a row kept for some types names only types its sibling "type" row allows (a typo would hide the row)
+    for k in rows:
+        if k["only_for"]:
+            sibling = k["path"].rsplit(".", 1)[0] + ".type"
+            allowed = next(t["allowed"] for t in rows if t["path"] == sibling)
+            assert set(k["only_for"].split()) <= set(allowed), (k["path"], k["only_for"], allowed)
 
 
 def test_optional_plain_keys_have_their_default_from_the_scene_struct():
@@ -169,6 +175,9 @@ def _scene():
     (lambda s: s["camera"].update(resolution=(0, 2)), ValueError, r"^scene\['camera'\]\['resolution'\]\[0\]: must be >= 1"),
     (lambda s: s["integrator"].update(tilt=4.2), TypeError, r"^scene\['integrator'\]\['tilt'\]: expected a string, one of \['4.2', '3.4'\]"),
     (lambda s: s.update(version=2), ValueError, r"^scene\['version'\]: must be <= 1"),
+    (lambda s: s["integrator"].update(samples=2**24 + 1), ValueError, r"^scene\['integrator'\]\['samples'\]: must be <= 16777216"),
+    (lambda s: s["integrator"].update(max_bounces=2**20 + 1), ValueError,
+     r"^scene\['integrator'\]\['max_bounces'\]: must be <= 1048576"),
     (lambda s: s.update(world={"texture": {"pixels": np.zeros((2, 4, 4)), "weight": (1, 1, 1)}}), ValueError,
      r"^scene\['world'\]\['texture'\]\['pixels'\]: expected shape \(height, width, 3\)"),
     (lambda s: s.update(materials=[{"closures": [{"type": "principled_hair", "inputs": {"roughness": "x"}}]}]),
