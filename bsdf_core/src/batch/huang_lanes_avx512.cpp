@@ -1,0 +1,12 @@
+// Huang's residual lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt).
+#define HAIRBSDF_BATCH_NS avx512
+#include "huang_lanes_kernel.h"
+
+namespace hairbsdf {
+namespace batch_detail {
+void huang_residual_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
+                         double* out) {
+    avx512::HuangLanes<xsimd::avx512bw>{c, p}.run(nodes, out);
+}
+}  // namespace batch_detail
+}  // namespace hairbsdf
