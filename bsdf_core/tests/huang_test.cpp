@@ -483,7 +483,7 @@ TEST(HuangHair, CoarseMixtureIsSmaller) {
 // hoisting (2026-11-27). The double path (eval_cycles_stochastic_double) holds them to double rounding
 // (1e-9 relative); the engine's eval, float lanes over the nodes since 2026-11-27, to float rounding:
 // 2e-4 relative per lobe and channel, where the lanes measured at most 4.2e-5 (TRT of the circular row,
-// 6.7e-6 in size) and 1.7e-5 on every other lobe (R is the double path's, unchanged). The LCG state after them is exact on both: the same
+// 6.7e-6 in size) and 1.7e-5 on every other lobe. The LCG state after them is exact on both: the same
 // draws. A changed draw order, node set or formula moves them by far more.
 TEST(HuangHair, StochasticEvalRowsUnchanged) {
     struct Row {
@@ -551,12 +551,12 @@ TEST(HuangHair, StochasticEvalRowsUnchanged) {
 // random rows over the parameters the lanes branch on (circular and elliptic fibres, both E_glass
 // tables, absorbing or clear, IOR, tilt, lobe factors 0), on every instruction set the CPU has. Each row
 // is one eval with the same LCG seed on both: the LCG state after it must be equal (the same draws). Per
-// lobe, the relative difference |lanes - double| / max(|double|, 1e-6 x the set's largest value) is float
-// rounding on most rows (median and 90th percentile); on a few rows a visibility or total-internal-
-// reflection test flips between float and double and moves one node's whole value ("flips": rows above
-// 1e-2), in both directions, so the sums over the set stay close. With a tilt, TRRT+ flips on 3-5 % of the
-// rows: its end nodes sit on the tilt-limited visibility edge, where rounding decides (docs/huang.md §4),
-// and the set's TRRT+ sums differ by up to 0.9 %; without a tilt TRRT+ is held like the other lobes.
+// lobe, the difference is measured as the batch kernels' (docs/simd.md): |lanes - double| / max(|double|,
+// 1e-4 x the lobe's largest value in the set). It is float rounding on most rows (median, 90th percentile,
+// mean); on a few rows a visibility or total-internal-reflection test flips between float and double and
+// moves one node's whole value ("flips": rows above 1e-2), in both directions, so the sums over the set stay
+// close. With a tilt, TRRT+ flips on 3-5 % of the rows: its end nodes sit on the tilt-limited visibility
+// edge, where rounding decides (docs/huang.md §4), and the set's TRRT+ sums differ by up to 0.9 %.
 TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
     struct Case {
         double aspect, roughness, eta, offset;
@@ -593,8 +593,8 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
             std::mt19937_64 gen(7 + ci);
             std::normal_distribution<double> g;
             std::uniform_real_distribution<double> uni;
-            std::vector<std::array<double, 3>> lanes_values, double_values;  // TT, TRT, TRRT+ luminance
-            double largest = 0.0;
+            std::vector<std::array<double, 4>> lanes_values, double_values;  // R, TT, TRT, TRRT+ luminance
+            std::array<double, 4> largest{};  // per lobe
             for (int row = 0; row < 600; ++row) {
                 ShadingContext c;
                 c.normal = {0, 0, 1};
@@ -609,19 +609,17 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
                 const auto a = m.eval_cycles_stochastic(sp, O, rng_lanes);
                 const auto b = m.eval_cycles_stochastic_double(sp, O, rng_double);
                 ASSERT_EQ(rng_lanes, rng_double) << isa << " case " << ci << " row " << row;
-                EXPECT_EQ(luminance(a[0]), luminance(b[0])) << "R is the double path's";
-                lanes_values.push_back({luminance(a[1]), luminance(a[2]), luminance(a[3])});
-                double_values.push_back({luminance(b[1]), luminance(b[2]), luminance(b[3])});
-                for (double v : double_values.back()) largest = std::max(largest, std::fabs(v));
+                lanes_values.push_back({luminance(a[0]), luminance(a[1]), luminance(a[2]), luminance(a[3])});
+                double_values.push_back({luminance(b[0]), luminance(b[1]), luminance(b[2]), luminance(b[3])});
+                for (size_t l = 0; l < 4; ++l) largest[l] = std::max(largest[l], std::fabs(double_values.back()[l]));
             }
             ASSERT_GT(lanes_values.size(), 200u);
-            ASSERT_GT(largest, 0.0);
-            for (int lobe = 0; lobe < 3; ++lobe) {
+            for (int lobe = 0; lobe < 4; ++lobe) {
                 std::vector<double> rel;
                 double sum_lanes = 0.0, sum_double = 0.0, sum_abs = 0.0;
                 for (size_t i = 0; i < lanes_values.size(); ++i) {
                     const double ref = double_values[i][size_t(lobe)], got = lanes_values[i][size_t(lobe)];
-                    rel.push_back(std::fabs(got - ref) / std::max(std::fabs(ref), 1e-6 * largest));
+                    rel.push_back(std::fabs(got - ref) / std::max(std::fabs(ref), 1e-4 * largest[size_t(lobe)] + 1e-300));
                     sum_lanes += got;
                     sum_double += ref;
                     sum_abs += std::fabs(ref);
@@ -635,14 +633,15 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
                 std::sort(rel.begin(), rel.end());
                 const double median = rel[rel.size() / 2], p90 = rel[rel.size() * 9 / 10];
                 const double sum_rel = (sum_lanes - sum_double) / std::max(sum_abs, 1e-300);
-                const bool edge = lobe == 2 && cs.offset != 0.0;  // TRRT+ with a tilt
-                EXPECT_LT(median, 2e-5) << isa << " case " << ci << " lobe " << lobe + 1;
-                EXPECT_LT(p90, 1e-4) << isa << " case " << ci << " lobe " << lobe + 1;
-                EXPECT_LE(double(flips), (edge ? 0.08 : 0.01) * double(rel.size())) << isa << " case " << ci << " lobe " << lobe + 1;
-                EXPECT_LT(std::fabs(sum_rel), edge ? 2e-2 : 1e-4) << isa << " case " << ci << " lobe " << lobe + 1;
+                const bool edge = lobe == 3 && cs.offset != 0.0;  // TRRT+ with a tilt
+                EXPECT_LT(median, 1e-5) << isa << " case " << ci << " lobe " << lobe;
+                EXPECT_LT(p90, 1e-4) << isa << " case " << ci << " lobe " << lobe;
+                if (!edge) EXPECT_LT(mean, 5e-4) << isa << " case " << ci << " lobe " << lobe;
+                EXPECT_LE(double(flips), (edge ? 0.08 : 0.01) * double(rel.size())) << isa << " case " << ci << " lobe " << lobe;
+                EXPECT_LT(std::fabs(sum_rel), edge ? 2e-2 : 1e-4) << isa << " case " << ci << " lobe " << lobe;
                 if (std::getenv("HAIRBSDF_LANES_REPORT"))
                     std::printf("%s case %zu lobe %d: median %.3g p90 %.3g mean %.3g sum %.3g flips %zu/%zu max %.3g\n",
-                                isa, ci, lobe + 1, median, p90, mean, sum_rel, flips, rel.size(), rel.back());
+                                isa, ci, lobe, median, p90, mean, sum_rel, flips, rel.size(), rel.back());
             }
         }
     }

@@ -1,7 +1,7 @@
-// Huang's stochastic residual in float lanes over the Simpson nodes (docs/simd.md), included once per
+// Huang's stochastic eval in float lanes over the Simpson nodes (docs/simd.md), included once per
 // instruction set by huang_lanes_<isa>.cpp inside its own namespace HAIRBSDF_BATCH_NS. Each lane is one
-// node and follows HuangHair's double path (add_residual_node: entry_state, tt_exit, trt_from_entry,
-// trt_internal in models/huang_paths.cpp) step by step in float; where the double path returns early, a
+// node and follows HuangHair's double path (r_integrand; add_residual_node: entry_state, tt_exit,
+// trt_from_entry, trt_internal in models/huang_paths.cpp) step by step in float; where the double path returns early, a
 // lane mask is cleared instead, and a lane adds its values only where its mask is set.
 #pragma once
 
@@ -158,18 +158,42 @@ struct HuangLanes {
         }
     }
 
-    // W nodes from index `at` of arrays holding at least W numbers from there.
+    // h_to_gamma and the Simpson weight times d gamma / dh (ShadingPoint's gamma_base), one sine and cosine
+    // of gamma per node.
+    HAIRBSDF_BATCH_INLINE void node_gamma(const float* h_in, const float* weight_in, B& gamma, B& sg, B& cg,
+                                          B& weight) const {
+        const B h = B::load_unaligned(h_in);
+        gamma = c.circular ? -xsimd::asin(xsimd::max(xsimd::min(h, B(1.0f)), B(-1.0f)))
+                           : B(p.gamma_base) - xsimd::acos(xsimd::max(xsimd::min(-h, B(1.0f)), B(-1.0f)));
+        const auto scg = xsimd::sincos(gamma);
+        sg = scg.first;
+        cg = scg.second;
+        const B dd = c.circular ? cg : xsimd::fma(B(p.cos_phi_i), cg, B(c.b * p.sin_phi_i) * sg);
+        weight = xsimd::select(dd != B(0.0f), B::load_unaligned(weight_in) / dd, B(0.0f));
+    }
+
+    // R's Simpson sum (HuangHair::r_integrand times the node's weight) over W nodes, added to acc.
+    HAIRBSDF_BATCH_INLINE void r_nodes(M active, const float* h_in, const float* weight_in, B& acc) const {
+        const V Iv = vec(p.I), O = vec(p.O), wh = vec(p.wh);
+        B gamma, sg, cg, weight;
+        node_gamma(h_in, weight_in, gamma, sg, cg, weight);
+        B sn, cn;
+        ellipse_normal(sg, cg, sn, cn);
+        const V wm = tilted(c.sin_tilt, c.cos_tilt, sn, cn);
+        const V macro{wm.x, B(0.0f), wm.z};
+        const M ok = active & visible(Iv, macro, wh) & visible(O, macro, wh);
+        const B cos_mi = dot(wm, Iv);
+        const B v = ggx_d(dot(wm, wh)) * g2(cos_mi, dot(wm, O)) * arc_length(sg) *
+                    energy_scale(cos_mi, c.energy_entering);
+        acc = xsimd::select(ok, xsimd::fma(weight, v, acc), acc);
+    }
+
+    // W residual nodes from arrays holding at least W numbers from there.
     HAIRBSDF_BATCH_INLINE void nodes(M active, const float* h_in, const float* weight_in, const float* u1a,
                                      const float* u1b, const float* u2a, const float* u2b, B acc[9]) const {
         const V Iv = vec(p.I), O = vec(p.O);
-        const B h = B::load_unaligned(h_in);
-        // h_to_gamma and d gamma / dh (ShadingPoint's gamma_base), one sine and cosine of gamma per node.
-        const B gamma = c.circular ? -xsimd::asin(xsimd::max(xsimd::min(h, B(1.0f)), B(-1.0f)))
-                                   : B(p.gamma_base) - xsimd::acos(xsimd::max(xsimd::min(-h, B(1.0f)), B(-1.0f)));
-        const auto scg = xsimd::sincos(gamma);
-        const B sg = scg.first, cg = scg.second;
-        const B dd = c.circular ? cg : xsimd::fma(B(p.cos_phi_i), cg, B(c.b * p.sin_phi_i) * sg);
-        const B weight = xsimd::select(dd != B(0.0f), B::load_unaligned(weight_in) / dd, B(0.0f));
+        B gamma, sg, cg, weight;
+        node_gamma(h_in, weight_in, gamma, sg, cg, weight);
 
         // entry_state
         B sn, cn;
@@ -315,6 +339,23 @@ struct HuangLanes {
             nodes(B::load_aligned(lane) != B(0.0f), buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], acc);
         }
         for (int j = 0; j < 9; ++j) out[j] += double(xsimd::hadd(acc[j]));
+    }
+
+    double run_r(const HuangLaneNodes& n) const {
+        B acc(0.0f);
+        size_t k = 0;
+        for (; k + W <= n.count; k += W) r_nodes(B(0.0f) == B(0.0f), n.h + k, n.weight + k, acc);
+        if (k < n.count) {
+            alignas(64) float h[W], weight[W], lane[W];
+            for (size_t j = 0; j < W; ++j) {
+                const bool in = k + j < n.count;
+                h[j] = in ? n.h[k + j] : 0.0f;
+                weight[j] = in ? n.weight[k + j] : 0.0f;
+                lane[j] = in ? 1.0f : 0.0f;
+            }
+            r_nodes(B::load_aligned(lane) != B(0.0f), h, weight, acc);
+        }
+        return double(xsimd::hadd(acc));
     }
 };
 

@@ -191,8 +191,8 @@ public:
     std::array<RGB, kLobeCount> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
-    // Its residual nodes (TT, TRT, TRRT+) run as float SIMD lanes over the Simpson nodes, as Cycles computes
-    // in float (docs/simd.md); the R lobe and the draws are those of the double path.
+    // Its Simpson nodes (R's and the residual's) run as float SIMD lanes, as Cycles computes in float
+    // (docs/simd.md); the nodes, their weights and the draws are those of the double path.
     std::array<RGB, kLobeCount> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
     // The same estimator (same draws, nodes and weights) in double precision, one node at a time: the
     // reference the lanes are tested against.
@@ -292,12 +292,12 @@ private:
     void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double sin_gamma, double cos_gamma,
                            double weight, double final_scale, double trrt_scale, uint32_t& rng,
                            std::array<double, 9>& acc) const;
-    // eval_cycles_stochastic's residual: every node of `nodes`, into lobes 1..3, in double one node at a
-    // time or in float lanes.
+    // eval_cycles_stochastic's residual in double, one node at a time: every node of `nodes`, into lobes 1..3.
     void add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
                             std::array<RGB, kLobeCount>& lobes) const;
-    void add_residual_lanes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
-                            std::array<RGB, kLobeCount>& lobes) const;
+    // eval_cycles_stochastic in float lanes: R over r_nodes, the residual over nodes.
+    void eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::vector<Node>& r_nodes,
+                    const std::vector<Node>& nodes, uint32_t& rng, std::array<RGB, kLobeCount>& lobes) const;
     std::array<RGB, kLobeCount> eval_cycles_stochastic_impl(const ShadingPoint& sp, Vec3 O, uint32_t& rng,
                                                             bool lanes) const;
     RGB trrt_series(double t, double r, RGB a) const;
