@@ -34,9 +34,9 @@ std::array<RGB, kLobeCount> lobe_shares(const std::array<RGB, kLobeCount>& lobes
 
 using stages::SurfacePoint;
 
-// Hit -> position, frame, h and material (docs/cycles.md §3, geom/curve.h).
-SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit) {
-    SurfacePoint sp;
+// Hit -> position, frame, h and material (docs/cycles.md §3, geom/curve.h), written into `sp`.
+void surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit, SurfacePoint& sp) {
+    sp = SurfacePoint{};
     sp.g.wo = -1.0 * ray.dir;
     if (hit.kind == PrimKind::Curve) {
         const CurveData& cd = s.desc.curves;
@@ -132,7 +132,6 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         sp.g.h = clamp(dot(cross(ng, sp.g.tangent), z), -1.0, 1.0);
         sp.g.random = 0.0;
     }
-    return sp;
 }
 
 // Runs the material's shading program at a hit with Hair Info and the curve attributes there
@@ -294,7 +293,7 @@ bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, P
     const Ray& ray = st.ray;
     const Hit& hit = st.hit;
     SurfacePoint& sp = h.sp;
-    sp = surface_point(s, ray, hit);
+    surface_point(s, ray, hit, sp);
     const MaterialShader& material = s.materials[size_t(sp.material)];
     if (st.camera && !st.res.hit) {
         st.res.hit = true;
@@ -450,13 +449,13 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     PathState st(rng);
     st.ray = ray;
     begin_path(s, st);
+    HitShading h;  // each hit's, written by prepare_bsdf
+    ShadowRay shadow;  // each hit's light sample, written by sample_light
     for (;;) {
         st.hit = first_hit ? *first_hit : s.geometry.intersect(st.ray, st.skip);
         first_hit = nullptr;
         if (!after_trace(s, st, counters)) break;
-        HitShading h;
         if (!prepare_bsdf(s, st, scratch, counters, h)) break;
-        ShadowRay shadow;
         if (sample_light(s, st, scratch, h, counters, shadow) &&
             !s.geometry.occluded(shadow.ray, shadow.self, shadow.light_triangle))
             add_light_sample(s, st, counters, shadow);

@@ -79,11 +79,11 @@ void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1
         w.shadows.clear();
         w.shadow_path.clear();
         w.next_live.clear();
+        HitShading h;      // each hit's, written by prepare_bsdf
+        ShadowRay shadow;  // each hit's light sample, written by sample_light
         for (const auto& [material, i] : w.shading) {
             PathState& st = w.paths[i];
-            HitShading h;
             if (!prepare_bsdf(s, st, scratch, counters, h)) continue;
-            ShadowRay shadow;
             if (sample_light(s, st, scratch, h, counters, shadow)) {
                 w.shadows.push_back(shadow);
                 w.shadow_path.push_back(i);
