@@ -41,7 +41,7 @@ BLOCKS = [
     ("int hit_material(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("// Lights crossed before the surface", "MIS: lights hit by rays (forward MIS, suns, world)"),
     ("bool prepare_bsdf(", "path loop: bookkeeping (bounces, roulette, throughput)"),
-    ("sp = surface_point(", "hit set-up: frame, tangent, h, attributes, material program"),
+    ("surface_point(s, ray, hit, sp);", "hit set-up: frame, tangent, h, attributes, material program"),
     ("h.first_hair = ", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("if (!material.program().empty())", "hit set-up: frame, tangent, h, attributes, material program"),
     ("const RGB emission = ", "MIS: lights hit by rays (forward MIS, suns, world)"),
