@@ -58,6 +58,19 @@ def test_wavefront_is_the_per_pixel_image_bit_for_bit(case):
     assert wavefront["stats"]["nan_count"] == per_pixel["stats"]["nan_count"]
 
 
+def test_wavefront_traces_a_large_tile_a_group_of_rows_at_a_time_bit_for_bit():
+    """One thread on 64 x 32 pixels: 16-pixel tiles, whose passes of 4 samples and more hold more paths than
+    the wavefront takes at once (kMaxPaths, wavefront.cpp), so the rows go in groups; still the per-pixel image."""
+    scene = _lit("THICK", "CHIANG", light_tree=True, samples=7)
+    scene["camera"]["resolution"] = (64, 32)
+    per_pixel = render(scene, threads=1)
+    wavefront = render(dict(scene, integrator=dict(scene["integrator"], wavefront=True, wavefront_streams=False)),
+                       threads=1)
+    assert per_pixel["stats"]["samples"] == 7
+    np.testing.assert_array_equal(wavefront["combined"], per_pixel["combined"])
+    assert wavefront["stats"]["rays"] == per_pixel["stats"]["rays"]
+
+
 @pytest.mark.parametrize("coherent_camera_rays", [False, True])
 def test_wavefront_streams_are_the_per_pixel_image_at_float_rounding(coherent_camera_rays):
     """Rays as Embree streams (the default): Embree's packets return some hits a rounding step away

@@ -23,12 +23,17 @@ struct WavefrontStorage {
     std::vector<uint8_t> occluded;
 };
 
-void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1,
-                          PathScratch& scratch, PathCounters& counters,
-                          const std::function<void(int, int, const PathResult&)>& emit) {
+namespace {
+
+// At most this many paths at once (about 0.8 kB of state each with their light samples, so that they
+// stay in a core's L2 cache): a tile's rows are traced in groups of rows below it.
+constexpr size_t kMaxPaths = 512;
+
+// Rows [y0, y1) of a tile: the wavefront proper.
+void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1, PathScratch& scratch,
+                PathCounters& counters, const std::function<void(int, int, const PathResult&)>& emit) {
     using namespace stages;
     const IntegratorSettings& is = s.desc.integrator;
-    if (!scratch.wavefront) scratch.wavefront = std::make_shared<WavefrontStorage>();
     WavefrontStorage& w = *scratch.wavefront;
 
     // Camera rays, each from its own sample's Sampler, which the path keeps.
@@ -121,6 +126,18 @@ void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1
     for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x)
             for (int k = s0; k < s1; ++k, ++i) emit(x, y, w.paths[i].res);
+}
+
+}  // namespace
+
+void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1,
+                          PathScratch& scratch, PathCounters& counters,
+                          const std::function<void(int, int, const PathResult&)>& emit) {
+    if (!scratch.wavefront) scratch.wavefront = std::make_shared<WavefrontStorage>();
+    const size_t row_paths = std::max<size_t>(1, size_t(x1 - x0) * size_t(s1 - s0));
+    const int rows = int(std::max<size_t>(1, kMaxPaths / row_paths));
+    for (int y = y0; y < y1; y += rows)
+        trace_rows(s, x0, y, x1, std::min(y + rows, y1), s0, s1, scratch, counters, emit);
 }
 
 }  // namespace hairbsdf::render
