@@ -17,6 +17,7 @@
 
 #include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
+#include "hairbsdf/math_simd.h"
 #include "hairbsdf/params/principled_hair.h"
 
 using namespace hairbsdf;
@@ -135,7 +136,7 @@ int main(int argc, char** argv) {
         const size_t bad = run_kernel(constants, op, rows, value, pdf, wi, lobe);
         double acc = 0;
         for (float p : pdf) acc += p;
-        std::printf("%s %zu rows on %s, %zu bad, checksum %.9g\n", argv[1], calls, chiang_batch_isa(), bad, acc);
+        std::printf("%s %zu rows on %s, %zu bad, checksum %.9g\n", argv[1], calls, simd_isa_name(simd_isa()), bad, acc);
         return 0;
     }
     const ClosureSum sum({Closure{RGB(1.0), model}});

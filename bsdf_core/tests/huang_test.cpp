@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <random>
 
-#include "hairbsdf/batch/chiang_batch.h"
+#include "hairbsdf/math_simd.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/math_cubature.h"
 #include "hairbsdf/models/huang_lab.h"
@@ -573,9 +573,9 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
         {0.7, 0.45, 1.45, 4.0 * kPi / 180.0, RGB(0.5), GlassAlbedoTable::Cycles4, 1.0, 0.0},
     };
     const char* const isas[] = {"avx512", "avx2", "sse2"};
-    const std::string best = chiang_batch_isa();
+    const std::string best = simd_isa_name(simd_isa());
     for (const char* isa : isas) {
-        if (std::string(set_chiang_batch_isa(isa)) != isa) continue;  // not on this CPU
+        if (std::string(simd_isa_name(set_simd_isa(isa))) != isa) continue;  // not on this CPU
         for (size_t ci = 0; ci < std::size(cases); ++ci) {
             const Case& cs = cases[ci];
             HuangHairParams p;
@@ -645,5 +645,5 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
             }
         }
     }
-    set_chiang_batch_isa(best.c_str());
+    set_simd_isa(best.c_str());
 }

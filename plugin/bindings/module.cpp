@@ -15,6 +15,7 @@
 #include "hairbsdf/albedo.h"
 #include "hairbsdf/batch/batch_rows.h"
 #include "hairbsdf/batch/chiang_batch.h"
+#include "hairbsdf/math_simd.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/model_factory.h"
 #include "hairbsdf/param_kinds.h"
@@ -1085,10 +1086,10 @@ PYBIND11_MODULE(_core, m) {
     m.def("set_batch_kernel", [](const std::string& name, bool convert_float64) {
         g_kernels_on = name != "scalar";
         g_convert_f64 = convert_float64;
-        const char* isa = set_chiang_batch_isa(name == "best" || name == "scalar" ? "" : name.c_str());
-        return g_kernels_on.load() ? std::string(isa) : std::string("scalar");
+        const SimdIsa isa = set_simd_isa(name == "best" || name == "scalar" ? "" : name.c_str());
+        return g_kernels_on.load() ? std::string(simd_isa_name(isa)) : std::string("scalar");
     });
-    m.def("get_batch_kernel", []() { return g_kernels_on.load() ? std::string(chiang_batch_isa()) : std::string("scalar"); });
+    m.def("get_batch_kernel", []() { return g_kernels_on.load() ? std::string(simd_isa_name(simd_isa())) : std::string("scalar"); });
     // Chiang's scalar Cycles-accuracy transcendentals: float accuracy (true) or the double reference.
     m.def("set_scalar_maths", [](bool in_float) {
         set_cycles_float_maths(in_float);

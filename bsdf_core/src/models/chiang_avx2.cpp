@@ -5,13 +5,12 @@
 // machines without AVX2 never reach AVX2 code. Chosen at run time by chiang_scalar_avx2().
 #include "hairbsdf/models/chiang.h"
 
+#include "hairbsdf/math_simd.h"
+
 namespace hairbsdf {
 
 #if defined(__x86_64__) && defined(__GNUC__)
-bool chiang_scalar_avx2_supported() {
-    __builtin_cpu_init();  // may run from a static initialiser, before the CPU model is read otherwise
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
+bool chiang_scalar_avx2_supported() { return simd_isa_supported(SimdIsa::avx2); }
 
 HAIRBSDF_SCALAR_AVX2 __attribute__((flatten)) ChiangHair::ShadingPoint ChiangHair::prepare_avx2(
     const ChiangHair& model, const ShadingContext& ctx) {

@@ -2,7 +2,7 @@
 // and Cycles' stochastic eval.
 #include "huang_internal.h"
 
-#include "../batch/huang_lanes.h"
+#include "huang_lanes.h"
 
 #include "hairbsdf/math_cubature.h"
 #include "hairbsdf/math_quadrature.h"
@@ -355,7 +355,7 @@ void HuangHair::add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::ve
 }
 
 // The same eval in float lanes: R's nodes, then the residual's with every node's numbers drawn first, in
-// add_residual_node's order (src/batch/huang_lanes_kernel.h). wh is normalize(I + O) (R only).
+// add_residual_node's order (src/models/huang_lanes_kernel.h). wh is normalize(I + O) (R only).
 void HuangHair::eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::vector<Node>& r_nodes,
                            const std::vector<Node>& nodes, uint32_t& rng, std::array<RGB, kLobeCount>& lobes) const {
     const Vec3 I = sp.I;

@@ -91,10 +91,6 @@ enum class ChiangBatchOp { Eval, Pdf, Sample };
 size_t chiang_batch_run(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
                         const ChiangBatchOutput& out, size_t begin, size_t end);
 
-// The instruction set the kernels run on: "avx512", "avx2" or "sse2". set_chiang_batch_isa()
-// picks one for tests and benchmarks (falls back to the best available when `name` is not
-// supported here) and returns the one now in use.
-const char* chiang_batch_isa();
-const char* set_chiang_batch_isa(const char* name);
+// The kernels run on the instruction set of hairbsdf/math_simd.h (simd_isa, set_simd_isa).
 
 }  // namespace hairbsdf

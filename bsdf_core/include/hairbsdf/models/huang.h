@@ -107,7 +107,7 @@ struct HuangHairParams {
     enum class MixtureDetail { Full, Coarse, None } mixture_detail = MixtureDetail::Full;
 };
 
-// The per-model numbers of Cycles' stochastic eval in float SIMD lanes (src/batch/huang_lanes_kernel.h,
+// The per-model numbers of Cycles' stochastic eval in float SIMD lanes (src/models/huang_lanes_kernel.h,
 // docs/simd.md), filled by the HuangHair constructor. energy_scale's table lookup has only mu varying
 // per node (sqrt(alpha) and eta are the model's), so each interface's E_glass is reduced once to a
 // row over mu: trilinear interpolation is linear in each coordinate, so interpolating that row in mu

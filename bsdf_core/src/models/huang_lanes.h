@@ -34,13 +34,13 @@ void huang_residual_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, 
 // R's Simpson sum over its nodes (h and weight only; the draws are not read): sum of weight x r_integrand.
 double huang_r_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes);
 
-namespace batch_detail {
+namespace huang_lanes_detail {
 void huang_residual_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
 void huang_residual_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
 void huang_residual_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
 double huang_r_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
-}  // namespace batch_detail
+}  // namespace huang_lanes_detail
 
 }  // namespace hairbsdf

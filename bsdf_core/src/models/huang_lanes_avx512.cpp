@@ -1,9 +1,9 @@
-// Huang's stochastic eval lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt).
+// Huang's stochastic eval lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
 #define HAIRBSDF_BATCH_NS avx512
 #include "huang_lanes_kernel.h"
 
 namespace hairbsdf {
-namespace batch_detail {
+namespace huang_lanes_detail {
 void huang_residual_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
                          double* out) {
     avx512::HuangLanes<xsimd::avx512bw>{c, p}.run(nodes, out);
@@ -11,5 +11,5 @@ void huang_residual_avx512(const HuangLaneConstants& c, const HuangLanePoint& p,
 double huang_r_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_r(nodes);
 }
-}  // namespace batch_detail
+}  // namespace huang_lanes_detail
 }  // namespace hairbsdf

@@ -1,9 +1,9 @@
-// Huang's stochastic eval lanes built for avx2 (compile flags in bsdf_core/CMakeLists.txt).
+// Huang's stochastic eval lanes built for avx2 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
 #define HAIRBSDF_BATCH_NS avx2
 #include "huang_lanes_kernel.h"
 
 namespace hairbsdf {
-namespace batch_detail {
+namespace huang_lanes_detail {
 void huang_residual_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
                          double* out) {
     avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run(nodes, out);
@@ -11,5 +11,5 @@ void huang_residual_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, c
 double huang_r_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_r(nodes);
 }
-}  // namespace batch_detail
+}  // namespace huang_lanes_detail
 }  // namespace hairbsdf

@@ -17,7 +17,7 @@
 #endif
 
 namespace hairbsdf {
-namespace batch_detail {
+namespace huang_lanes_detail {
 namespace HAIRBSDF_BATCH_NS {
 
 template <class Arch>
@@ -360,5 +360,5 @@ struct HuangLanes {
 };
 
 }  // namespace HAIRBSDF_BATCH_NS
-}  // namespace batch_detail
+}  // namespace huang_lanes_detail
 }  // namespace hairbsdf
