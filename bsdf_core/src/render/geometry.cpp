@@ -318,23 +318,7 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
 }
 
 void Geometry::intersect_stream(const Ray* rays, Hit* hits, size_t count) const {
-    if (empty()) {
-        std::fill(hits, hits + count, Hit{});
-        return;
-    }
-    QueryContext ctx;
-    rtcInitIntersectContext(&ctx.rtc);
-    ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    thread_local std::vector<RTCRayHit> stream;  // grows to the longest row, then is reused
-    stream.resize(count);
-    for (size_t i = 0; i < count; ++i) {
-        setup_ray(rays[i], stream[i].ray);
-        stream[i].ray.id = unsigned(i);
-        stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    }
-    rtcIntersect1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRayHit));
-    for (size_t i = 0; i < count; ++i) hits[i] = to_hit(stream[i]);
+    intersect_stream(rays, nullptr, hits, count);
 }
 
 void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hits, size_t count) const {
@@ -343,9 +327,11 @@ void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hit
         return;
     }
     QueryContext ctx;
-    rtcInitIntersectContext(&ctx.rtc);  // incoherent: Embree traces the rays one by one
+    rtcInitIntersectContext(&ctx.rtc);
+    // Camera rays (no skips) start together and go the same way: Embree traces them as packets.
+    if (!skips) ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     ctx.skips = skips;
-    thread_local std::vector<RTCRayHit> stream;
+    thread_local std::vector<RTCRayHit> stream;  // grows to the longest stream, then is reused
     stream.resize(count);
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);

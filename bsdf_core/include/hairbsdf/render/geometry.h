@@ -89,7 +89,8 @@ public:
     // same hits as intersect(rays[i], {}) each, traced as Embree packets.
     void intersect_stream(const Ray* rays, Hit* hits, size_t count) const;
     // Rays that each skip their own primitive, as one incoherent stream (rtcIntersect1M; the
-    // wavefront's bounce rays): Embree traces them one by one, so hits[i] = intersect(rays[i], skips[i]).
+    // wavefront's bounce rays): hits[i] = intersect(rays[i], skips[i]) at float rounding (Embree's
+    // stream code may return a hit one rounding step away). Null skips: the coherent stream above.
     void intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hits, size_t count) const;
     // `light_triangle`: a triangle the ray aims at (an emissive-triangle light sample), ignored.
     bool occluded(const Ray& ray, SkipPrim skip, int light_triangle = -1) const;
