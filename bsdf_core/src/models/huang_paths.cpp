@@ -162,42 +162,50 @@ void HuangHair::trt_from_entry(const EntryState& e, Vec3 O, double r2, double an
 
 // TRRT+'s shell (docs/huang.md §4): the TRRT+ series is large only where the internal Fresnel factor is
 // between kTrrtShellFresnel and 1, a thin band of the internal normal's angle to -wt just short of
-// total internal reflection, which Cycles' visible normals rarely hit. The proposal: the cosine to
+// total internal reflection, which Cycles' visible normals rarely hit. The proposal: the cosine c to
 // -wt uniform over that band; the azimuth around -wt wrapped Cauchy around the internal mesonormal's,
-// of scale sqrt(alpha^2 + d^2) / sin(theta) (d: the band's angular distance from the mesonormal), the
-// width of the GGX lobe where the circle of angle theta crosses it. Density in solid angle:
-// 1 / (band width in cosine) x the azimuth's density.
+// of scale sqrt(alpha^2 + sin^2 d) / sin(theta) (d = theta - beta: the band's angle from the
+// mesonormal), about the width of the GGX lobe where the circle of angle theta crosses it. Density in
+// solid angle (d omega = dc d psi): 1 / (the band's width in cosine) x the azimuth's density.
 namespace {
-// The wrapped Cauchy's scale at cosine c (rho = exp(-scale), tanh(scale / 2) = (1 - rho) / (1 + rho)).
-double shell_azimuth_scale(double c, double beta, double alpha) {
-    const double theta = std::acos(clamp(c, -1.0, 1.0)), d = theta - beta;
-    return clamp(std::sqrt(alpha * alpha + d * d) / std::max(std::sqrt(std::max(1.0 - c * c, 0.0)), 1e-6), 1e-6, 50.0);
+// The azimuth's scale at cosine c with sin(theta) = sn, for the mesonormal at angle beta.
+double shell_azimuth_scale(double cos_beta, double sin_beta, double c, double sn, double alpha) {
+    const double sin_d = sn * cos_beta - c * sin_beta;
+    return clamp(std::sqrt(alpha * alpha + sin_d * sin_d) / std::max(sn, 1e-6), 1e-6, 50.0);
 }
 }  // namespace
 
 HuangHair::ShellFrame HuangHair::trrt_shell_frame(const EntryState& e) const {
     ShellFrame f;
     f.a = e.mwt;
-    make_orthonormals(f.a, f.s, f.t);
-    f.psi0 = std::atan2(dot(e.wmt, f.t), dot(e.wmt, f.s));
-    f.beta = std::acos(clamp(e.cos_mi2, -1.0, 1.0));
+    f.cos_beta = clamp(e.cos_mi2, -1.0, 1.0);
+    const Vec3 across = e.wmt - f.cos_beta * f.a;  // the mesonormal's part across a
+    f.sin_beta = length(across);
+    if (f.sin_beta > 1e-9) {
+        f.s = (1.0 / f.sin_beta) * across;
+        f.t = cross(f.a, f.s);
+    } else {
+        make_orthonormals(f.a, f.s, f.t);
+    }
     return f;
 }
 
 Vec3 HuangHair::trrt_shell_sample(const ShellFrame& f, double u2, double u3) const {
     const double c = trrt_shell_lo_ + u2 * (trrt_shell_hi_ - trrt_shell_lo_);
-    const double k = std::tanh(0.5 * shell_azimuth_scale(c, f.beta, alpha_));
-    const double psi = f.psi0 + 2.0 * std::atan(k * std::tan(kPi * (u3 - 0.5)));
     const double sn = std::sqrt(std::max(1.0 - c * c, 0.0));
-    return (sn * std::cos(psi)) * f.s + (sn * std::sin(psi)) * f.t + c * f.a;
+    // Wrapped Cauchy by inversion: psi = 2 atan(x), x = tanh(scale / 2) tan(pi (u3 - 1/2)).
+    const double x = std::tanh(0.5 * shell_azimuth_scale(f.cos_beta, f.sin_beta, c, sn, alpha_)) * std::tan(kPi * (u3 - 0.5));
+    const double cos_psi = (1.0 - x * x) / (1.0 + x * x), sin_psi = 2.0 * x / (1.0 + x * x);
+    return (sn * cos_psi) * f.s + (sn * sin_psi) * f.t + c * f.a;
 }
 
 double HuangHair::trrt_shell_density(const ShellFrame& f, Vec3 h) const {
     const double c = dot(f.a, h);
     if (!(c > trrt_shell_lo_) || !(c < trrt_shell_hi_)) return 0.0;
-    const double rho = std::exp(-shell_azimuth_scale(c, f.beta, alpha_));
-    const double dpsi = std::atan2(dot(h, f.t), dot(h, f.s)) - f.psi0;
-    const double azimuth = (1.0 - rho * rho) / (kTwoPi * (1.0 + rho * rho - 2.0 * rho * std::cos(dpsi)));
+    const double sn = std::sqrt(std::max(1.0 - c * c, 0.0));
+    const double cos_psi = clamp(dot(h, f.s) / sn, -1.0, 1.0);
+    const double rho = std::exp(-shell_azimuth_scale(f.cos_beta, f.sin_beta, c, sn, alpha_));
+    const double azimuth = (1.0 - rho * rho) / (kTwoPi * (1.0 + rho * rho - 2.0 * rho * cos_psi));
     return azimuth / (trrt_shell_hi_ - trrt_shell_lo_);
 }
 

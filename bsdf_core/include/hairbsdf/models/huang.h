@@ -292,11 +292,11 @@ private:
     RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr,
                      bool trrt_only = false) const;
     // TRRT+'s shell proposal for the internal microfacet normal (trt_mis_point): its frame at an entry
-    // state (a = -wt, (s, t) around it; the internal mesonormal's azimuth psi0 and angle beta from a),
-    // a point from (u2, u3), and its density (solid angle) at a normal.
+    // state (a = -wt; s towards the internal mesonormal, at angle beta from a; t = a x s), a point from
+    // (u2, u3), and its density (solid angle) at a normal.
     struct ShellFrame {
         Vec3 a, s, t;
-        double psi0, beta;
+        double cos_beta, sin_beta;
     };
     ShellFrame trrt_shell_frame(const EntryState& e) const;
     Vec3 trrt_shell_sample(const ShellFrame& f, double u2, double u3) const;
