@@ -236,7 +236,7 @@ TEST(HuangHair, LabSimpsonRefinement) {
     EXPECT_NEAR(lum(lc[0]), lum(la[0]), 0.05 * lum(la[0]) + 1e-6);
 }
 
-// TRRT+'s shell proposal (trt_mis_point): its density is that of its samples. Over the band of
+// TRRT+'s shell proposal (trt_mis_point): its samples are unit normals and its density is theirs. Over the band of
 // cosines to -wt where it lives, the mean of phi / density over its samples must equal the integral
 // of phi (a midpoint grid in cosine and azimuth, d omega = dc d psi), for phi = 1 and for a lobe
 // around the internal mesonormal; and the density integrates to 1.
@@ -275,6 +275,7 @@ TEST(HuangHair, TrrtShellProposalDensityIsItsSamples) {
                 const Vec3 h = probe.sample(u(rng), u(rng));
                 const double q = probe.density(h);
                 ASSERT_GT(q, 0.0);
+                ASSERT_NEAR(length(h), 1.0, 1e-9);
                 mc_one += 1.0 / q / n, mc_lobe += lobe(h) / q / n;
             }
             EXPECT_NEAR(grid_density, 1.0, 2e-3) << "alpha " << alpha << " r1 " << r1;
