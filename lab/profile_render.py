@@ -2,18 +2,34 @@
 
     perf record -g .venv/bin/python lab/profile_render.py [--samples 16] [--threads 1] [--scene NAME | --npz F]
     perf report --no-children --sort dso,symbol
+
+--modules build/profile/plugin renders with the profiling build's native modules (symbols and line
+tables; lab/README.md, "A profiling build") instead of the installed, stripped ones.
 """
 
 import argparse
+import importlib.machinery
 import importlib.util
 import os
 import sys
 
-from hairbsdf.render import render
-
 # The scene lives with the render-unit tests (not in the package): load that file by path.
 UNIT_CASES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                           "blender_tests", "render_units", "unit_cases.py")
+
+
+def use_native_modules(folder, ap):
+    """Loads hairbsdf._core and hairbsdf._render from `folder`, before hairbsdf is imported, so that
+    the package uses them (its Python files stay the installed ones)."""
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    for name in ("_core", "_render"):
+        path = os.path.join(folder, name + suffix)
+        if not os.path.isfile(path):
+            ap.error(f"--modules: no {name + suffix} in {folder} (build it: lab/README.md, 'A profiling build')")
+        spec = importlib.util.spec_from_file_location("hairbsdf." + name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        sys.modules[spec.name] = module
 
 
 def main():
@@ -26,9 +42,14 @@ def main():
     ap.add_argument("--camera-ray-stream", action="store_true",
                     help="integrator.camera_ray_stream: camera rays as one Embree stream per tile row")
     ap.add_argument("--repeat", type=int, default=1, help="render this many times (default 1)")
+    ap.add_argument("--modules", default="", help="a folder holding hairbsdf's _core and _render native modules "
+                    "to use instead of the installed ones: a profiling build's plugin/ (lab/README.md)")
     a = ap.parse_args()
     if a.samples < 1 or a.threads < 1 or a.repeat < 1:
         ap.error("--samples, --threads and --repeat must be positive")
+    if a.modules:
+        use_native_modules(a.modules, ap)
+    from hairbsdf.render import render
     if a.npz:
         from hairbsdf.scene_file import load_scene
         desc, name = load_scene(a.npz)[0], os.path.basename(a.npz)
@@ -42,7 +63,8 @@ def main():
     for _ in range(a.repeat):
         out = render(desc, threads=a.threads)
         print(f"{name}, {a.samples} spp, {a.threads} thread(s), camera_ray_stream {a.camera_ray_stream}: "
-              f"{out['stats']['seconds']:.2f} s, {out['stats']['rays']} rays, mean {out['combined'][..., :3].mean():.6f}",
+              f"{out['stats']['seconds']:.2f} s, {out['stats']['rays']} rays, mean {out['combined'][..., :3].mean():.6f}"
+              + (f", modules from {a.modules}" if a.modules else ""),
               flush=True)
 
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <sstream>
 #include <atomic>
 #include <vector>
 
@@ -138,12 +139,36 @@ py::array_t<double> albedo_arrays(const ClosureSum& bsdf, const Array& wo, const
     return out;
 }
 
+// Reads the dict `given` into a struct by table rows: apply(row, value) for each row whose name
+// (name_of(row)) is a key of `given`; rows not given keep the struct's defaults. A key that no row
+// names is a ValueError naming it and the allowed names: "<where>['<key>']: not <what>; allowed: a, b".
+template <class Rows, class NameOf, class Apply>
+void read_by_rows(const py::dict& given, const Rows& rows, NameOf name_of, Apply apply, const std::string& where,
+                  const std::string& what) {
+    size_t used = 0;
+    for (const auto& row : rows) {
+        const py::str name(name_of(row));
+        if (!given.contains(name)) continue;
+        apply(row, given[name]);
+        ++used;
+    }
+    if (used == given.size()) return;
+    std::string allowed;
+    for (const auto& row : rows) allowed += (allowed.empty() ? "" : ", ") + std::string(name_of(row));
+    for (const auto& item : given) {
+        const std::string key = py::str(item.first);
+        bool known = false;
+        for (const auto& row : rows) known = known || key == name_of(row);
+        if (!known) throw py::value_error(where + "['" + key + "']: not " + what + "; allowed: " + allowed);
+    }
+}
+
 // The scene schema's rows of Principled Hair's inputs ("materials[].closures[].inputs.*", bound to
 // PrincipledHairInputs' fields: the one table of the node's inputs), with their keys; found once.
 using PrincipledInputRows = std::vector<std::pair<std::string, const bindings::SceneKey*>>;
 const PrincipledInputRows& principled_input_rows() {
     static const PrincipledInputRows rows = [] {
-        const std::string path = "materials[].closures[].inputs";
+        const std::string path = bindings::kPrincipledHairInputsPath;
         PrincipledInputRows out;
         for (const bindings::SceneKey* k : bindings::rows_under(path, ""))
             if (k->field && k->field.owner == typeid(PrincipledHairInputs))
@@ -158,25 +183,15 @@ const PrincipledInputRows& principled_input_rows() {
 PrincipledHairInputs principled_inputs_from(int parametrization, const py::dict& inputs) {
     PrincipledHairInputs in;
     in.parametrization = Parametrization(parametrization);
-    size_t used = 0;
-    for (const auto& [key, row] : principled_input_rows()) {
-        if (!inputs.contains(key)) continue;
-        py::object value = inputs[py::str(key)];
-        if (row->kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
-        row->field.assign(*row, &in, value);
-        ++used;
-    }
-    if (used != inputs.size()) {
-        std::string unknown, allowed;
-        for (const auto& item : inputs) {
-            const std::string key = py::str(item.first);
-            bool known = false;
-            for (const auto& row : principled_input_rows()) known = known || row.first == key;
-            if (!known) unknown = key;
-        }
-        for (const auto& row : principled_input_rows()) allowed += (allowed.empty() ? "" : ", ") + row.first;
-        throw py::value_error("inputs['" + unknown + "']: not a Principled Hair input; allowed: " + allowed);
-    }
+    read_by_rows(
+        inputs, principled_input_rows(), [](const auto& row) -> const std::string& { return row.first; },
+        [&in](const auto& row, py::handle given) {
+            const bindings::SceneKey& key = *row.second;
+            py::object value = py::reinterpret_borrow<py::object>(given);
+            if (key.kind == bindings::SceneKeyKind::Vector && !py::isinstance<py::tuple>(value)) value = py::tuple(value);
+            key.field.assign(key, &in, value);
+        },
+        "inputs", "a Principled Hair input");
     return in;
 }
 
@@ -234,60 +249,103 @@ py::dict chiang_params_dict(const ChiangHairParams& p) {
 template <class P>
 P inputs_from_table(const py::dict& given) {
     P p;
-    size_t used = 0;
-    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
-        const py::str name(row.spec.name);
-        if (!row.set || !given.contains(name)) continue;
-        const py::handle v = given[name];
-        ParamValue x{};
-        if (py::isinstance<py::sequence>(v)) {
-            const std::vector<double> seq = v.cast<std::vector<double>>();
-            if (seq.empty() || seq.size() > 3) throw py::value_error(std::string(name) + ": expected 1 to 3 numbers");
-            std::copy(seq.begin(), seq.end(), x.begin());
-        } else {
-            x.fill(v.cast<double>());
-        }
-        row.set(p, x);
-        ++used;
-    }
-    if (used != given.size()) {
-        std::string known;
-        for (const ParamRow<P>& row : ParamTable<P>::rows()) known += (known.empty() ? "" : ", ") + row.spec.name;
-        throw py::value_error(std::string(ParamTable<P>::model) + ": unknown input; allowed: " + known);
-    }
+    std::vector<const ParamRow<P>*> rows;  // the rows that take an input
+    for (const ParamRow<P>& row : ParamTable<P>::rows())
+        if (row.set) rows.push_back(&row);
+    read_by_rows(
+        given, rows, [](const ParamRow<P>* row) -> const std::string& { return row->spec.name; },
+        [&p](const ParamRow<P>* row, py::handle v) {
+            ParamValue x{};
+            if (py::isinstance<py::sequence>(v)) {
+                const std::vector<double> seq = v.cast<std::vector<double>>();
+                if (seq.empty() || seq.size() > 3) throw py::value_error(row->spec.name + ": expected 1 to 3 numbers");
+                std::copy(seq.begin(), seq.end(), x.begin());
+            } else {
+                x.fill(v.cast<double>());
+            }
+            row->set(p, x);
+        },
+        ParamTable<P>::model, "an input");
     return p;
 }
 
 // Huang's options by their table's names (params/huang.h): a choice as its index, else the
-// number; each bound row writes its field (a choice's index names its enum value through the table).
+// number; each bound row writes its field (a choice's index names its enum value through the table),
+// an option not given keeps p's (the table's default). The one check of the options' kinds and
+// ranges (their rows'), and of trt_points' rule (models/huang.h).
 HuangHairParams huang_options(HuangHairParams p, const py::dict& given) {
-    for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows()) {
-        if (!row.set) continue;  // color_roughness: an input of the node conversion
-        const double x = given[py::str(row.spec.name)].cast<double>();
-        row.set(p, {x, x, x});
-    }
+    using Row = ParamRow<HuangHairParams>;
+    read_by_rows(
+        given, ParamTable<HuangHairParams>::rows(), [](const Row& row) -> const std::string& { return row.spec.name; },
+        [&p](const Row& row, py::handle v) {
+            const ModelParamSpec& spec = row.spec;
+            const bool integer = spec.kind == ParamKind::Int || spec.kind == ParamKind::Choice;
+            if (integer && (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v)))
+                throw py::type_error(spec.name + ": expected an integer, got " + std::string(py::repr(v)));
+            const double x = v.cast<double>();
+            const double lo = spec.kind == ParamKind::Choice ? 0.0 : spec.min_value;
+            const double hi = spec.kind == ParamKind::Choice ? double(spec.choices.size()) - 1 : spec.max_value;
+            if (!(x >= lo && x <= hi)) {
+                auto text = [integer](double bound) {
+                    if (integer) return std::to_string((long long)bound);
+                    std::ostringstream os;
+                    os << bound;
+                    return os.str();
+                };
+                throw py::value_error(spec.name + "=" + std::string(py::repr(v)) + ": must be in [" + text(lo) + ", " +
+                                      text(hi) + "]");
+            }
+            if (row.set) row.set(p, {x, x, x});  // color_roughness: an input of the node conversion
+        },
+        "options", "an option of principled_hair(model='huang')");
+    if (!trt_points_allowed(p.trt_points))
+        throw py::value_error("trt_points=" + std::to_string(p.trt_points) + ": must be 0 (points set by `tolerance`) or "
+                              "an integer >= " + std::to_string(kMinFixedTrtPoints));
     return p;
 }
 
-// The table's color_roughness choice at `index`.
-HuangColorRoughness huang_color_roughness(int index) {
+// The table's color_roughness choice in `options` (its index), or the row's default.
+HuangColorRoughness huang_color_roughness(const py::dict& options) {
     for (const ParamRow<HuangHairParams>& row : ParamTable<HuangHairParams>::rows())
-        if (row.spec.name == "color_roughness")
-            return row.spec.choices.at(size_t(index)) == "osl" ? HuangColorRoughness::Osl : HuangColorRoughness::Svm;
+        if (row.spec.name == "color_roughness") {
+            const py::str name(row.spec.name);
+            const size_t index = options.contains(name) ? options[name].cast<size_t>() : size_t(row.spec.default_value[0]);
+            return row.spec.choices.at(index) == "osl" ? HuangColorRoughness::Osl : HuangColorRoughness::Svm;
+        }
     throw std::logic_error("params/huang.h has no color_roughness row");
 }
 
-// principled_hair(model="huang"): the node's inputs as principled_inputs_from reads them, and every
-// option of Huang's table.
+// principled_hair(model="huang"): the node's inputs as principled_inputs_from reads them, and
+// Huang's options (any not given: its table's default).
 ClosureSum principled_huang(int parametrization, const py::dict& inputs, const py::dict& options) {
     const PrincipledHairInputs in = principled_inputs_from(parametrization, inputs);
-    const HuangColorRoughness color_roughness = huang_color_roughness(options["color_roughness"].cast<int>());
-    const HuangHairParams p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, color_roughness);
+    HuangHairParams p;  // the options' defaults, for their check before the conversion reads color_roughness
+    huang_options(p, options);
+    p = huang_params_from_principled(in, HuangQuadrature::Cycles, HuangSampler::Mixture, huang_color_roughness(options));
     return ClosureSum({Closure{RGB(1.0), HuangHair(huang_options(p, options))}});
 }
 
+// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
+// choice's name or a bool per bound row.
 template <class P>
-py::dict table_dict(const P& p);  // below
+py::dict table_dict(const P& p) {
+    py::dict d;
+    d["model"] = ParamTable<P>::model;
+    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
+        if (!row.get) continue;  // an input the builder derived fields from
+        const ParamValue v = row.get(p);
+        const py::str name(row.spec.name);
+        switch (row.spec.kind) {
+            case ParamKind::Float: d[name] = v[0]; break;
+            case ParamKind::RGB: d[name] = v; break;
+            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
+            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
+            case ParamKind::Int: d[name] = (long long)v[0]; break;
+            case ParamKind::Vector2: d[name] = std::array<double, 2>{v[0], v[1]}; break;
+        }
+    }
+    return d;
+}
 
 py::dict huang_params_dict(const HuangHair& m) {
     const HuangHairParams& p = m.params();
@@ -343,27 +401,6 @@ py::dict model_dict(const HuangHair& m) { return huang_params_dict(m); }
 py::dict zoo_scales(py::dict d, const std::array<double, 2>& scales) {
     d["v"] = std::vector<double>{scales[0] * scales[0]};
     d["s"] = std::vector<double>{scales[1]};
-    return d;
-}
-// A zoo model's parameters as its table (params/<model>.h) names them: a number, an RGB triple, a
-// choice's name or a bool per bound row.
-template <class P>
-py::dict table_dict(const P& p) {
-    py::dict d;
-    d["model"] = ParamTable<P>::model;
-    for (const ParamRow<P>& row : ParamTable<P>::rows()) {
-        if (!row.get) continue;  // an input the builder derived fields from
-        const ParamValue v = row.get(p);
-        const py::str name(row.spec.name);
-        switch (row.spec.kind) {
-            case ParamKind::Float: d[name] = v[0]; break;
-            case ParamKind::RGB: d[name] = v; break;
-            case ParamKind::Choice: d[name] = row.spec.choices[size_t(v[0])]; break;
-            case ParamKind::Bool: d[name] = v[0] != 0.0; break;
-            case ParamKind::Int: d[name] = (long long)v[0]; break;
-            case ParamKind::Vector2: d[name] = std::array<double, 2>{v[0], v[1]}; break;
-        }
-    }
     return d;
 }
 py::dict model_dict(const KajiyaKayHair& m) {
@@ -590,9 +627,41 @@ py::array output_array(const py::object& out, const char* name, std::vector<py::
 
 // Runs op on the kernels. Returns None when they do not apply (the caller then validates and
 // takes the scalar path, which also names any argument that is not allowed).
-// The per-row inputs (docs/simd.md), in the order of ChiangBatchRowInputs; absorption_coefficient is (N, 3).
-constexpr const char* kRowInputNames[6] = {"roughness", "radial_roughness", "coat", "random", "melanin",
-                                           "absorption_coefficient"};
+// The Principled Hair inputs the Chiang batch calls take per row (docs/simd.md), each by the
+// ClosureDesc::Input its scene-schema row drives: that row gives its name (the row's key) and its
+// shape (a number: (N,); a vector: (N, columns)).
+struct ChiangRowInput {
+    render::ClosureDesc::Input input;
+    const void* ChiangBatchRowInputs::*kernel;       // where the kernels read the rows
+    double PrincipledHairInputs::*number = nullptr;  // where the scalar path writes row i's value
+    RGB PrincipledHairInputs::*rgb = nullptr;        // (an RGB input)
+    std::string name = {};
+    int columns = 0;  // 0: (N,)
+};
+using In = render::ClosureDesc::Input;
+const std::vector<ChiangRowInput>& chiang_row_inputs() {
+    static const std::vector<ChiangRowInput> inputs = [] {
+        std::vector<ChiangRowInput> out = {
+            {In::Roughness, &ChiangBatchRowInputs::roughness, &PrincipledHairInputs::roughness},
+            {In::RadialRoughness, &ChiangBatchRowInputs::radial_roughness, &PrincipledHairInputs::radial_roughness},
+            {In::Coat, &ChiangBatchRowInputs::coat, &PrincipledHairInputs::coat},
+            {In::Random, &ChiangBatchRowInputs::random, &PrincipledHairInputs::random},
+            {In::Melanin, &ChiangBatchRowInputs::melanin, &PrincipledHairInputs::melanin},
+            {In::AbsorptionCoefficient, &ChiangBatchRowInputs::absorption, nullptr,
+             &PrincipledHairInputs::absorption_coefficient}};
+        for (ChiangRowInput& r : out) {
+            for (const auto& [key, row] : principled_input_rows())
+                if (row->link_input == int(r.input)) {
+                    r.name = key;
+                    r.columns = row->kind == bindings::SceneKeyKind::Vector ? row->columns : 0;
+                }
+            if (r.name.empty() || (r.columns == 3) != bool(r.rgb) || (r.columns == 0) != bool(r.number))
+                throw std::logic_error("a Chiang row input has no Principled Hair schema row of its shape");
+        }
+        return out;
+    }();
+    return inputs;
+}
 
 py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, py::handle wo, py::handle second,
                        py::handle h, const py::object& out, const py::dict& inputs);
@@ -627,28 +696,21 @@ py::object kernel_rows(const ChiangBatchConstants& constants, ChiangBatchOp op, 
     }
     // Per-row inputs: in the rows' float type (float64 converted to float32 here, as the rows are
     // under set_batch_kernel(float64="float32")), C-contiguous, N rows.
-    std::array<py::array, 6> row_inputs;
-    const void* row_ptrs[6] = {};
-    for (int k = 0; k < 6; ++k) {
-        if (!inputs.contains(kRowInputNames[k])) continue;
-        py::handle given = inputs[kRowInputNames[k]];
-        if (!is_float_array(given, k == 5 ? 2 : 1)) return py::none();
-        py::array& a = row_inputs[size_t(k)];
-        a = py::reinterpret_borrow<py::array>(given);
+    ChiangBatchRows rows;
+    std::vector<py::array> row_inputs;
+    for (const ChiangRowInput& r : chiang_row_inputs()) {
+        if (!inputs.contains(r.name)) continue;
+        py::handle given = inputs[py::str(r.name)];
+        if (!is_float_array(given, r.columns ? 2 : 1)) return py::none();
+        py::array a = py::reinterpret_borrow<py::array>(given);
         if (f64)
             a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
         else
             a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
         if (a.shape(0) != n) return py::none();
-        row_ptrs[k] = a.data();
+        rows.inputs.*r.kernel = a.data();
+        row_inputs.push_back(std::move(a));
     }
-    ChiangBatchRows rows;
-    rows.inputs.roughness = row_ptrs[0];
-    rows.inputs.radial_roughness = row_ptrs[1];
-    rows.inputs.coat = row_ptrs[2];
-    rows.inputs.random = row_ptrs[3];
-    rows.inputs.melanin = row_ptrs[4];
-    rows.inputs.absorption = row_ptrs[5];
     rows.wo = in[0].data();
     (op == ChiangBatchOp::Sample ? rows.u : rows.wi) = in[1].data();
     rows.h = in[2].data();
@@ -694,13 +756,11 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
     check_rows(wo, n, 3, "wo");
     check_rows(second, n, 3, op == ChiangBatchOp::Sample ? "u" : "wi");
     check_rows(h, n, 0, "h");
-    std::vector<Array> keep(6);
-    const double* row_ptrs[6] = {};
-    for (int k = 0; k < 6; ++k) {
-        if (!inputs.contains(kRowInputNames[k])) continue;
-        keep[size_t(k)] = inputs[kRowInputNames[k]].cast<Array>();
-        check_rows(keep[size_t(k)], n, k == 5 ? 3 : 0, kRowInputNames[k]);
-        row_ptrs[k] = keep[size_t(k)].data();
+    std::vector<std::pair<const ChiangRowInput*, Array>> given;  // the inputs given, with their rows
+    for (const ChiangRowInput& r : chiang_row_inputs()) {
+        if (!inputs.contains(r.name)) continue;
+        given.emplace_back(&r, inputs[py::str(r.name)].cast<Array>());
+        check_rows(given.back().second, n, r.columns, r.name.c_str());
     }
     auto value = new_array({py::ssize_t(n), 3}), pdf = new_array({py::ssize_t(n)});
     auto wi = new_array({py::ssize_t(op == ChiangBatchOp::Sample ? n : 0), 3});
@@ -714,12 +774,12 @@ py::object scalar_rows(const PrincipledHairInputs& base, Accuracy accuracy, Tilt
             ClosureSum::ShadingPoint point;
             for (size_t i = b; i < e; ++i) {
                 PrincipledHairInputs in = base;
-                if (row_ptrs[0]) in.roughness = row_ptrs[0][i];
-                if (row_ptrs[1]) in.radial_roughness = row_ptrs[1][i];
-                if (row_ptrs[2]) in.coat = row_ptrs[2][i];
-                if (row_ptrs[3]) in.random = row_ptrs[3][i];
-                if (row_ptrs[4]) in.melanin = row_ptrs[4][i];
-                if (row_ptrs[5]) in.absorption_coefficient = vec_rgb(row_ptrs[5], i);
+                for (const auto& [r, values] : given) {
+                    if (r->rgb)
+                        in.*r->rgb = vec_rgb(values.data(), i);
+                    else
+                        in.*r->number = values.data()[i];
+                }
                 const ClosureSum bsdf({Closure{weight, ChiangHair(chiang_params_from_principled(in, accuracy, tilt))}});
                 bsdf.prepare(fibre_context(pwo, ph, i), point);
                 if (op == ChiangBatchOp::Sample) {
@@ -861,6 +921,8 @@ PYBIND11_MODULE(_core, m) {
     // Cycles' default surface colour (render/scene.h): the exporter's fallback diffuse.
     const RGB grey = render::kDefaultSurfaceColor;
     m.attr("DEFAULT_SURFACE_COLOR") = py::make_tuple(grey.r, grey.g, grey.b);
+    m.attr("PRINCIPLED_HAIR_INPUTS") = bindings::kPrincipledHairInputsPath;  // the scene key of the node's inputs
+    m.attr("LUMINANCE_WEIGHTS") = py::make_tuple(kLuminanceWeights[0], kLuminanceWeights[1], kLuminanceWeights[2]);
     py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")
         .def_property_readonly("name", &PluginLibrary::name)
         .def_property_readonly("path", &PluginLibrary::path)
@@ -911,8 +973,12 @@ PYBIND11_MODULE(_core, m) {
     // Per-row Principled Hair inputs on a Chiang closure (docs/simd.md); op 0 eval, 1 pdf, 2 sample.
     m.def("chiang_rows", &chiang_rows, py::arg("op"), py::arg("principled"), py::arg("weight"), py::arg("inputs"),
           py::arg("wo"), py::arg("second"), py::arg("h"), py::arg("out"), py::arg("scalar"));
-    m.attr("CHIANG_ROW_INPUTS") = py::make_tuple(kRowInputNames[0], kRowInputNames[1], kRowInputNames[2],
-                                                 kRowInputNames[3], kRowInputNames[4], kRowInputNames[5]);
+    // name -> columns (0: one number a row, 3: an RGB triple a row), from the scene schema's rows.
+    m.attr("CHIANG_ROW_INPUTS") = [] {
+        py::dict d;
+        for (const ChiangRowInput& r : chiang_row_inputs()) d[py::str(r.name)] = r.columns;
+        return d;
+    }();
     m.def("principled_huang", &principled_huang, py::arg("parametrization"), py::arg("inputs"), py::arg("options"));
     // Huang's options (params/huang.h): the table as model_schema's dicts, and name -> default.
     m.def("huang_option_schema", [] { return schema_list(param_specs<HuangHairParams>()); });

@@ -57,36 +57,18 @@ py::array_t<T, py::array::c_style | py::array::forcecast> array_shape(py::handle
 }
 
 // ----- the scene: check_scene (scene_schema.h) has checked every key, its type, shape, dtype,
-// allowed values and the rules between keys, and dropped None; the readers below only copy.
-// Plain values go through the schema's field bindings (bindings::read_fields); arrays and
-// keys with rules of their own are copied here. -----
+// allowed values, array lengths and the rules between keys, and dropped None; the readers below
+// only copy. Plain values and arrays go through the schema's field bindings
+// (bindings::read_fields, bindings::read_list); keys with rules of their own are copied here. -----
 
 template <class T>
 py::array_t<T, py::array::c_style | py::array::forcecast> checked_array(const py::dict& d, const char* name) {
     return py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(d[name]);  // contiguous, its dtype
 }
 
-// Copies a checked (N, columns) array into a vector of N rows.
-template <class Row, class T>
-void copy_rows(const py::dict& d, const char* name, std::vector<Row>& dst) {
-    const auto a = checked_array<T>(d, name);
-    dst.resize(size_t(a.shape(0)));
-    if (!dst.empty()) std::memcpy(dst.data(), a.data(), size_t(a.size()) * sizeof(T));
-}
-
-template <class T>
-void copy_values(const py::dict& d, const char* name, std::vector<T>& dst) {
-    const auto a = checked_array<T>(d, name);
-    dst.assign(a.data(), a.data() + a.size());
-}
-
 py::dict dict_at(const py::dict& d, const char* name) { return py::reinterpret_borrow<py::dict>(d[name]); }
 
 void read_environment(const py::dict& t, EnvironmentDesc& env, int32_t& weight_register) {
-    const auto px = checked_array<float>(t, "pixels");
-    env.height = int(px.shape(0));
-    env.width = int(px.shape(1));
-    env.pixels.assign(px.data(), px.data() + px.size());
     bindings::read_fields("world.texture", t, env, [&](int, int reg) { weight_register = reg; });
 }
 
@@ -94,52 +76,23 @@ void read_curves(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("curves")) return;
     const py::dict c = dict_at(scene, "curves");
     CurveData& cd = out.curves;
-    copy_values(c, "curve_offsets", cd.offsets);
-    if (cd.offsets.empty()) {  // and no points
+    bindings::read_fields("curves", c, cd);
+    if (cd.offsets.empty()) {  // no curves, no points: nothing else is read
+        cd = CurveData{};
         return;
     }
-    copy_rows<std::array<float, 4>, float>(c, "points", cd.points);
-    copy_values(c, "curve_random", cd.random);
-    copy_values(c, "curve_material", cd.material);
-    if (c.contains("normals")) copy_rows<std::array<float, 3>, float>(c, "normals", cd.normals);
-    if (c.contains("point_intercept")) copy_values(c, "point_intercept", cd.intercept);
-    if (c.contains("curve_intercept_total")) copy_values(c, "curve_intercept_total", cd.length);
-    if (c.contains("curve_object")) {
-        copy_values(c, "curve_object", cd.object);
-        copy_rows<std::array<double, 12>, double>(c, "object_transforms", cd.object_transforms);
-    }
-    if (c.contains("attributes")) {
-        for (py::handle item : py::reinterpret_borrow<py::list>(c["attributes"])) {
-            const py::dict a = py::reinterpret_borrow<py::dict>(item);
-            CurveData::Attribute attr;
-            bindings::read_fields("curves.attributes[]", a, attr);
-            copy_rows<std::array<float, 4>, float>(a, "data", attr.rgba);
-            cd.attributes.push_back(std::move(attr));
-        }
-    }
+    bindings::read_list("curves.attributes", c, cd.attributes);
 }
 
 // An image the programs sample: an item of `images`, checked.
 ImageDesc read_image(const py::dict& d) {
     ImageDesc im;
-    bindings::read_fields("images[]", d, im);
-    const auto a = checked_array<float>(d, "pixels");
-    im.height = int(a.shape(0));
-    im.width = int(a.shape(1));
-    im.pixels.assign(a.data(), a.data() + size_t(a.size()));
+    bindings::read_fields(std::string(bindings::kImagesPath) + "[]", d, im);
     return im;
 }
 
-void read_images(const py::dict& scene, SceneDesc& out) {
-    if (!scene.contains("images")) return;
-    for (py::handle h : py::reinterpret_borrow<py::list>(scene["images"]))
-        out.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
-}
-
-ShadingProgram read_program(const py::dict& d, const std::string& path = "materials[].program") {
+ShadingProgram read_program(const py::dict& d, const std::string& path = bindings::kMaterialProgramPath) {
     ShadingProgram p;
-    copy_values(d, "code", p.code);
-    copy_values(d, "constants", p.constants);
     bindings::read_fields(path, d, p);
     return p;
 }
@@ -147,51 +100,29 @@ ShadingProgram read_program(const py::dict& d, const std::string& path = "materi
 void read_meshes(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("meshes")) return;
     const py::dict m = dict_at(scene, "meshes");
-    MeshData& md = out.meshes;
-    copy_rows<std::array<float, 3>, float>(m, "vertices", md.vertices);
-    copy_rows<std::array<int32_t, 3>, int32_t>(m, "triangles", md.triangles);
-    copy_values(m, "triangle_material", md.material);
-    if (m.contains("triangle_normals")) copy_rows<std::array<float, 9>, float>(m, "triangle_normals", md.normals);
-    if (m.contains("triangle_object")) copy_values(m, "triangle_object", md.object);
-    if (m.contains("triangle_reversed")) {
-        std::vector<int32_t> reversed;
-        copy_values(m, "triangle_reversed", reversed);
-        md.reversed.assign(reversed.begin(), reversed.end());
-    }
-    if (m.contains("attributes")) {
-        for (py::handle item : py::reinterpret_borrow<py::list>(m["attributes"])) {
-            const py::dict a = py::reinterpret_borrow<py::dict>(item);
-            MeshData::CornerAttribute attr;
-            bindings::read_fields("meshes.attributes[]", a, attr);
-            copy_rows<std::array<float, 12>, float>(a, "data", attr.corners);
-            md.attributes.push_back(std::move(attr));
-        }
-    }
+    bindings::read_fields("meshes", m, out.meshes);
+    bindings::read_list("meshes.attributes", m, out.meshes.attributes);
 }
 
 ClosureDesc read_closure(const py::dict& c, const std::string& key) {
     ClosureDesc cd;
     auto link = [&cd](int input, int reg) { cd.links.push_back({ClosureDesc::Input(input), int32_t(reg)}); };
-    bindings::read_fields("materials[].closures[]", c, cd, link);
+    bindings::read_fields(bindings::kClosuresPath, c, cd, link);
     if (cd.type == ClosureDesc::Type::PrincipledHair && c.contains("inputs")) {
         const py::dict inputs = dict_at(c, "inputs");
-        bindings::read_fields("materials[].closures[].inputs", inputs, cd.hair, link);
+        bindings::read_fields(bindings::kPrincipledHairInputsPath, inputs, cd.hair, link);
         cd.random_from_curve = !inputs.contains("random");  // Cycles' curve_random where unlinked
-    } else if (cd.type == ClosureDesc::Type::Model) {  // checked and built by model_factory.h
-        cd.model_name = py::str(c["model"]);
-        if (c.contains("path")) cd.model_path = py::str(c["path"]);
-        if (c.contains("params")) {
-            const std::string pk = key + "['params']";
-            cd.model_params = bindings::model_params_from_dict(
-                dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
-        }
+    } else if (cd.type == ClosureDesc::Type::Model && c.contains("params")) {  // model and path: bound rows
+        const std::string pk = key + "['params']";  // checked and built by model_factory.h
+        cd.model_params = bindings::model_params_from_dict(
+            dict_at(c, "params"), [&](const std::string& n) { return pk + "['" + n + "']"; });
     }
     return cd;
 }
 
 MaterialDesc read_material(const py::dict& m, const std::string& key) {
     MaterialDesc md;
-    bindings::read_fields("materials[]", m, md);
+    bindings::read_fields(bindings::kMaterialsPath, m, md);
     if (m.contains("program")) md.program = read_program(dict_at(m, "program"));
     size_t j = 0;
     for (py::handle ch : py::reinterpret_borrow<py::list>(m["closures"]))
@@ -237,10 +168,6 @@ void read_integrator(const py::dict& scene, SceneDesc& out) {
     const py::dict in = dict_at(scene, "integrator");
     IntegratorSettings& s = out.integrator;
     bindings::read_fields("integrator", in, s);
-    s.samples = std::min(s.samples, 1 << 24);
-    for (int* bounces : {&s.max_bounces, &s.diffuse_bounces, &s.glossy_bounces, &s.transmission_bounces,
-                         &s.transparent_bounces, &s.min_light_bounces})
-        *bounces = std::min(*bounces, 1 << 20);
     if (in.contains("passes"))  // checked names of render_passes()
         for (py::handle name : py::reinterpret_borrow<py::list>(in["passes"]))
             for (const bindings::RenderPass& pass : bindings::render_passes())
@@ -256,7 +183,7 @@ SceneDesc scene_from_dict(py::handle scene_dict) {
     read_curves(scene, out);
     read_meshes(scene, out);
     read_materials(scene, out);
-    read_images(scene, out);
+    bindings::read_list(bindings::kImagesPath, scene, out.images);
     read_camera(scene, out);
     read_lights(scene, out);
     if (scene.contains("world")) {
@@ -374,7 +301,7 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
                                    py::handle is_strand, py::handle attributes, py::handle images) {
     // Checked as a material's program and an `images` list are (scene_schema.h).
     const ShadingProgram p =
-        read_program(py::reinterpret_borrow<py::dict>(bindings::check_value("materials[].program", program, "program")));
+        read_program(py::reinterpret_borrow<py::dict>(bindings::check_value(bindings::kMaterialProgramPath, program, "program")));
     auto column = [](py::handle h, const char* name) {
         auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(h);
         if (!a || a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a number or a 1-D array");
@@ -401,7 +328,7 @@ py::array_t<float> py_eval_program(py::handle program, py::handle random, py::ha
     std::vector<ImageDesc> image_descs;
     std::vector<ShadingImage> image_views;
     if (!images.is_none()) {
-        for (py::handle h : bindings::check_value("images", images, "images"))
+        for (py::handle h : bindings::check_value(bindings::kImagesPath, images, "images"))
             image_descs.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
         for (const ImageDesc& im : image_descs) image_views.push_back({im.width, im.height, im.pixels.data()});
     }
@@ -452,11 +379,11 @@ py::dict folded_keys(const std::string& path, const std::string& type, std::type
 // Principled Hair's `random` is None where it is the curve's.
 py::dict py_folded_material(py::handle material, int attribute_count, py::handle images) {
     if (attribute_count < 0) throw py::value_error("attribute_count: must be >= 0, got " + std::to_string(attribute_count));
-    const py::dict checked = bindings::check_value("materials[]", material, "material");
+    const py::dict checked = bindings::check_value(bindings::kMaterialsPath, material, "material");
     SceneDesc scene;
     scene.materials.push_back(read_material(checked, "material"));
     if (!images.is_none())
-        for (py::handle h : bindings::check_value("images", images, "images"))
+        for (py::handle h : bindings::check_value(bindings::kImagesPath, images, "images"))
             scene.images.push_back(read_image(py::reinterpret_borrow<py::dict>(h)));
     scene.curves.attributes.resize(size_t(attribute_count));
     std::vector<std::string> warnings;
@@ -464,12 +391,12 @@ py::dict py_folded_material(py::handle material, int attribute_count, py::handle
     const MaterialDesc& md = scene.materials[0];
     py::list closures;
     for (const ClosureDesc& c : md.closures) {
-        const std::string closure_path = "materials[].closures[]";
+        const std::string closure_path = bindings::kClosuresPath;
         const std::string type = py::str(bindings::fields_as_python(closure_path, "", typeid(ClosureDesc), &c)["type"]);
         py::dict d = folded_keys(closure_path, type, typeid(ClosureDesc), &c, c.links);
         if (c.type == ClosureDesc::Type::PrincipledHair) {
             py::dict inputs =
-                folded_keys(closure_path + ".inputs", "", typeid(PrincipledHairInputs), &c.hair, c.links);
+                folded_keys(bindings::kPrincipledHairInputsPath, "", typeid(PrincipledHairInputs), &c.hair, c.links);
             if (c.random_from_curve) inputs["random"] = py::none();
             d["inputs"] = inputs;
         }

@@ -5,8 +5,10 @@
 #include <pybind11/numpy.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <type_traits>
 
@@ -27,6 +29,7 @@ using In = R::ClosureDesc::Input;
 
 std::string format_number(double x) {
     if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+    if (x == std::floor(x) && std::fabs(x) < 1e15) return std::to_string(static_cast<long long>(x));  // no 1e+06
     std::ostringstream s;
     s << x;
     return s.str();
@@ -74,6 +77,43 @@ void assign(const SceneKey& k, E& dst, py::handle v) {
     dst = E(enum_value(k, py::str(v)));
 }
 
+// An Array row's value: a vector of numbers (columns 0) or of rows of `columns` numbers, copied
+// from the walker's contiguous array of the row's dtype, each number converted to the field's.
+template <class E>
+struct ArrayElement {
+    using type = E;
+    static constexpr int width = 1;
+    static E& at(E& e, int) { return e; }
+};
+template <class T, size_t N>
+struct ArrayElement<std::array<T, N>> {
+    using type = T;
+    static constexpr int width = int(N);
+    static T& at(std::array<T, N>& e, int i) { return e[size_t(i)]; }
+};
+
+template <class Src, class E>
+void copy_array(py::handle v, std::vector<E>& dst) {
+    using A = ArrayElement<E>;
+    const auto a = py::array_t<Src, py::array::c_style | py::array::forcecast>::ensure(v);
+    const Src* src = a.data();
+    dst.resize(size_t(a.size()) / A::width);
+    for (E& e : dst)
+        for (int i = 0; i < A::width; ++i) A::at(e, i) = typename A::type(*src++);
+}
+
+template <class E>
+void assign(const SceneKey& k, std::vector<E>& dst, py::handle v) {
+    if (k.kind != K::Array || std::max(k.columns, 1) != ArrayElement<E>::width)
+        throw std::logic_error("scene schema: " + k.path + " is not an array of rows of " +
+                               std::to_string(ArrayElement<E>::width));
+    const std::string dtype = k.dtype;
+    if (dtype == "float32") copy_array<float>(v, dst);
+    else if (dtype == "int32") copy_array<int32_t>(v, dst);
+    else if (dtype == "float64") copy_array<double>(v, dst);
+    else throw std::logic_error("scene schema: " + k.path + " has no dtype");
+}
+
 std::string text_of(const SceneKey&, double x) { return std::fabs(x - kPi) < 1e-12 ? "pi" : format_number(x); }
 std::string text_of(const SceneKey&, int x) { return std::to_string(x); }
 std::string text_of(const SceneKey&, uint32_t x) { return std::to_string(x); }
@@ -98,6 +138,11 @@ std::string text_of(const SceneKey& k, E value) {
     return enum_name(k, long(value));
 }
 
+template <class E>
+std::string text_of(const SceneKey&, const std::vector<E>&) {
+    return "";  // an absent array is empty: no default to write
+}
+
 py::object value_of(const SceneKey&, double x) { return py::float_(x); }
 py::object value_of(const SceneKey&, int x) { return py::int_(x); }
 py::object value_of(const SceneKey&, uint32_t x) { return py::int_(x); }
@@ -115,6 +160,18 @@ py::object value_of(const SceneKey&, const std::array<double, N>& m) {
 template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
 py::object value_of(const SceneKey& k, E value) {
     return py::str(enum_name(k, long(value)));
+}
+
+template <class E>
+py::object value_of(const SceneKey& k, const std::vector<E>& values) {
+    using A = ArrayElement<E>;
+    std::vector<py::ssize_t> shape{py::ssize_t(values.size())};
+    if (k.columns != 0) shape.push_back(A::width);
+    py::array_t<typename A::type> out(shape);
+    auto* dst = out.mutable_data();
+    for (E e : values)
+        for (int i = 0; i < A::width; ++i) *dst++ = A::at(e, i);
+    return std::move(out);
 }
 
 // Fluent rows for the table below.
@@ -185,10 +242,45 @@ struct Row {
     Row& field(T S::*member) {
         return bind<S>([member](S& s) -> T& { return s.*member; });
     }
+    // An Image row bound to S's pixels and their size: read_fields copies the (H, W, columns) array.
+    template <class S>
+    Row& image_field(std::vector<float> S::*pixels, int S::*width, int S::*height) {
+        k.field.owner = typeid(S);
+        k.field.assign = [=](const SceneKey&, void* owner, py::handle v) {
+            S& s = *static_cast<S*>(owner);
+            const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(v);
+            s.*height = int(a.shape(0));
+            s.*width = int(a.shape(1));
+            (s.*pixels).assign(a.data(), a.data() + a.size());
+        };
+        k.field.value = [=](const SceneKey& row, const void* owner) -> py::object {
+            const S& s = *static_cast<const S*>(owner);
+            py::array_t<float> out({py::ssize_t(s.*height), py::ssize_t(s.*width), py::ssize_t(row.columns)});
+            std::copy((s.*pixels).begin(), (s.*pixels).end(), out.mutable_data());
+            return std::move(out);
+        };
+        k.field.default_text = [](const SceneKey&) { return std::string(); };
+        return *this;
+    }
+    // Array lengths (SceneKey::defines ...): the count this row's length is, or is the CSR
+    // offsets into (and then it is the number of curves + 1); the count it has one `item` per;
+    // the count whose rows its values index (`none`, meaning `none_text`, allowed too).
+    Row& defines(SceneCount c) { return k.defines = c, *this; }
+    Row& offsets_into(SceneCount c) { return k.defines = SceneCount::Curve, k.offsets_into = c, *this; }
+    Row& per(SceneCount c, const char* item) { return k.per = c, k.per_item = item, *this; }
+    Row& index_into(SceneCount c, int none, const char* none_text) {
+        return k.index_into = c, k.index_none = none, k.index_none_text = none_text, *this;
+    }
+    Row& affine() { return k.affine = true, *this; }
+    Row& at_least(SceneCount c) { return k.at_least = c, *this; }
+    Row& domains(std::vector<SceneCount> counts) { return k.domains = std::move(counts), *this; }
     operator SceneKey() const { return k; }  // NOLINT(google-explicit-constructor)
 };
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
+// The engine's limits on the integrator's counts (Cycles' own sample limit is 2^24).
+constexpr double kMaxSamples = 1 << 24;
+constexpr double kMaxBounces = 1 << 20;
 constexpr const char* kHairTypes = "principled_hair";
 using Closure = R::ClosureDesc;
 using Camera = R::CameraDesc;
@@ -199,10 +291,12 @@ using Settings = R::IntegratorSettings;
 std::vector<SceneKey> program_rows(const std::string& prefix, const char* meaning) {
     return {
         Row(prefix, K::Dict, meaning),
-        Row(prefix + ".code", K::Array, "instructions: opcode, then its arguments").array("int32", 0).required(),
-        Row(prefix + ".constants", K::Array, "registers 0..K-1 (read-only)").array("float32", 0).required(),
+        Row(prefix + ".code", K::Array, "instructions: opcode, then its arguments").array("int32", 0).required()
+            .field(&R::ShadingProgram::code),
+        Row(prefix + ".constants", K::Array, "registers 0..K-1 (read-only)").array("float32", 0).required()
+            .defines(SceneCount::Constant).field(&R::ShadingProgram::constants),
         Row(prefix + ".registers", K::Int, "R >= K float slots").range(0, 1 << 20).required()
-            .field(&R::ShadingProgram::register_count),
+            .at_least(SceneCount::Constant).field(&R::ShadingProgram::register_count),
     };
 }
 
@@ -222,25 +316,33 @@ std::vector<SceneKey> make_schema() {
 
         Row("curves", K::Dict, "all hair of all objects, concatenated"),
         Row("curves.points", K::Array, "x, y, z, radius (object space for curves with a curve_object >= 0)")
-            .array("float32", 4).required(),
-        Row("curves.curve_offsets", K::Array, "CSR: curve c owns points[curve_offsets[c]:curve_offsets[c+1]] (C + 1)")
-            .array("int32", 0).required(),
-        Row("curves.curve_random", K::Array, "Hair Info > Random per curve (C)").array("float32", 0).required(),
-        Row("curves.curve_material", K::Array, "index into materials per curve (C)").array("int32", 0).required(),
-        Row("curves.curve_intercept_total", K::Array, "curve length, for Hair Info > Length (C)").array("float32", 0),
-        Row("curves.point_intercept", K::Array, "Hair Info > Intercept per key (P)").array("float32", 0),
+            .array("float32", 4).required().defines(SceneCount::Point).field(&R::CurveData::points),
+        Row("curves.curve_offsets", K::Array, "CSR: curve c owns points[curve_offsets[c]:curve_offsets[c+1]]")
+            .array("int32", 0).required().offsets_into(SceneCount::Point).field(&R::CurveData::offsets),
+        Row("curves.curve_random", K::Array, "Hair Info > Random").array("float32", 0).required()
+            .per(SceneCount::Curve, "one value").field(&R::CurveData::random),
+        Row("curves.curve_material", K::Array, "index into materials").array("int32", 0).required()
+            .per(SceneCount::Curve, "one value").field(&R::CurveData::material),
+        Row("curves.curve_intercept_total", K::Array, "curve length, for Hair Info > Length").array("float32", 0)
+            .per(SceneCount::Curve, "one value").field(&R::CurveData::length),
+        Row("curves.point_intercept", K::Array, "Hair Info > Intercept").array("float32", 0)
+            .per(SceneCount::Point, "one value").field(&R::CurveData::intercept),
         Row("curves.attributes", K::List, "the named curve attributes programs read"),
         Row("curves.attributes[]", K::Dict, "one attribute"),
         Row("curves.attributes[].name", K::String, "the attribute's name").required()
             .field(&R::CurveData::Attribute::name),
         Row("curves.attributes[].domain", K::Enum, "one row per point or per curve")
-            .choices<bool>({{"POINT", true}, {"CURVE", false}}).required().field(&R::CurveData::Attribute::point_domain),
-        Row("curves.attributes[].data", K::Array, "RGBA rows (P or C)").array("float32", 4).required(),
-        Row("curves.curve_object", K::Array, "-1: world space; k: the points are in object k's space (C)")
-            .array("int32", 0),
-        Row("curves.object_transforms", K::Array, "world from object k, row-major 3 x 4 (K); required with curve_object")
-            .array("float64", 12),
-        Row("curves.normals", K::Array, "curve normals per point: Huang's major axis (P)").array("float32", 3),
+            .choices<bool>({{"POINT", true}, {"CURVE", false}}).domains({SceneCount::Point, SceneCount::Curve})
+            .required().field(&R::CurveData::Attribute::point_domain),
+        Row("curves.attributes[].data", K::Array, "RGBA rows").array("float32", 4).required()
+            .per(SceneCount::ByDomain, "one RGBA row").field(&R::CurveData::Attribute::rgba),
+        Row("curves.curve_object", K::Array, "-1: world space; k: the points are in object k's space")
+            .array("int32", 0).per(SceneCount::Curve, "one value").index_into(SceneCount::Object, -1, "world space")
+            .field(&R::CurveData::object),
+        Row("curves.object_transforms", K::Array, "world from object k, row-major 3 x 4")
+            .array("float64", 12).defines(SceneCount::Object).affine().field(&R::CurveData::object_transforms),
+        Row("curves.normals", K::Array, "curve normals: Huang's major axis").array("float32", 3)
+            .per(SceneCount::Point, "one normal").field(&R::CurveData::normals),
         Row("curve_shape", K::Enum, "scene.cycles_curves.shape")
             .choices<R::CurveShape>({{"RIBBONS", R::CurveShape::Ribbons}, {"THICK", R::CurveShape::Thick},
                                      {"THICK_LINEAR", R::CurveShape::ThickLinear}})
@@ -251,19 +353,24 @@ std::vector<SceneKey> make_schema() {
             .field(&R::SceneDesc::cull_curve_back_faces),
 
         Row("meshes", K::Dict, "all triangle meshes, concatenated"),
-        Row("meshes.vertices", K::Array, "vertex positions (V)").array("float32", 3).required(),
-        Row("meshes.triangles", K::Array, "vertex indices (T)").array("int32", 3).required(),
-        Row("meshes.triangle_material", K::Array, "index into materials per triangle (T)").array("int32", 0).required(),
-        Row("meshes.triangle_normals", K::Array, "corner normals for smooth shading (T); absent: flat")
-            .array("float32", 9),
-        Row("meshes.triangle_object", K::Array, "the object of each triangle, for the light tree (T)").array("int32", 0),
-        Row("meshes.triangle_reversed", K::Array, "1 where the corners were reversed (a mirrored object), 0 elsewhere (T)")
-            .array("int32", 0),
+        Row("meshes.vertices", K::Array, "vertex positions").array("float32", 3).required()
+            .defines(SceneCount::Vertex).field(&R::MeshData::vertices),
+        Row("meshes.triangles", K::Array, "vertex indices").array("int32", 3).required()
+            .defines(SceneCount::Triangle).field(&R::MeshData::triangles),
+        Row("meshes.triangle_material", K::Array, "index into materials").array("int32", 0).required()
+            .per(SceneCount::Triangle, "one value").field(&R::MeshData::material),
+        Row("meshes.triangle_normals", K::Array, "corner normals for smooth shading; absent: flat")
+            .array("float32", 9).per(SceneCount::Triangle, "one row of 3 corner normals").field(&R::MeshData::normals),
+        Row("meshes.triangle_object", K::Array, "the object, for the light tree").array("int32", 0)
+            .per(SceneCount::Triangle, "one object id").field(&R::MeshData::object),
+        Row("meshes.triangle_reversed", K::Array, "1 where the corners were reversed (a mirrored object), 0 elsewhere")
+            .array("int32", 0).per(SceneCount::Triangle, "one flag").field(&R::MeshData::reversed),
         Row("meshes.attributes", K::List, "the attributes programs read, at the corners; curves' names and order"),
         Row("meshes.attributes[]", K::Dict, "one attribute"),
         Row("meshes.attributes[].name", K::String, "the attribute's name (the curves' attribute at the same index)")
             .required().field(&R::MeshData::CornerAttribute::name),
-        Row("meshes.attributes[].data", K::Array, "RGBA of corners 0, 1, 2 (T)").array("float32", 12).required(),
+        Row("meshes.attributes[].data", K::Array, "RGBA of corners 0, 1, 2").array("float32", 12).required()
+            .per(SceneCount::Triangle, "one row of 3 RGBA corners").field(&R::MeshData::CornerAttribute::corners),
 
         Row("materials", K::List, "one per Blender material slot used"),
         Row("materials[]", K::Dict, "one material"),
@@ -353,21 +460,21 @@ std::vector<SceneKey> make_schema() {
             .choices<bool>({{"REFLECTION", false}, {"TRANSMISSION", true}})
             .only("cycles_hair").field(&Closure::transmission),
         Row("materials[].closures[].color", K::Vector, "the legacy Hair BSDF's colour").columns(3)
-            .only("cycles_hair").linkable(In::Color).field(&Closure::color),
+            .only("cycles_hair").linkable(In::Color).socket("Color", "color", "").field(&Closure::color),
         Row("materials[].closures[].offset", K::Real, "the legacy Hair BSDF's offset, radians")
-            .only("cycles_hair").linkable(In::Offset).field(&Closure::offset),
+            .only("cycles_hair").linkable(In::Offset).socket("Offset", "float", "").field(&Closure::offset),
         Row("materials[].closures[].roughness_u", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessU).field(&Closure::roughness_u),
+            .linkable(In::RoughnessU).socket("RoughnessU", "float", "").field(&Closure::roughness_u),
         Row("materials[].closures[].roughness_v", K::Real, "clamped to [0.001, 1]").only("cycles_hair")
-            .linkable(In::RoughnessV).field(&Closure::roughness_v),
+            .linkable(In::RoughnessV).socket("RoughnessV", "float", "").field(&Closure::roughness_v),
         Row("materials[].closures[].color", K::Vector, "the diffuse / emission colour").columns(3)
             .only("diffuse emission").linkable(In::Color).field(&Closure::color),
         Row("materials[].closures[].strength", K::Real, "the emission strength").only("emission")
             .linkable(In::Strength).field(&Closure::strength),
         Row("materials[].closures[].model", K::ModelName, "a name the model factory builds (_core.model_names())")
-            .required().only("hair_model"),
+            .required().only("hair_model").field(&Closure::model_name),
         Row("materials[].closures[].path", K::String, "the plugin library (docs/plugins.md); required for plugin")
-            .only("hair_model"),
+            .only("hair_model").field(&Closure::model_path),
         Row("materials[].closures[].params", K::ModelParams, "the model's parameters (hairbsdf.model_schema)")
             .fallback("{}").only("hair_model"),
 
@@ -435,7 +542,8 @@ std::vector<SceneKey> make_schema() {
         Row("world.map_resolution", K::Int, "the light tree's importance map, res x res/2; 0: automatic")
             .range(0, 65536).field(&R::SceneDesc::world_map_resolution),
         Row("world.texture", K::Dict, "one equirectangular Environment Texture, added to the colour"),
-        Row("world.texture.pixels", K::Image, "scene-linear RGB, row 0 the zenith").array("float32", 3).required(),
+        Row("world.texture.pixels", K::Image, "scene-linear RGB, row 0 the zenith").array("float32", 3).required()
+            .image_field(&R::EnvironmentDesc::pixels, &R::EnvironmentDesc::width, &R::EnvironmentDesc::height),
         Row("world.texture.weight", K::Vector, "Background strength x Mix / Add weights").columns(3).required()
             .linkable(In::Weight).field(&R::EnvironmentDesc::weight),
         Row("world.texture.interpolation", K::Enum, "the lookup").choices<bool>({{"LINEAR", false}, {"CLOSEST", true}})
@@ -448,22 +556,23 @@ std::vector<SceneKey> make_schema() {
         Row("images", K::List, "the images the programs' Image Texture nodes sample"),
         Row("images[]", K::Dict, "one image; index = the ImageTexture op's image index"),
         Row("images[].name", K::String, "the image's name").field(&R::ImageDesc::name),
-        Row("images[].pixels", K::Image, "RGBA, row 0 the image's top row").array("float32", 4).required(),
+        Row("images[].pixels", K::Image, "RGBA, row 0 the image's top row").array("float32", 4).required()
+            .image_field(&R::ImageDesc::pixels, &R::ImageDesc::width, &R::ImageDesc::height),
 
         Row("integrator", K::Dict, "the render settings").required(),
-        Row("integrator.samples", K::Int, "samples per pixel").range(0, kUnbounded).required()
+        Row("integrator.samples", K::Int, "samples per pixel").range(0, kMaxSamples).required()
             .field(&Settings::samples),
         Row("integrator.seed", K::Int, "the seed (taken modulo 2^32)").field(&Settings::seed),
-        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kUnbounded).field(&Settings::max_bounces),
-        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.max_bounces", K::Int, "bounce budget").range(0, kMaxBounces).field(&Settings::max_bounces),
+        Row("integrator.diffuse_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::diffuse_bounces),
-        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.glossy_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::glossy_bounces),
-        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.transmission_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::transmission_bounces),
-        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kUnbounded)
+        Row("integrator.transparent_bounces", K::Int, "bounce budget").range(0, kMaxBounces)
             .field(&Settings::transparent_bounces),
-        Row("integrator.min_light_bounces", K::Int, "bounces before Russian roulette").range(0, kUnbounded)
+        Row("integrator.min_light_bounces", K::Int, "bounces before Russian roulette").range(0, kMaxBounces)
             .field(&Settings::min_light_bounces),
         Row("integrator.filter_type", K::Enum, "the pixel filter")
             .choices<Settings::Filter>({{"BLACKMAN_HARRIS", Settings::Filter::BlackmanHarris},
@@ -820,82 +929,149 @@ private:
 
     // ----- rules that relate keys to one another -----
 
-    static long rows_of(const py::dict& d, const char* name) {
-        return d.contains(name) ? py::len(d[name]) : -1;
+    static long rows_of(const py::dict& d, const std::string& name) {
+        return d.contains(name.c_str()) ? long(py::len(d[name.c_str()])) : -1;
     }
 
     void check_rules(const std::string& path, py::dict& out, const std::string& key) {
-        if (path == "curves") check_curves(out, key);
-        else if (path == "meshes") check_meshes(out, key);
-        else if (path == "materials[].program" || path == "world.program") check_program(out, key);
-        else if (path == "materials[].closures[]") check_hair_model(out, key);
+        if (path == "meshes") check_attribute_names(out, key);
+        check_counts(path, out, key);
+        if (path == "materials[].closures[]") check_hair_model(out, key);
     }
 
-    static void count(const py::dict& d, const char* name, long want, const std::string& key, const std::string& what) {
-        const long n = rows_of(d, name);
-        if (n >= 0 && n != want)
-            value_error(key + "['" + name + "']", "expected " + what + " (" + std::to_string(want) + "), got " + std::to_string(n));
-    }
-
-    void check_curves(py::dict& c, const std::string& key) {
-        const long n_points = rows_of(c, "points");
-        const auto offsets = py::array_t<int32_t>::ensure(c["curve_offsets"]);
-        const long n_offsets = long(offsets.size());
-        const long n_curves = std::max(n_offsets - 1, 0L);
-        if (n_offsets == 0 && n_points > 0)
-            value_error(key + "['curve_offsets']", "expected C + 1 entries for " + std::to_string(n_points) + " points");
-        if (n_offsets > 0) {
-            const int32_t* o = offsets.data();
-            if (o[0] != 0 || o[n_offsets - 1] != n_points)
-                value_error(key + "['curve_offsets']",
-                            "must start at 0 and end at len(points) = " + std::to_string(n_points));
-            for (long i = 0; i + 1 < n_offsets; ++i)
-                if (o[i + 1] < o[i]) value_error(key + "['curve_offsets']", "must be non-decreasing");
+    // The counts the rows under `path` define (SceneKey::defines: -1 where absent), and the rows
+    // defining them.
+    struct Counts {
+        std::array<long, size_t(SceneCount::ByDomain)> n;
+        std::array<const SceneKey*, size_t(SceneCount::ByDomain)> row{};
+        Counts() { n.fill(-1); }
+        long& of(SceneCount c) { return n[size_t(c)]; }
+        const SceneKey* defining(SceneCount c) const {
+            if (!row[size_t(c)])
+                throw std::logic_error(std::string("scene schema: no sibling row defines the number of ") +
+                                       count_name(c) + "s");
+            return row[size_t(c)];
         }
-        count(c, "curve_random", n_curves, key, "one value per curve");
-        count(c, "curve_material", n_curves, key, "one value per curve");
-        count(c, "curve_intercept_total", n_curves, key, "one value per curve");
-        count(c, "point_intercept", n_points, key, "one value per point");
-        count(c, "normals", n_points, key, "one normal per point");
-        if (c.contains("curve_object")) {
-            count(c, "curve_object", n_curves, key, "one value per curve");
-            if (!c.contains("object_transforms"))
-                value_error(key + "['object_transforms']", "missing (required with curve_object)");
-            const auto m = py::array_t<double>::ensure(c["object_transforms"]);
-            const long n_objects = long(m.shape(0));
-            for (long k = 0; k < n_objects; ++k) {
-                const double* r = m.data() + 12 * k;
-                bool finite = true;
-                for (int i = 0; i < 12; ++i) finite = finite && std::isfinite(r[i]);
-                const double det = r[0] * (r[5] * r[10] - r[6] * r[9]) - r[1] * (r[4] * r[10] - r[6] * r[8]) +
-                                   r[2] * (r[4] * r[9] - r[5] * r[8]);
-                if (!finite || det == 0.0)
-                    value_error(key + "['object_transforms'][" + std::to_string(k) + "]",
-                                "expected a finite, invertible row-major 3x4 matrix (world from object)");
+    };
+
+    // The length rules of the arrays of the dict at `path` and of its lists' items, from the rows:
+    // offsets, one row per count item, indices into a count, counts an Int must reach.
+    void check_counts(const std::string& path, const py::dict& d, const std::string& key) {
+        static const std::set<std::string> counted = [] {  // the dicts whose rows define a count
+            std::set<std::string> paths;
+            for (const SceneKey& k : scene_schema())
+                if (k.defines != SceneCount::None) paths.insert(parent(k.path));
+            return paths;
+        }();
+        if (!counted.count(path)) return;
+        const std::vector<const SceneKey*> rows = rows_under(path, "");
+        Counts counts;
+        for (const SceneKey* k : rows) {
+            if (k->defines == SceneCount::None) continue;
+            counts.row[size_t(k->defines)] = k;
+            const long n = rows_of(d, leaf(k->path));
+            counts.of(k->defines) = k->offsets_into == SceneCount::None || n < 0 ? n : std::max(n - 1, 0L);
+        }
+        for (const SceneKey* k : rows) {
+            if (k->offsets_into != SceneCount::None) check_offsets(*k, d, key, counts);
+            if (k->index_into != SceneCount::None && d.contains(leaf(k->path).c_str())) {
+                const SceneKey& target = *counts.defining(k->index_into);
+                if (!d.contains(leaf(target.path).c_str()))
+                    value_error(key + "['" + leaf(target.path) + "']", "missing (required with " + leaf(k->path) + ")");
             }
-            const auto objects = py::array_t<int32_t>::ensure(c["curve_object"]);
-            for (long i = 0; i < long(objects.size()); ++i)
-                if (objects.data()[i] < -1 || objects.data()[i] >= n_objects)
-                    value_error(key + "['curve_object']", "expected -1 (world space) or an index into object_transforms (0 to " +
-                                                              std::to_string(n_objects - 1) + ")");
         }
-        if (c.contains("attributes")) {
+        for (const SceneKey* k : rows) {
+            const std::string name = leaf(k->path);
+            if (!d.contains(name.c_str())) continue;
+            if (k->per != SceneCount::None) count(d, *k, k->per, counts, key);
+            if (k->index_into != SceneCount::None) check_indices(*k, d, key, counts);
+            if (k->at_least != SceneCount::None) {
+                const long least = counts.of(k->at_least);
+                if (d[name.c_str()].cast<long>() < least)
+                    value_error(key + "['" + name + "']", "must be >= " + std::to_string(least) + " (the " +
+                                                              leaf(counts.defining(k->at_least)->path) + "), got " +
+                                                              std::string(py::str(d[name.c_str()])));
+            }
+            if (k->kind != K::List) continue;
+            const std::vector<const SceneKey*> item_rows = rows_under(k->path + "[]", "");
             size_t i = 0;
-            for (py::handle a : py::list(c["attributes"])) {
-                const py::dict attr = py::reinterpret_borrow<py::dict>(a);
-                const bool point = std::string(py::str(attr["domain"])) == "POINT";
-                count(attr, "data", point ? n_points : n_curves, key + "['attributes'][" + std::to_string(i++) + "]",
-                      point ? "one RGBA row per point" : "one RGBA row per curve");
+            for (py::handle h : py::list(d[name.c_str()])) {
+                const py::dict item = py::reinterpret_borrow<py::dict>(h);
+                const std::string item_key = key + "['" + name + "'][" + std::to_string(i++) + "]";
+                for (const SceneKey* r : item_rows)
+                    if (r->per != SceneCount::None && item.contains(leaf(r->path).c_str()))
+                        count(item, *r, domain_of(item_rows, item, r->per), counts, item_key);
             }
         }
     }
 
-    void check_meshes(py::dict& m, const std::string& key) {
-        const long n = rows_of(m, "triangles");
-        count(m, "triangle_material", n, key, "one value per triangle");
-        count(m, "triangle_normals", n, key, "one row of 3 corner normals per triangle");
-        count(m, "triangle_object", n, key, "one object id per triangle");
-        count(m, "triangle_reversed", n, key, "one flag per triangle");
+    // SceneCount::ByDomain: the count the item's Enum row with domains() names.
+    static SceneCount domain_of(const std::vector<const SceneKey*>& rows, const py::dict& item, SceneCount per) {
+        if (per != SceneCount::ByDomain) return per;
+        for (const SceneKey* r : rows) {
+            if (r->domains.empty()) continue;
+            const std::string value = py::str(item[leaf(r->path).c_str()]);
+            for (size_t i = 0; i < r->allowed.size(); ++i)
+                if (r->allowed[i] == value) return r->domains[i];
+        }
+        throw std::logic_error("scene schema: no domain row beside a per-domain array");
+    }
+
+    static void count(const py::dict& d, const SceneKey& k, SceneCount per, Counts& counts, const std::string& key) {
+        const std::string name = leaf(k.path);
+        const long n = rows_of(d, name), want = counts.of(per);
+        counts.defining(per);  // a table without the row defining it is a logic_error
+        if (n >= 0 && n != want)
+            value_error(key + "['" + name + "']", "expected " + std::string(k.per_item) + " per " + count_name(per) +
+                                                      " (" + std::to_string(want) + "), got " + std::to_string(n));
+    }
+
+    // CSR offsets into a count: C + 1 non-decreasing entries from 0 to that count.
+    static void check_offsets(const SceneKey& k, const py::dict& d, const std::string& key, Counts& counts) {
+        const std::string name = leaf(k.path), rk = key + "['" + name + "']";
+        const long n_into = counts.of(k.offsets_into);
+        const auto offsets = py::array_t<int32_t>::ensure(d[name.c_str()]);
+        const long n_offsets = long(offsets.size());
+        if (n_offsets == 0 && n_into > 0)
+            value_error(rk, "expected C + 1 entries for " + std::to_string(n_into) + " " + count_name(k.offsets_into) + "s");
+        if (n_offsets == 0) return;
+        const int32_t* o = offsets.data();
+        if (o[0] != 0 || o[n_offsets - 1] != n_into)
+            value_error(rk, "must start at 0 and end at len(" + leaf(counts.defining(k.offsets_into)->path) +
+                                ") = " + std::to_string(n_into));
+        for (long i = 0; i + 1 < n_offsets; ++i)
+            if (o[i + 1] < o[i]) value_error(rk, "must be non-decreasing");
+    }
+
+    // Indices into a count's rows (index_none allowed); that count's rows checked first when affine.
+    static void check_indices(const SceneKey& k, const py::dict& d, const std::string& key, Counts& counts) {
+        const SceneKey& target = *counts.defining(k.index_into);
+        const std::string target_name = leaf(target.path);
+        const long n_target = counts.of(k.index_into);
+        if (target.affine) {
+            const auto m = py::array_t<double>::ensure(d[target_name.c_str()]);
+            for (long j = 0; j < n_target; ++j) {
+                std::array<double, 12> r;
+                std::copy(m.data() + 12 * j, m.data() + 12 * (j + 1), r.begin());
+                bool finite = true;
+                for (double x : r) finite = finite && std::isfinite(x);
+                if (!finite || R::linear_determinant(r) == 0.0)
+                    value_error(key + "['" + target_name + "'][" + std::to_string(j) + "]",
+                                std::string("expected a finite, invertible row-major 3x4 matrix (world from ") +
+                                    count_name(k.index_into) + ")");
+            }
+        }
+        const std::string name = leaf(k.path);
+        const auto values = py::array_t<int32_t>::ensure(d[name.c_str()]);
+        for (long i = 0; i < long(values.size()); ++i)
+            if (values.data()[i] < k.index_none || values.data()[i] >= n_target)
+                value_error(key + "['" + name + "']", "expected " + std::to_string(k.index_none) + " (" +
+                                                          k.index_none_text + ") or an index into " + target_name +
+                                                          " (0 to " + std::to_string(n_target - 1) + ")");
+    }
+
+    // Mesh attribute i is the curves' attribute i (one list of names for the programs).
+    void check_attribute_names(py::dict& m, const std::string& key) {
         if (!m.contains("attributes")) return;
         std::vector<py::object> curve_names;
         if (root_.contains("curves")) {
@@ -912,16 +1088,8 @@ private:
                 value_error(ak + "['name']", "expected " + repr_of(curve_names[i]) + ", the curves' attribute " +
                                                  std::to_string(i) +
                                                  " (one attribute list for both, in the programs' order)");
-            count(attr, "data", n, ak, "one row of 3 RGBA corners per triangle");
             ++i;
         }
-    }
-
-    static void check_program(py::dict& p, const std::string& key) {
-        const long constants = rows_of(p, "constants");
-        if (p["registers"].cast<long>() < constants)
-            value_error(key + "['registers']", "must be >= " + std::to_string(constants) + " (the constants), got " +
-                                                   std::string(py::str(p["registers"])));
     }
 
     static void check_hair_model(py::dict& c, const std::string& key) {
@@ -955,6 +1123,51 @@ const char* kind_name(K kind) {
 
 }  // namespace
 
+const char* count_name(SceneCount count) {
+    switch (count) {
+        case SceneCount::Curve: return "curve";
+        case SceneCount::Point: return "point";
+        case SceneCount::Triangle: return "triangle";
+        case SceneCount::Object: return "object";
+        case SceneCount::Vertex: return "vertex";
+        case SceneCount::Constant: return "constant";
+        case SceneCount::None:
+        case SceneCount::ByDomain: break;
+    }
+    return "";
+}
+
+const char* count_letter(SceneCount count) {
+    switch (count) {
+        case SceneCount::Curve: return "C";
+        case SceneCount::Point: return "P";
+        case SceneCount::Triangle: return "T";
+        case SceneCount::Object: return "K";
+        case SceneCount::Vertex: return "V";
+        case SceneCount::Constant: return "K";
+        case SceneCount::None:
+        case SceneCount::ByDomain: break;
+    }
+    return "";
+}
+
+namespace {
+
+// An Array row's number of rows as the docs write its shape: "C", "C + 1" (offsets), "P or C"
+// (per domain), "" where no count is declared.
+std::string rows_text(const SceneKey& k) {
+    if (k.offsets_into != SceneCount::None) return std::string(count_letter(k.defines)) + " + 1";
+    if (k.defines != SceneCount::None) return count_letter(k.defines);
+    if (k.per != SceneCount::ByDomain) return count_letter(k.per);
+    std::string text;
+    for (const SceneKey& sibling : scene_schema())
+        if (parent(sibling.path) == parent(k.path))
+            for (SceneCount c : sibling.domains) text += (text.empty() ? "" : " or ") + std::string(count_letter(c));
+    return text;
+}
+
+}  // namespace
+
 const std::vector<SceneKey>& scene_schema() {
     static const std::vector<SceneKey> rows = [] {
         std::vector<SceneKey> table = make_schema();
@@ -974,6 +1187,7 @@ std::vector<const SceneKey*> rows_under(const std::string& path, const std::stri
 
 void read_fields(const std::string& path, const py::dict& checked, std::type_index owner, void* target,
                  const std::function<void(int input, int reg)>& link) {
+    if (!path.empty()) scene_key(path);  // throws for a path with no row (a misspelt reader)
     const std::string type = checked.contains("type") ? std::string(py::str(checked["type"])) : std::string();
     for (const SceneKey* k : rows_under(path, type)) {
         if (!k->field) continue;
@@ -1021,6 +1235,7 @@ py::list scene_schema_as_python() {
         d["kind"] = kind_name(k.kind);
         d["dtype"] = k.dtype;
         d["columns"] = k.columns;
+        d["rows"] = k.kind == K::Array ? rows_text(k) : std::string();
         d["required"] = k.required;
         d["default"] = k.default_value;
         py::list allowed;

@@ -6,9 +6,12 @@
 // allowed values or range, one-line meaning). A key that is a plain value of a SceneDesc
 // struct (hairbsdf/render/scene.h) binds its field with .field(&Struct::member): render.cpp's
 // read_fields copies it, and its default is the field's initial value, written there only.
-// Arrays and keys with rules of their own are read by hand in render.cpp. Then document it in
-// docs/scene_desc.md (plugin/tests/test_scene_schema.py fails until the doc's key table
-// matches and prints the rows it expects).
+// An Array or Image binds its std::vector the same way (.field / .image_field) and says which
+// count its length defines or matches (.defines, .offsets_into, .per, .index_into): the walker's
+// length checks and the docs' shapes ("(C,)") come from those. Keys with rules of their own are
+// read by hand in render.cpp. Then document it in docs/scene_desc.md
+// (plugin/tests/test_scene_schema.py fails until the doc's key table matches and prints the rows
+// it expects).
 #pragma once
 
 #include <pybind11/pybind11.h>
@@ -32,6 +35,19 @@ struct SceneField {
     // The field's initial value in a default-constructed S, as the docs write it.
     std::function<std::string(const SceneKey&)> default_text;
     explicit operator bool() const { return bool(assign); }
+};
+
+// The counts an Array's length is checked against (check_scene): a row .defines one (its length),
+// or is the CSR offsets of one (Curve = its length - 1); other rows match one .per item.
+enum class SceneCount {
+    None,
+    Curve,
+    Point,
+    Triangle,
+    Object,
+    Vertex,
+    Constant,  // a shading program's constants
+    ByDomain,  // the count the item's sibling Enum with .domains() selects
 };
 
 enum class SceneKeyKind {
@@ -70,15 +86,45 @@ struct SceneKey {
     bool register_link = false;  // may be {"register": k}: the material program's register k
     int link_input = -1;         // then the ClosureDesc::Input that register drives
     bool closed = false;         // Dict: an unknown key is an error (Principled Hair's inputs)
-    // Principled Hair inputs: the Blender node's socket, its kind for the exporter ("float",
-    // "color", "vector") and the models that read it ("CHIANG HUANG"; "" for Random, which the
-    // exporter treats apart).
+    // Principled Hair inputs and the legacy Hair BSDF's keys: the Blender node's socket, its kind
+    // for the exporter ("float", "color", "vector") and the Principled Hair models that read it
+    // ("CHIANG HUANG"; "" for Random, which the exporter treats apart, and for the Hair BSDF).
     const char* socket = "";
     const char* socket_kind = "";
     const char* hair_models = "";
     const char* meaning = "";
     SceneField field = {};
+    // Array: the count its length defines, or (`offsets_into`) the count its entries are CSR
+    // offsets into, when it defines SceneCount::Curve as its length - 1; `per`: the count its
+    // length matches, `per_item` (+ " per curve") what each row is; `index_into`: its values
+    // index that count's rows, `index_none` (meaning `index_none_text`) allowed too, and the
+    // row defining that count is then required; `affine`: rows of row-major 3x4 matrices that must
+    // be finite and invertible. Int: `at_least`, a count it must be >= to. Enum: `domains`, the
+    // count each allowed value selects for its siblings' SceneCount::ByDomain.
+    SceneCount defines = SceneCount::None;
+    SceneCount offsets_into = SceneCount::None;
+    SceneCount per = SceneCount::None;
+    const char* per_item = "";
+    SceneCount index_into = SceneCount::None;
+    int index_none = -1;
+    const char* index_none_text = "";
+    bool affine = false;
+    SceneCount at_least = SceneCount::None;
+    std::vector<SceneCount> domains = {};
 };
+
+// The singular name of a count ("curve", "point", ...) for errors, and its letter in the docs'
+// shapes ("C", "P", ...); "" for None and ByDomain.
+const char* count_name(SceneCount count);
+const char* count_letter(SceneCount count);
+
+// The paths the readers (render.cpp, module.cpp) walk, each a row of the table; read_fields and
+// read_list throw std::logic_error for a path with no row, so a misspelling fails at once.
+inline constexpr const char* kMaterialsPath = "materials[]";
+inline constexpr const char* kMaterialProgramPath = "materials[].program";
+inline constexpr const char* kClosuresPath = "materials[].closures[]";
+inline constexpr const char* kPrincipledHairInputsPath = "materials[].closures[].inputs";  // _core.PRINCIPLED_HAIR_INPUTS
+inline constexpr const char* kImagesPath = "images";
 
 // The table, in the docs' order.
 const std::vector<SceneKey>& scene_schema();
@@ -103,8 +149,9 @@ std::vector<const SceneKey*> rows_under(const std::string& path, const std::stri
 
 // Copies the bound keys of `checked` (the dict at `path` in check_scene's output) into the
 // fields of `target`, an `owner`; a key given as {"register": k} calls link(row.link_input, k)
-// instead. Keys absent keep the field's initial value. A row under `path` bound to a field of
-// another struct is a std::logic_error (the table and the reader disagree).
+// instead. Keys absent keep the field's initial value. A `path` with no row ("" is the scene), or
+// a row under it bound to a field of another struct, is a std::logic_error (the table and the
+// reader disagree).
 void read_fields(const std::string& path, const pybind11::dict& checked, std::type_index owner, void* target,
                  const std::function<void(int input, int reg)>& link = {});
 
@@ -112,6 +159,20 @@ template <class S>
 void read_fields(const std::string& path, const pybind11::dict& checked, S& target,
                  const std::function<void(int input, int reg)>& link = {}) {
     read_fields(path, checked, typeid(S), &target, link);
+}
+
+// Reads the list at `path` ("images", "curves.attributes") of `checked` (the dict holding it), one
+// item per read_fields(path + "[]"); absent: `items` is left as it is. A `path` with no row is a
+// std::logic_error, whether the list is there or not.
+template <class Item>
+void read_list(const std::string& path, const pybind11::dict& checked, std::vector<Item>& items) {
+    scene_key(path);  // throws for a path with no row
+    const std::string name = path.substr(path.rfind('.') + 1);  // npos + 1 = 0
+    if (!checked.contains(name.c_str())) return;
+    for (pybind11::handle h : pybind11::reinterpret_borrow<pybind11::list>(checked[name.c_str()])) {
+        items.emplace_back();
+        read_fields(path + "[]", pybind11::reinterpret_borrow<pybind11::dict>(h), items.back());
+    }
 }
 
 // The bound keys of the dict at `path` for this "type", read back from `source` (an `owner`): the

@@ -139,7 +139,7 @@ class Closure:
         second_name, second_check = ("u", check.uniforms) if op == 2 else ("wi", check.directions)
         named = dict(wo=check.directions("wo", wo), second=second_check(second_name, second), h=check.offsets("h", h))
         for name, value in arrays.items():
-            named[name] = check.triples(name, value) if name == "absorption_coefficient" else check.per_row(name, value)
+            named[name] = check.triples(name, value) if ROW_INPUTS[name] else check.per_row(name, value)
         rows = dict(zip(named, self._rows(**named)))
         row_arrays = {name: rows[name] for name in arrays}
         result = _core.chiang_rows(op, self._principled, weight, row_arrays, rows["wo"], rows["second"], rows["h"],
@@ -269,8 +269,9 @@ def _extra_args(extra: dict, arrays: list, order=_EXTRA_ORDER) -> list:
     return [given.get(k) for k in order]
 
 
-# The node inputs `inputs=` may give per row (docs/simd.md); the others stay the closure's.
-ROW_INPUTS = tuple(_core.CHIANG_ROW_INPUTS)
+# The node inputs `inputs=` may give per row (docs/simd.md); the others stay the closure's. Name ->
+# columns as the scene schema's row says: 0 for a number a row (N,), 3 for an RGB triple a row (N, 3).
+ROW_INPUTS = dict(_core.CHIANG_ROW_INPUTS)
 
 
 def _no_extras(normal, pixel_coverage, near_field, random, shadow) -> None:
@@ -280,7 +281,7 @@ def _no_extras(normal, pixel_coverage, near_field, random, shadow) -> None:
 
 
 def _row_inputs(inputs) -> dict:
-    """inputs= checked: known names, float arrays ((N, 3) for absorption_coefficient, else (N,) or a
+    """inputs= checked: known names, float arrays ((N, 3) or (3,) for an RGB input, else (N,) or a
     number), finite. Kept in their float type for the kernels."""
     if not isinstance(inputs, dict):
         raise TypeError(f"inputs: expected a dict of per-row arrays, got {type(inputs).__name__}")
@@ -288,12 +289,13 @@ def _row_inputs(inputs) -> dict:
     for name, value in inputs.items():
         if name not in ROW_INPUTS:
             raise ValueError(f"inputs: {name!r} cannot vary per row; allowed: {', '.join(ROW_INPUTS)}")
+        columns = ROW_INPUTS[name]
         arr = value if isinstance(value, np.ndarray) and value.dtype in (np.float32, np.float64) else None
         if arr is None:
-            arr = check.per_row(name, value) if name != "absorption_coefficient" else check.triples(name, value)
-        if name == "absorption_coefficient" and (arr.ndim != 2 or arr.shape[1] != 3) and arr.shape != (3,):
-            raise ValueError(f"inputs: absorption_coefficient: shape {arr.shape} is not allowed; pass (N, 3) or (3,)")
-        if name != "absorption_coefficient" and arr.ndim > 1:
+            arr = check.triples(name, value) if columns else check.per_row(name, value)
+        if columns and (arr.ndim != 2 or arr.shape[1] != columns) and arr.shape != (columns,):
+            raise ValueError(f"inputs: {name}: shape {arr.shape} is not allowed; pass (N, {columns}) or ({columns},)")
+        if not columns and arr.ndim > 1:
             raise ValueError(f"inputs: {name}: shape {arr.shape} is not allowed; pass a number or (N,)")
         if not np.isfinite(arr).all():
             raise ValueError(f"inputs: {name}: contains NaN or Inf; all values must be finite")

@@ -28,7 +28,7 @@ from ._deps import require
 from .gonio import H_NODES
 from .closure import LOBES
 from .principled import PRINCIPLED_HAIR_DEFAULTS as PRINCIPLED
-from .spec import CONSTRUCTORS, SpecError, build, format_spec, parse_spec
+from .spec import ALIASES, CONSTRUCTORS, SpecError, build, format_spec, parse_spec
 from .zoo import model_defaults
 
 DEON, EPIC, KAJIYA_KAY, MARSCHNER, SCHEUERMANN, YAN_FUR = (
@@ -63,13 +63,17 @@ class FitModel:
     of its eval_lobes slots is (None: no counterpart; per-lobe errors only where all are named)."""
 
     name: str
-    constructor: str
     free: tuple[FreeParam, ...]
     to_kwargs: Callable[[dict], dict]
     fixed: dict = field(default_factory=dict)
     lobe_of_slot: tuple = (None, None, None, None)
     depends_on_h: bool = False
     note: str = ""
+
+    @property
+    def constructor(self) -> str:
+        """The hairbsdf constructor it fits: its short name's (spec.ALIASES)."""
+        return ALIASES.get(self.name, self.name)
 
     def kwargs(self, values: dict) -> dict:
         return {**self.fixed, **self.to_kwargs(values)}
@@ -116,7 +120,7 @@ def _defaults_of(model: dict, *names: str) -> dict:
 
 FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
     FitModel(
-        "epic", "epic_hair",
+        "epic",
         (*_rgb_params("base_color", 0.0, 1.0, EPIC["base_color"], "C per channel"),
          FreeParam("specular", 0.0, 1.0, EPIC["specular"], doc="R scale / 0.5"),
          FreeParam("roughness", 0.05, 1.0, EPIC["roughness"], doc="beta_R = roughness^2"),
@@ -124,17 +128,17 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
          FreeParam("scatter", 0.0, 1.0, EPIC["scatter"], doc="multiple-scattering fake (shadow = 1)")),
         lambda v: {"base_color": _rgb(v, "base_color"), "specular": v["specular"], "roughness": v["roughness"],
                    "shift": v["shift"], "scatter": v["scatter"]},
-        fixed=_defaults_of(EPIC, "variant"), lobe_of_slot=("R", "TT", "TRT", None),
+        fixed=_defaults_of(EPIC, "variant"), lobe_of_slot=(*LOBES[:3], None),
         note="slot 3 (multiple-scattering fake) has no Principled Hair counterpart"),
     FitModel(
-        "kajiya_kay", "kajiya_kay_hair",
+        "kajiya_kay",
         (FreeParam("specular", 0.0, 1.0, _KK_SPECULAR, doc="K_s, grey"),
          *_rgb_params("diffuse_scale", 0.0, 1.0, tuple(d / (1.0 - _KK_SPECULAR) for d in KAJIYA_KAY["diffuse"]),
                       "K_d = (1 - K_s) x this, per channel"),
          FreeParam("exponent", 1.0, 10_000.0, KAJIYA_KAY["exponent"], log=True, doc="p, fitted in ln p")),
         _kajiya_kay_kwargs, note="specular / diffuse are not Principled Hair's light paths: total error only"),
     FitModel(
-        "scheuermann", "scheuermann_hair",
+        "scheuermann",
         (FreeParam("primary", 0.0, 1.0, _SCHEUERMANN_PRIMARY, doc="primary colour, grey"),
          *_rgb_params("secondary_scale", 0.0, 1.0,
                       tuple(s / (1.0 - _SCHEUERMANN_PRIMARY) for s in SCHEUERMANN["secondary_color"]),
@@ -147,51 +151,51 @@ FIT_MODELS: dict[str, FitModel] = {m.name: m for m in (
         _scheuermann_kwargs, fixed=_defaults_of(SCHEUERMANN, "shift_texture", "noise"),
         note="two shifted specular cones, no transmission: total error only"),
     FitModel(
-        "marschner", "marschner_hair",
+        "marschner",
         (*_rgb_params("sigma_a", 0.0, 40.0, MARSCHNER["sigma_a"], "absorption per channel"),
          FreeParam("alpha_r", -0.35, 0.35, MARSCHNER["alpha_r"], doc="R shift, radians"),
          FreeParam("beta_r", 0.02, 0.7, MARSCHNER["beta_r"], doc="R width, radians"),
          FreeParam("glint_scale", 0.0, 5.0, MARSCHNER["glint_scale"], doc="k_G")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "alpha_r": v["alpha_r"], "beta_r": v["beta_r"],
                    "glint_scale": v["glint_scale"]},
-        fixed={**_defaults_of(MARSCHNER, "eta"), "eccentricity": 1.0}, lobe_of_slot=("R", "TT", "TRT", None),
+        fixed={**_defaults_of(MARSCHNER, "eta"), "eccentricity": 1.0}, lobe_of_slot=(*LOBES[:3], None),
         note="circular fibre (eccentricity 1) like Principled Hair; no TRRT+ lobe"),
     FitModel(
-        "deon", "deon_hair",
+        "deon",
         # sigma_a starts at Principled Hair's default absorption (d'Eon's own is derived from melanin)
         (*_rgb_params("sigma_a", 0.0, 40.0, PRINCIPLED["absorption_coefficient"], "absorption per channel"),
          FreeParam("roughness", 0.03, 0.6, DEON["roughness"], doc="beta_R, radians"),
          FreeParam("tilt", -0.2, 0.2, DEON["tilt"], doc="cuticle tilt, radians")),
         lambda v: {"sigma_a": _rgb(v, "sigma_a"), "roughness": v["roughness"], "tilt": v["tilt"]},
-        fixed=_defaults_of(DEON, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+")),
+        fixed=_defaults_of(DEON, "eta"), lobe_of_slot=LOBES),
     FitModel(
-        "principled", "principled_hair",
+        "principled",
         (FreeParam("melanin", 0.0, 0.999, PRINCIPLED["melanin"]),
          FreeParam("melanin_redness", 0.0, 1.0, PRINCIPLED["melanin_redness"]),
          FreeParam("roughness", 0.05, 1.0, PRINCIPLED["roughness"]),
          FreeParam("radial_roughness", 0.05, 1.0, PRINCIPLED["radial_roughness"]),
          FreeParam("offset", -0.2, 0.2, PRINCIPLED["offset"], doc="radians")),
-        lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=("R", "TT", "TRT", "TRRT+"),
+        lambda v: dict(v), fixed={"parametrization": "melanin"}, lobe_of_slot=LOBES,
         depends_on_h=True, note=f"Chiang (Principled Hair) in the melanin parametrization, coat {PRINCIPLED['coat']:g}, "
                                 f"IOR {PRINCIPLED['ior']:g}"),
     FitModel(
-        "yan_fur", "yan_fur",
+        "yan_fur",
         (*_rgb_params("cortex_absorption", 0.0, 40.0, YAN_FUR["cortex_absorption"], "sigma_ca per channel"),
          FreeParam("roughness", 0.05, 1.0, YAN_FUR["roughness"], doc="Chiang's beta_m"),
          FreeParam("radial_roughness", 0.05, 1.0, YAN_FUR["radial_roughness"], doc="Chiang's beta_n"),
          FreeParam("alpha", -0.2, 0.2, YAN_FUR["alpha"], doc="cuticle tilt, radians")),
         lambda v: {"cortex_absorption": _rgb(v, "cortex_absorption"), "roughness": v["roughness"],
                    "radial_roughness": v["radial_roughness"], "alpha": v["alpha"]},
-        fixed=_defaults_of(YAN_FUR, "eta"), lobe_of_slot=("R", "TT", "TRT", "TRRT+", None, None), depends_on_h=True,
+        fixed=_defaults_of(YAN_FUR, "eta"), lobe_of_slot=(*LOBES, None, None), depends_on_h=True,
         note=f"the medulla at Yan 2015's fit (kappa {YAN_FUR['medulla_ratio']:g}); TTs / TRTs have no Principled "
              "Hair counterpart (in the total only); each evaluation with a new cortex_absorption builds a table (~1 s)"),
 )}
 
 
 def fit_model(name: str) -> FitModel:
-    key = {"kajiya_kay_hair": "kajiya_kay", "epic_hair": "epic", "scheuermann_hair": "scheuermann",
-           "marschner_hair": "marschner", "deon_hair": "deon", "principled_hair": "principled", "yan": "yan_fur",
-           "chiang": "principled"}.get(name, name)
+    # a constructor's name or short name (spec.ALIASES) -> the model fitting that constructor
+    by_constructor = {m.constructor: key for key, m in FIT_MODELS.items()}
+    key = name if name in FIT_MODELS else by_constructor.get(ALIASES.get(name, name), name)
     if key not in FIT_MODELS:
         raise ValueError(f"unknown fit model {name!r}; choose one of {', '.join(FIT_MODELS)}")
     return FIT_MODELS[key]

@@ -8,7 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-REC709 = np.array([0.2126, 0.7152, 0.0722])  # luminance weights (as luminance() in math.h)
+from . import _core
+from .principled import DEFAULT_MODEL
+
+REC709 = np.array(_core.LUMINANCE_WEIGHTS)  # Rec.709 luminance weights, C++ luminance()'s (math.h)
 # Gauss-Legendre nodes in h for the far field of h-dependent models. Chiang's value at one h is
 # a narrow logistic in phi around Phi(p, h); 8 nodes leave 15 % of the far field's norm, 16: 1.5 %,
 # 32: 2e-4 (radial roughness 0.3; measured against 128 nodes on the 24-cell grid).
@@ -35,7 +38,7 @@ def depends_on_h(name: str, kwargs: dict) -> bool:
     zoo models have no h."""
     if name == "yan_fur":
         return True
-    return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() != "huang"
+    return name == "principled_hair" and str(kwargs.get("model", DEFAULT_MODEL)).lower() != "huang"
 
 
 def far_field_lobes(closure, wo, wi, h_count: int, h_dependent: bool, **eval_kw) -> np.ndarray:

@@ -8,6 +8,8 @@ OSL and MDL backends differ and the slips in the proposal's MDL text.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from typing import NamedTuple
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from . import _core
 from . import _validate as check
-from ._param_docs import with_parameters
+from ._param_docs import FLOAT, VECTOR2, with_parameters
 from .closure import Closure
 
 
@@ -37,12 +39,9 @@ CHIANG_HAIR_BSDF_DEFAULTS = _table_defaults("chiang_hair_bsdf")
 CHIANG_HAIR_ROUGHNESS_DEFAULTS = _table_defaults("chiang_hair_roughness")
 CHIANG_HAIR_ABSORPTION_FROM_COLOR_DEFAULTS = _table_defaults("chiang_hair_absorption_from_color")
 DEON_HAIR_ABSORPTION_FROM_MELANIN_DEFAULTS = _table_defaults("deon_hair_absorption_from_melanin")
-_ROUGHNESS = CHIANG_HAIR_ROUGHNESS_DEFAULTS
-_FROM_COLOR = CHIANG_HAIR_ABSORPTION_FROM_COLOR_DEFAULTS
-_FROM_MELANIN = DEON_HAIR_ABSORPTION_FROM_MELANIN_DEFAULTS
 
 
-def _pair(name, value):
+def _pair(name, value, lowest):
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -51,9 +50,44 @@ def _pair(name, value):
         raise ValueError(f"{name}: expected a vector2 (v, s), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: must be finite")
-    if np.any(arr < 0):
-        raise ValueError(f"{name}: (v, s) must be >= 0 (MaterialX range [0, inf))")
+    if np.any(arr < lowest):
+        raise ValueError(f"{name}: (v, s) must be >= {lowest:g} (MaterialX range [{lowest:g}, inf))")
     return (float(arr[0]), float(arr[1]))
+
+
+def _checked(row: dict, value):
+    """An input's value checked by its table row's kind: a vector2 (v, s) above the row's lower bound, a number or
+    an RGB colour."""
+    if row["type"] == VECTOR2:
+        return _pair(row["name"], value, row["min"])
+    if row["type"] == FLOAT:
+        return check.real(row["name"], value)
+    return check.color(row["name"], value)
+
+
+def _from_table(node: str):
+    """Turns `body`, a function of the node's checked inputs (a dict), into MaterialX `node`'s function: its
+    signature is the node's table (params/materialx.h; an inspect.Signature with the table's defaults), each
+    argument is checked by its row's kind, and the docstring gets the generated Parameters block."""
+    schema = _core.materialx_schema(node)
+    parameters = [inspect.Parameter(row["name"], inspect.Parameter.POSITIONAL_OR_KEYWORD, default=row["default"])
+                  for row in schema]
+
+    def decorate(body):
+        signature = inspect.Signature(parameters, return_annotation=inspect.signature(body).return_annotation)
+
+        @functools.wraps(body)
+        def function(*args, **given):
+            bound = signature.bind(*args, **given)
+            bound.apply_defaults()
+            return body({row["name"]: _checked(row, bound.arguments[row["name"]]) for row in schema})
+
+        function.__signature__ = signature
+        return with_parameters(schema, _TABLES)(function)
+    return decorate
+
+
+_BSDF_ROWS = {row["name"]: row for row in _core.materialx_schema("chiang_hair_bsdf")}
 
 
 @_table_parameters("chiang_hair_bsdf")
@@ -65,19 +99,21 @@ def chiang_hair_bsdf(*, glsl_compat: bool = False, **inputs) -> Closure:
     `normal` and `curve_direction` come from the fibre frame (`h` and `x`). `glsl_compat=True`
     multiplies by the GLSL backend's extra 1/pi.
     """
-    check.keywords("chiang_hair_bsdf", inputs, CHIANG_HAIR_BSDF_DEFAULTS)
+    check.keywords("chiang_hair_bsdf", inputs, _BSDF_ROWS)
     v = dict(CHIANG_HAIR_BSDF_DEFAULTS)
     for key, value in inputs.items():
-        if key.startswith("roughness_"):
-            v[key] = _pair(key, value)
-        elif key in ("ior", "cuticle_angle"):
-            v[key] = check.real(key, value)
-        else:
-            v[key] = check.color(key, value)
+        v[key] = _checked(_BSDF_ROWS[key], value)
     core = _core.materialx_chiang(v)
     shown = ", ".join(f"{k}={val!r}" for k, val in inputs.items())
     closure = Closure(core, f"chiang_hair_bsdf({shown})")
     return closure * (1.0 / math.pi) if glsl_compat else closure
+
+
+# help() shows the inputs (the table's rows) as keywords; the call takes them as **inputs.
+chiang_hair_bsdf.__signature__ = inspect.Signature(
+    [inspect.Parameter("glsl_compat", inspect.Parameter.KEYWORD_ONLY, default=False),
+     *(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=row["default"])
+       for name, row in _BSDF_ROWS.items())], return_annotation=Closure)
 
 
 class ChiangHairRoughness(NamedTuple):
@@ -86,40 +122,24 @@ class ChiangHairRoughness(NamedTuple):
     roughness_TRT: tuple
 
 
-@_table_parameters("chiang_hair_roughness")
-def chiang_hair_roughness(longitudinal: float = _ROUGHNESS["longitudinal"], azimuthal: float = _ROUGHNESS["azimuthal"],
-                          scale_TT: float = _ROUGHNESS["scale_TT"],
-                          scale_TRT: float = _ROUGHNESS["scale_TRT"]) -> ChiangHairRoughness:
+@_from_table("chiang_hair_roughness")
+def chiang_hair_roughness(inputs: dict) -> ChiangHairRoughness:
     """MaterialX `chiang_hair_roughness`: (v, s) per lobe from artist roughness (Chiang 2016
     eqs. 7-8, s without sqrt(pi/8)); TT and TRT scale only v, by scale**2."""
-    r = _core.materialx_roughness({"longitudinal": check.real("longitudinal", longitudinal),
-                                   "azimuthal": check.real("azimuthal", azimuthal),
-                                   "scale_TT": check.real("scale_TT", scale_TT),
-                                   "scale_TRT": check.real("scale_TRT", scale_TRT)})
-    return ChiangHairRoughness(*(tuple(x) for x in r))
+    return ChiangHairRoughness(*(tuple(x) for x in _core.materialx_roughness(inputs)))
 
 
-@_table_parameters("chiang_hair_absorption_from_color")
-def chiang_hair_absorption_from_color(color=_FROM_COLOR["color"],
-                                      azimuthal_roughness: float = _FROM_COLOR["azimuthal_roughness"]) -> np.ndarray:
+@_from_table("chiang_hair_absorption_from_color")
+def chiang_hair_absorption_from_color(inputs: dict) -> np.ndarray:
     """MaterialX `chiang_hair_absorption_from_color`: Chiang 2016 eq. 9 on the clamped colour."""
-    return np.array(_core.materialx_absorption_from_color({
-        "color": check.color("color", color),
-        "azimuthal_roughness": check.real("azimuthal_roughness", azimuthal_roughness)}))
+    return np.array(_core.materialx_absorption_from_color(inputs))
 
 
-@_table_parameters("deon_hair_absorption_from_melanin")
-def deon_hair_absorption_from_melanin(melanin_concentration: float = _FROM_MELANIN["melanin_concentration"],
-                                      melanin_redness: float = _FROM_MELANIN["melanin_redness"],
-                                      eumelanin_color=_FROM_MELANIN["eumelanin_color"],
-                                      pheomelanin_color=_FROM_MELANIN["pheomelanin_color"]) -> np.ndarray:
+@_from_table("deon_hair_absorption_from_melanin")
+def deon_hair_absorption_from_melanin(inputs: dict) -> np.ndarray:
     """MaterialX `deon_hair_absorption_from_melanin`: q = -ln(max(1 - c, 1e-4)),
     sigma = max(q(1 - r)(-ln E) + q r (-ln P), 0) with d'Eon's pigment colours E and P."""
-    return np.array(_core.materialx_absorption_from_melanin({
-        "melanin_concentration": check.real("melanin_concentration", melanin_concentration),
-        "melanin_redness": check.real("melanin_redness", melanin_redness),
-        "eumelanin_color": check.color("eumelanin_color", eumelanin_color),
-        "pheomelanin_color": check.color("pheomelanin_color", pheomelanin_color)}))
+    return np.array(_core.materialx_absorption_from_melanin(inputs))
 
 
 # Interface of the `simple_hair` node graph (resources/Materials/Examples/SimpleHair): a graph of the
@@ -453,10 +473,11 @@ def principled_inputs_from_node(node) -> dict:
     if not hasattr(node, "inputs") or not hasattr(node, "parametrization"):
         raise TypeError(f"node: expected a Principled Hair BSDF node (with .inputs and .parametrization), "
                         f"got {type(node).__name__}")
-    model = getattr(node, "model", "CHIANG")
-    if str(model).upper() != "CHIANG":
+    from .principled import DEFAULT_MODEL, PARAMETRIZATIONS, PRINCIPLED_HAIR_DEFAULTS
+
+    model = getattr(node, "model", DEFAULT_MODEL)  # no .model (Blender 3.x): the default model
+    if str(model).lower() != DEFAULT_MODEL:
         raise ValueError(f"node: model {model!r} is not allowed; chiang_hair_bsdf is the Chiang model ('CHIANG')")
-    from .principled import PARAMETRIZATIONS, PRINCIPLED_HAIR_DEFAULTS
 
     # Blender's parametrization enum names are PARAMETRIZATIONS' keys in upper case.
     parametrization = str(node.parametrization).lower()

@@ -16,6 +16,7 @@ from ._deps import require
 from ._validate import huang_tolerance_range
 from .gonio import H_NODES
 from .closure import YAN_FUR_LOBES
+from .principled import DEFAULT_MODEL
 from .spec import SpecError, build, format_spec, parse_spec
 
 RGB_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")
@@ -74,7 +75,7 @@ def _spec_closure(text):
 def is_huang(spec: str) -> bool:
     """Whether a spec is principled_hair(model="huang") (the expensive model: coarser plot defaults)."""
     name, kwargs = parse_spec(spec)
-    return name == "principled_hair" and str(kwargs.get("model", "chiang")).lower() == "huang"
+    return name == "principled_hair" and str(kwargs.get("model", DEFAULT_MODEL)).lower() == "huang"
 
 
 def _polar_axes(plt, rows, title):

@@ -3,12 +3,15 @@ with Cycles' semantics (docs/principled_hair.md lists every clamp)."""
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 
 from . import _core
 from . import _validate as check
-from ._param_docs import with_parameters
+from ._param_docs import CHOICE, FLOAT, with_parameters
 from .closure import Closure
+from .render import principled_hair_input_rows
 
 _SCENE_SCHEMA = _core.scene_schema()
 
@@ -36,23 +39,15 @@ DEFAULT_MODEL, DEFAULT_PARAMETRIZATION, DEFAULT_ACCURACY, DEFAULT_TILT = (
 # choices, defaults and ranges (docs/huang.md §4); a choice is passed to C++ as its index there.
 HUANG_OPTIONS = {p["name"]: p for p in _core.huang_option_schema()}
 HUANG_OPTION_DEFAULTS = {name: p["default"] for name, p in HUANG_OPTIONS.items()}
-HUANG_TOLERANCE = HUANG_OPTION_DEFAULTS["tolerance"]
-HUANG_ACCURACIES, HUANG_SAMPLERS, HUANG_COLOR_ROUGHNESS, HUANG_GLASS_ALBEDO_TABLES = (
-    {c: i for i, c in enumerate(HUANG_OPTIONS[name]["choices"])}
-    for name in ("accuracy", "sampler", "color_roughness", "glass_albedo_table"))
 
 
-def _node_defaults(schema: list, hair_model: str) -> dict:
+def _node_defaults(hair_model: str) -> dict:
     """The Principled Hair node's Blender 4.5 defaults (docs/cycles.md §1; offset in radians) for
     `hair_model` ("CHIANG" or "HUANG"), read from the scene schema's input rows, whose defaults are
     the C++ PrincipledHairInputs struct's: the one place they are written."""
-    prefix = "materials[].closures[].inputs."
     out = {}
-    for row in schema:
-        key = row["path"][len(prefix):]
-        if not row["path"].startswith(prefix) or key == "random":
-            continue
-        if hair_model in row["hair_models"].split():
+    for key, row in principled_hair_input_rows().items():
+        if key != "random" and hair_model in row["hair_models"].split():
             text = row["default"].strip("()")
             values = tuple(float(v) for v in text.split(","))
             out[key] = values if row["kind"] == "vector" else values[0]
@@ -61,12 +56,13 @@ def _node_defaults(schema: list, hair_model: str) -> dict:
     return out
 
 
-PRINCIPLED_HAIR_DEFAULTS = _node_defaults(_SCENE_SCHEMA, "CHIANG")
+PRINCIPLED_HAIR_DEFAULTS = _node_defaults("CHIANG")
 # Inputs of the Huang model (Blender 4.5 node): Radial Roughness and Coat are accepted and ignored
 # like Cycles does (Radial Roughness is used by color_roughness="osl" only).
-HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults(_SCENE_SCHEMA, "HUANG"))
+HUANG_DEFAULTS = dict(PRINCIPLED_HAIR_DEFAULTS, **_node_defaults("HUANG"))
 del _SCENE_SCHEMA
-_COLOR_INPUTS = ("color", "tint", "absorption_coefficient")
+# The RGB inputs: the schema rows of kind "vector" (the others are numbers).
+_COLOR_INPUTS = frozenset(key for key, row in principled_hair_input_rows().items() if row["kind"] == "vector")
 
 
 def principled_hair(model: str = DEFAULT_MODEL, parametrization: str = DEFAULT_PARAMETRIZATION, *,
@@ -116,43 +112,43 @@ def principled_hair(model: str = DEFAULT_MODEL, parametrization: str = DEFAULT_P
                          f"{', ' + shown if shown else ''}{extra})", principled=arguments)
 
 
-def _principled_huang(parametrization, *, accuracy=HUANG_OPTION_DEFAULTS["accuracy"], tilt=DEFAULT_TILT,
-                      sampler=HUANG_OPTION_DEFAULTS["sampler"], tolerance=HUANG_TOLERANCE,
-                      max_evaluations=HUANG_OPTION_DEFAULTS["max_evaluations"],
-                      trt_points=HUANG_OPTION_DEFAULTS["trt_points"],
-                      color_roughness=HUANG_OPTION_DEFAULTS["color_roughness"],
-                      glass_albedo_table=HUANG_OPTION_DEFAULTS["glass_albedo_table"], **inputs) -> Closure:
-    """model="huang" of principled_hair (see its docstring and docs/huang.md)."""
+def _principled_huang(parametrization, *, tilt=DEFAULT_TILT, **given) -> Closure:
+    """model="huang" of principled_hair (see its docstring and docs/huang.md): Huang's options (its signature,
+    from their table HUANG_OPTIONS) and the node's inputs."""
     if isinstance(parametrization, str):
         parametrization = parametrization.lower()
     check.choice("parametrization", parametrization, PARAMETRIZATIONS)
-    check.choice("accuracy", accuracy, HUANG_ACCURACIES)
     if tilt != DEFAULT_TILT:
         raise ValueError(f"tilt: the Huang model has no tilt convention option (only {DEFAULT_TILT!r})")
-    check.choice("sampler", sampler, HUANG_SAMPLERS)
-    check.choice("color_roughness", color_roughness, HUANG_COLOR_ROUGHNESS)
-    check.choice("glass_albedo_table", glass_albedo_table, HUANG_GLASS_ALBEDO_TABLES)
-    tolerance = check.huang_tolerance(tolerance)
-    lowest = int(HUANG_OPTIONS["max_evaluations"]["min"])
-    if not isinstance(max_evaluations, int) or max_evaluations < lowest:
-        raise ValueError(f"max_evaluations: must be an integer >= {lowest}")
-    if not isinstance(trt_points, int) or isinstance(trt_points, bool) or not (trt_points == 0 or trt_points >= 16):
-        raise ValueError(f"trt_points={trt_points!r}: must be 0 (points set by `tolerance`) or an integer >= 16")
+    options = {name: given.pop(name) for name in HUANG_OPTIONS if name in given}
+    # A choice is checked here and passed as its index; a real number is checked here (its range names it); the
+    # integers' kind, range and rule (trt_points) are checked by the core (module.cpp's huang_options).
+    core_options = {}
+    for name, value in options.items():
+        row = HUANG_OPTIONS[name]
+        if row["type"] == CHOICE:
+            value = row["choices"].index(check.choice(name, value, row["choices"]))
+        elif row["type"] == FLOAT:
+            value = options[name] = check.in_range(name, value, row["min"], row["max"])
+        core_options[name] = value
+    inputs = given
     check.keywords("principled_hair(model='huang')", inputs, HUANG_DEFAULTS)
     values = dict(HUANG_DEFAULTS)
     for key, value in inputs.items():
         values[key] = check.color(key, value) if key in _COLOR_INPUTS else check.real(key, value)
-    core = _core.principled_huang(PARAMETRIZATIONS[parametrization], values, {
-        "accuracy": HUANG_ACCURACIES[accuracy], "sampler": HUANG_SAMPLERS[sampler], "tolerance": tolerance,
-        "max_evaluations": max_evaluations, "trt_points": trt_points,
-        "color_roughness": HUANG_COLOR_ROUGHNESS[color_roughness],
-        "glass_albedo_table": HUANG_GLASS_ALBEDO_TABLES[glass_albedo_table]})
+    core = _core.principled_huang(PARAMETRIZATIONS[parametrization], values, core_options)
     shown = ", ".join(f"{k}={v}" for k, v in inputs.items())
-    options = {"accuracy": accuracy, "sampler": sampler, "tolerance": tolerance, "trt_points": trt_points,
-               "color_roughness": color_roughness, "glass_albedo_table": glass_albedo_table}
     extra = "".join(f", {k}={v!r}" for k, v in options.items() if v != HUANG_OPTION_DEFAULTS[k])
     return Closure(core, f"principled_hair(model='huang', parametrization={parametrization!r}"
                          f"{', ' + shown if shown else ''}{extra})")
+
+
+_principled_huang.__signature__ = inspect.Signature(
+    [inspect.Parameter("parametrization", inspect.Parameter.POSITIONAL_OR_KEYWORD),
+     inspect.Parameter("tilt", inspect.Parameter.KEYWORD_ONLY, default=DEFAULT_TILT),
+     *(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=row["default"])
+       for name, row in HUANG_OPTIONS.items()),
+     inspect.Parameter("inputs", inspect.Parameter.VAR_KEYWORD)], return_annotation=Closure)
 
 
 principled_hair = with_parameters(list(HUANG_OPTIONS.values()),

@@ -36,6 +36,18 @@ def schema_choices(path: str) -> tuple:
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
 
 
+# The scene key of Principled Hair's inputs (a closure's dict of socket values), the scene schema's.
+PRINCIPLED_HAIR_INPUTS = _core.PRINCIPLED_HAIR_INPUTS
+
+
+@functools.cache
+def principled_hair_input_rows() -> dict:
+    """Principled Hair's inputs as the scene schema declares them: key ("roughness") -> its row (with the socket,
+    socket_kind, hair_models, kind and default), in the table's order. The one table of the node's inputs."""
+    prefix = PRINCIPLED_HAIR_INPUTS + "."
+    return {k["path"][len(prefix):]: k for k in scene_schema() if k["path"].startswith(prefix)}
+
+
 @functools.cache
 def schema_default(path: str, closure_type: str = ""):
     """The default of the scene key `path` as a Python value (a bool, int, float, RGB tuple or name), read from

@@ -9,20 +9,16 @@ from __future__ import annotations
 
 import ast
 
-# Constructor name -> the hairbsdf attribute it calls. Short names are accepted too
-# (`epic` = `epic_hair`), so that `--model epic` and `--target epic` read the same.
-CONSTRUCTORS = {
-    "principled_hair": "principled_hair",
-    "kajiya_kay_hair": "kajiya_kay_hair",
-    "epic_hair": "epic_hair",
-    "scheuermann_hair": "scheuermann_hair",
-    "marschner_hair": "marschner_hair",
-    "deon_hair": "deon_hair",
-    "yan_fur": "yan_fur",
-}
-ALIASES = {"principled": "principled_hair", "chiang": "principled_hair", "kajiya_kay": "kajiya_kay_hair",
-           "epic": "epic_hair", "scheuermann": "scheuermann_hair", "marschner": "marschner_hair",
-           "deon": "deon_hair", "yan": "yan_fur"}
+from .principled import DEFAULT_MODEL
+from .zoo import CONSTRUCTOR_OF_MODEL, zoo_model_names
+
+# Constructor name -> the hairbsdf attribute it calls: Principled Hair and the zoo models' (zoo's
+# CONSTRUCTOR_OF_MODEL). Short names are accepted too (`epic` = `epic_hair`, a zoo model's name), so that
+# `--model epic` and `--target epic` read the same.
+_ZOO = {model: CONSTRUCTOR_OF_MODEL[model] for model in zoo_model_names()}
+CONSTRUCTORS = {name: name for name in ("principled_hair", *_ZOO.values())}
+ALIASES = {"principled": "principled_hair", DEFAULT_MODEL: "principled_hair",
+           **{model: name for model, name in _ZOO.items() if model != name}, "yan": _ZOO["yan_fur"]}
 ALLOWED_TEXT = ("a call of one of " + ", ".join(CONSTRUCTORS) +
                 " (or the short names " + ", ".join(ALIASES) + ") with literal keyword arguments, "
                 "e.g. \"principled_hair(melanin=0.6, roughness=0.3)\"")

@@ -83,6 +83,11 @@ def _shown(value) -> str:
     return f"{value:g}" if isinstance(value, float) else repr(value)
 
 
+# Model -> its constructor's name ("epic" -> "epic_hair"), recorded by _from_table: the one place the pairs are
+# written is each constructor's decorator (spec's and fit's names derive from this).
+CONSTRUCTOR_OF_MODEL: dict[str, str] = {}
+
+
 def _from_table(model: str):
     """Turns a function whose body is its prose docstring into `model`'s constructor, built from the model's
     table (_core.model_schema): keyword-only parameters with the table's defaults (an inspect.Signature, so
@@ -92,6 +97,7 @@ def _from_table(model: str):
 
     def decorate(prose):
         name = prose.__name__
+        CONSTRUCTOR_OF_MODEL[model] = name
         signature = inspect.Signature(
             [inspect.Parameter(row["name"], inspect.Parameter.KEYWORD_ONLY,
                                default=None if row["optional"] else row["default"],

@@ -113,8 +113,27 @@ def test_core_reads_node_inputs_by_the_scene_schemas_rows():
     huang = huang.model_params()[0]
     np.testing.assert_array_equal(huang["sigma_a"], given["absorption_coefficient"])
     assert (huang["eta"], huang["offset"], huang["aspect_ratio"]) == (1.7, 0.1, 0.7)
-    with pytest.raises(ValueError, match="rougness"):
+    with pytest.raises(ValueError, match=r"inputs\['rougness'\]: not a Principled Hair input; allowed: color, "):
         _core.principled_chiang((0, {"rougness": 0.3}, 0, 0))
+
+
+def test_core_dict_readers_name_an_unknown_key_and_the_allowed_ones():
+    """The bindings read a dict into a struct by table rows with one helper (module.cpp's read_by_rows): an unknown
+    key is an error naming it and the allowed names; Huang's options not given take their table's defaults."""
+    from hairbsdf import _core
+    from hairbsdf.principled import HUANG_OPTIONS, PARAMETRIZATIONS
+
+    with pytest.raises(ValueError, match=r"chiang_hair_bsdf\['bogus'\]: not an input; allowed: .*absorption_coefficient"):
+        _core.materialx_chiang({"bogus": 1.0})
+    with pytest.raises(ValueError, match=r"options\['sampel'\]: not an option of .*; allowed: accuracy, sampler, "):
+        _core.principled_huang(PARAMETRIZATIONS["color"], {}, {"sampel": 0})
+    with pytest.raises(ValueError, match=r"sampler=5: must be in \[0, 1\]"):
+        _core.principled_huang(PARAMETRIZATIONS["color"], {}, {"sampler": 5})
+    with pytest.raises(ValueError, match=r"color_roughness=2: must be in \[0, 1\]"):
+        _core.principled_huang(PARAMETRIZATIONS["color"], {}, {"color_roughness": 2})
+    defaults = _core.principled_huang(PARAMETRIZATIONS["color"], {}, {}).model_params()[0]
+    assert {name: defaults[name] for name in HUANG_OPTIONS if name in defaults} == {
+        name: row["default"] for name, row in HUANG_OPTIONS.items() if name in defaults}
 
 
 def test_blender_enum_names_are_accepted():

@@ -79,3 +79,17 @@ def test_numerical_defaults_are_the_cpp_ones():
     params = huang().model_params[0]
     assert params["tolerance"] == cpp["tolerance"] and params["trt_points"] == cpp["trt_points"]
     assert (cpp["tolerance"], cpp["trt_points"]) == (1e-2, 0)  # the documented defaults (docs/huang.md §4)
+
+
+@pytest.mark.parametrize("points, error, message", [
+    (8, ValueError, r"trt_points=8: must be 0 \(points set by `tolerance`\) or an integer >= 16"),
+    (-1, ValueError, r"trt_points=-1: must be in \[0, "),
+    (16.0, TypeError, r"trt_points: expected an integer, got 16\.0"),
+    (True, TypeError, r"trt_points: expected an integer, got True"),
+])
+def test_trt_points_rule_is_checked_by_the_core(points, error, message):
+    """trt_points is 0 (set by tolerance) or an integer >= 16 (models/huang.h's kMinFixedTrtPoints): the core's
+    options check (module.cpp's huang_options) says so, naming the option; Python keeps no copy of the rule."""
+    with pytest.raises(error, match=message):
+        huang(trt_points=points)
+    assert huang(trt_points=16).model_params[0]["trt_points"] == 16 and huang(trt_points=0)

@@ -24,7 +24,7 @@ def _number(x):
 def _type(k):
     kind, cols = k["kind"], k["columns"]
     text = {
-        "array": f"{k['dtype']} (N,)" if cols == 0 else f"{k['dtype']} (N, {cols})",
+        "array": f"{k['dtype']} ({k['rows'] or 'N'},)" if cols == 0 else f"{k['dtype']} ({k['rows'] or 'N'}, {cols})",
         "image": f"{k['dtype']} (H, W, {cols})",
         "vector": f"{cols} numbers",
         "matrix": "float64 (4, 4)" if cols == 4 else "float64 (3, 4) or (4, 4)",
@@ -107,6 +107,19 @@ def test_schema_rows_are_well_formed():
     assert inputs and all(k["socket"] and k["socket_kind"] in ("float", "color", "vector") for k in inputs)
     assert all(set(k["hair_models"].split()) <= set(models) for k in inputs)
     assert all(k["socket_kind"] == "float" for k in inputs if k["kind"] == "float")
+    # the legacy Hair BSDF's inputs likewise: each linkable cycles_hair key names its socket
+    legacy = [k for k in rows if "cycles_hair" in k["only_for"].split() and k["register_link"]]
+    assert legacy and all(k["socket"] and k["socket_kind"] in ("float", "color") for k in legacy), legacy
+    # the geometry's arrays say which count their length is or matches: the walker checks it, the docs show it
+    uncounted = [k["path"] for k in rows if k["kind"] == "array" and k["path"].split(".")[0] in ("curves", "meshes")
+                 and not k["rows"]]
+    assert uncounted == []
+    # a row kept for some types names only types its sibling "type" row allows (a typo would hide the row)
+    for k in rows:
+        if k["only_for"]:
+            sibling = k["path"].rsplit(".", 1)[0] + ".type"
+            allowed = next(t["allowed"] for t in rows if t["path"] == sibling)
+            assert set(k["only_for"].split()) <= set(allowed), (k["path"], k["only_for"], allowed)
 
 
 def test_optional_plain_keys_have_their_default_from_the_scene_struct():
@@ -162,6 +175,9 @@ def _scene():
     (lambda s: s["camera"].update(resolution=(0, 2)), ValueError, r"^scene\['camera'\]\['resolution'\]\[0\]: must be >= 1"),
     (lambda s: s["integrator"].update(tilt=4.2), TypeError, r"^scene\['integrator'\]\['tilt'\]: expected a string, one of \['4.2', '3.4'\]"),
     (lambda s: s.update(version=2), ValueError, r"^scene\['version'\]: must be <= 1"),
+    (lambda s: s["integrator"].update(samples=2**24 + 1), ValueError, r"^scene\['integrator'\]\['samples'\]: must be <= 16777216"),
+    (lambda s: s["integrator"].update(max_bounces=2**20 + 1), ValueError,
+     r"^scene\['integrator'\]\['max_bounces'\]: must be <= 1048576"),
     (lambda s: s.update(world={"texture": {"pixels": np.zeros((2, 4, 4)), "weight": (1, 1, 1)}}), ValueError,
      r"^scene\['world'\]\['texture'\]\['pixels'\]: expected shape \(height, width, 3\)"),
     (lambda s: s.update(materials=[{"closures": [{"type": "principled_hair", "inputs": {"roughness": "x"}}]}]),
@@ -191,3 +207,31 @@ def test_validate_scene_does_not_load_tbb():
             "maps = open('/proc/self/maps').read();"
             "assert 'libtbb' not in maps and 'hairbsdf._render' not in sys.modules, 'TBB loaded'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_the_readers_read_materials_at_schema_rows():
+    """render.cpp reads a material at the schema's named paths (scene_schema.h's k*Path; a path with no row is
+    a logic_error, not an empty read): the loader's folded material gives back each key it was given,
+    Principled Hair's inputs at _core.PRINCIPLED_HAIR_INPUTS."""
+    from hairbsdf import _render
+
+    inputs_row = _row(_core.PRINCIPLED_HAIR_INPUTS)
+    assert inputs_row["kind"] == "dict" and inputs_row["closed"]
+    material = {"name": "m", "closures": [
+        {"type": "principled_hair", "model": "CHIANG", "parametrization": "MELANIN", "weight": (0.5, 0.5, 0.5),
+         "inputs": {"melanin": 0.25, "roughness": 0.5}},
+        {"type": "cycles_hair", "component": "TRANSMISSION", "color": (0.25, 0.5, 0.75), "roughness_u": 0.25}]}
+    hair, legacy = _render.folded_material(material)["closures"]
+    assert hair["weight"] == (0.5, 0.5, 0.5)
+    assert (hair["inputs"]["melanin"], hair["inputs"]["roughness"]) == (0.25, 0.5)
+    assert (legacy["component"], legacy["color"], legacy["roughness_u"]) == ("TRANSMISSION", (0.25, 0.5, 0.75), 0.25)
+
+
+def test_hair_model_reads_model_and_path_by_their_rows():
+    """A hair_model closure's model and path are bound rows (read_fields copies them; only params are read by
+    hand): the loader's folded closure gives them back."""
+    from hairbsdf import _render
+
+    material = {"name": "m", "closures": [{"type": "hair_model", "model": "kajiya_kay", "path": "unused.so"}]}
+    (model,) = _render.folded_material(material)["closures"]
+    assert (model["model"], model["path"]) == ("kajiya_kay", "unused.so")

@@ -2,6 +2,7 @@
 Each test fails when a copy reappears as a literal."""
 
 import ast
+import inspect
 import re
 from pathlib import Path
 
@@ -120,16 +121,16 @@ def literal_fallbacks(function: ast.FunctionDef, names: set, choices: set):
 
 
 def test_portable_reads_the_schemas_defaults():
-    """portable.py's materialx_limits and render_settings take a missing key's default from the scene schema
-    (portable._key), never from a literal fallback. (write_materialx's grey and strength fallbacks are left to
-    the change that names the grey once.)"""
+    """portable.py's materialx_limits, write_materialx and render_settings take a missing key's default from the
+    scene schema (portable._key), never from a literal fallback. (write_materialx's grey, _core's
+    DEFAULT_SURFACE_COLOR, is no literal.)"""
     from hairbsdf.render import scene_schema
 
     names = {k["path"].rsplit(".", 1)[-1].removesuffix("[]") for k in scene_schema()}
     choices = {c for k in scene_schema() for c in k["allowed"]}
     path = PACKAGE / "compare" / "portable.py"
     functions = {n.name: n for n in ast.parse(path.read_text()).body if isinstance(n, ast.FunctionDef)}
-    copies = ["portable.py:%d: %s" % hit for name in ("materialx_limits", "render_settings")
+    copies = ["portable.py:%d: %s" % hit for name in ("materialx_limits", "write_materialx", "render_settings")
               for hit in literal_fallbacks(functions[name], names, choices)]
     assert not copies, "a scene key's default written again; use portable._key:\n" + "\n".join(copies)
 
@@ -210,3 +211,252 @@ def test_producers_read_the_schemas_choice_lists():
     copies = ["%s:%d: %s spells %s" % (p.relative_to(ROOT), line, key, names)
               for p in python_sources() if p not in chosen for line, key, names in spelled_lists(p)]
     assert not copies, "choice lists written again (read them with schema_choices):\n" + "\n".join(copies)
+
+
+def test_chiang_row_inputs_are_the_schemas_rows():
+    """The inputs that may vary per row (closure.ROW_INPUTS, from C++ chiang_row_inputs) are named and shaped by
+    the scene schema's Principled Hair rows; closure.py tells a number from an RGB input by that shape, never by
+    comparing with an input's name."""
+    from hairbsdf.closure import ROW_INPUTS
+    from hairbsdf.render import principled_hair_input_rows
+
+    rows = principled_hair_input_rows()
+    assert ROW_INPUTS and set(ROW_INPUTS) <= set(rows)
+    assert ROW_INPUTS == {name: rows[name]["columns"] if rows[name]["kind"] == "vector" else 0 for name in ROW_INPUTS}
+    path = PACKAGE / "closure.py"
+    copies = ["closure.py:%d: %s" % (node.lineno, ast.unparse(node))
+              for node in ast.walk(ast.parse(path.read_text(), str(path))) if isinstance(node, ast.Compare)
+              for side in [node.left, *node.comparators] if isinstance(side, ast.Constant) and side.value in rows]
+    assert not copies, "a per-row input compared by name; use ROW_INPUTS[name] (its columns):\n" + "\n".join(copies)
+
+
+def test_principled_hair_inputs_path_is_written_once():
+    """The scene key of Principled Hair's inputs is hairbsdf.render.PRINCIPLED_HAIR_INPUTS; the others read its
+    rows with render.principled_hair_input_rows()."""
+    from hairbsdf.render import PRINCIPLED_HAIR_INPUTS
+
+    one_place = PACKAGE / "render.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in python_sources() if p != one_place
+              for line, text in string_literals(p) if PRINCIPLED_HAIR_INPUTS in text]
+    assert not copies, "the Principled Hair inputs' path spelled again; use hairbsdf.render's " \
+                       "principled_hair_input_rows:\n" + "\n".join(copies)
+
+
+def float_literals(path: Path):
+    """(line, value) of each float constant in a Python file."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Constant) and isinstance(node.value, float):
+            yield node.lineno, node.value
+
+
+def test_luminance_weights_are_written_once():
+    """The Rec.709 luminance weights of C++ luminance() (math.h) reach Python as _core.LUMINANCE_WEIGHTS (gonio,
+    compare.metrics); Cycles' rgb_to_y in Linear Rec.709 (more digits: Blender's colour -> float conversion) is
+    another fact, written once in blender/_common.py. No other module spells either."""
+    import numpy as np
+
+    from hairbsdf import _core, gonio
+    from hairbsdf.blender._common import CYCLES_REC709_RGB_TO_Y
+    from hairbsdf.compare import metrics
+
+    assert tuple(gonio.REC709) == _core.LUMINANCE_WEIGHTS
+    assert tuple(metrics.luminance(np.eye(3)[None])[0]) == _core.LUMINANCE_WEIGHTS
+    one_place = PACKAGE / "blender" / "_common.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, value) for p in python_sources()
+              for line, value in float_literals(p)
+              if value in _core.LUMINANCE_WEIGHTS or (value in CYCLES_REC709_RGB_TO_Y and p != one_place)]
+    assert not copies, "luminance weights spelled again; use _core.LUMINANCE_WEIGHTS (or, for Blender's " \
+                       "conversion, _common.CYCLES_REC709_RGB_TO_Y):\n" + "\n".join(copies)
+
+
+def test_cycles_addon_is_checked_once():
+    """Export requires the Cycles add-on, checked once (export_scene.cycles_settings raises ExportError without it);
+    the exporter then reads an object's Cycles settings (light.cycles, world.cycles, material.cycles) directly, with
+    no fallback for a missing add-on (getattr(x, "cycles", None))."""
+    copies = []
+    for p in sorted((PACKAGE / "blender").glob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "hasattr")
+                    and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+                    and str(node.args[1].value).startswith("cycles")):
+                copies.append("%s:%d: %s" % (p.relative_to(ROOT), node.lineno, ast.unparse(node)))
+    assert not copies, "a fallback for a missing Cycles add-on (export_scene.cycles_settings already requires " \
+                       "it); read x.cycles:\n" + "\n".join(copies)
+
+
+def cpp_string_literals(text: str, first_line: int = 1):
+    """(line, text) of each string literal in C++ source, comments and prose (a docstring of sentences) left out."""
+    literal = re.compile(r'"(?:[^"\\\n]|\\.)*"|//[^\n]*|/\*.*?\*/', re.S)
+    for m in literal.finditer(text):
+        if m.group().startswith('"') and not re.search(r"\w\. [A-Z]", m.group()):
+            yield first_line + text.count("\n", 0, m.start()), m.group()[1:-1]
+
+
+def test_array_keys_are_named_only_in_the_schemas_rows():
+    """The scene's array and image keys (curves.points, meshes.triangles, attributes' data, programs' code, ...) are
+    named once, in their scene_schema.cpp rows, which bind each to its vector and say which count its length matches:
+    render.cpp reads them with read_fields / read_list, and the walker's length checks take the names from the rows."""
+    from hairbsdf.render import scene_schema
+
+    names = {k["path"].rsplit(".", 1)[-1] for k in scene_schema() if k["kind"] in ("array", "image")}
+    assert {"points", "curve_offsets", "triangles", "data", "code", "pixels"} <= names
+    word = re.compile(r"\b(%s)\b" % "|".join(sorted(names)))
+    bindings = ROOT / "plugin" / "bindings"
+    schema = (bindings / "scene_schema.cpp").read_text()
+    table_end = schema.index("\nstd::string leaf(")  # the walker and the readers follow the table
+    sources = {"render.cpp": ((bindings / "render.cpp").read_text(), 1),
+               "scene_schema.cpp": (schema[table_end:], schema.count("\n", 0, table_end) + 1)}
+    copies = ["%s:%d: %r" % (name, line, text) for name, (source, first_line) in sources.items()
+              for line, text in cpp_string_literals(source, first_line) if word.search(text)]
+    assert not copies, "an array key spelled outside its schema row; read its row (SceneKey::defines, per, ...):\n" + \
+                       "\n".join(copies)
+
+
+def name_groups(path: Path):
+    """(line, names) of each tuple, list or set literal of two or more string constants (None elements allowed)."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and all(isinstance(e, ast.Constant) for e in node.elts):
+            names = [e.value for e in node.elts if e.value is not None]
+            if len(names) >= 2 and all(isinstance(n, str) for n in names):
+                yield node.lineno, names
+
+
+def test_principled_color_inputs_come_from_the_schema():
+    """Principled Hair's RGB inputs are its schema rows of kind "vector"; no module lists them again."""
+    from hairbsdf.principled import _COLOR_INPUTS
+    from hairbsdf.render import principled_hair_input_rows
+
+    assert _COLOR_INPUTS == {k for k, row in principled_hair_input_rows().items() if row["kind"] == "vector"}
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources()
+              for line, names in name_groups(p) if set(names) <= _COLOR_INPUTS]
+    assert not copies, "Principled Hair's RGB inputs listed again; read the schema rows' kind:\n" + "\n".join(copies)
+
+
+def test_lobe_names_are_written_only_in_closure():
+    """The lobe names are closure.LOBES (and YAN_FUR_LOBES); no other module lists them (fit's lobe_of_slot uses
+    LOBES)."""
+    from hairbsdf.closure import YAN_FUR_LOBES
+
+    one_place = PACKAGE / "closure.py"
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, names) for p in python_sources() if p != one_place
+              for line, names in name_groups(p) if set(names) <= set(YAN_FUR_LOBES)]
+    assert not copies, "lobe names listed again; use hairbsdf.closure.LOBES:\n" + "\n".join(copies)
+
+
+def defaulted_reads(path: Path):
+    """(line, key, default, source) of each getattr(x, "key", default) and x.get("key", default) whose default is a
+    literal (a constant, a tuple of them, or np.pi / math.pi as "pi"): a fallback value written at the read."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.Call) or len(node.args) < 2:
+            continue
+        is_getattr = isinstance(node.func, ast.Name) and node.func.id == "getattr" and len(node.args) == 3
+        is_get = isinstance(node.func, ast.Attribute) and node.func.attr == "get" and len(node.args) == 2
+        key, default = node.args[-2], node.args[-1]
+        if not ((is_getattr or is_get) and isinstance(key, ast.Constant) and isinstance(key.value, str)):
+            continue
+        if isinstance(default, ast.Attribute) and default.attr == "pi":
+            yield node.lineno, key.value, "pi", ast.unparse(node)
+            continue
+        try:
+            value = ast.literal_eval(default)
+        except ValueError:
+            continue
+        if value is not None:
+            yield node.lineno, key.value, value, ast.unparse(node)
+
+
+def scene_defaults_by_leaf() -> dict:
+    """A scene key's last name -> its rows' defaults: the value (render.schema_default) and the row's text,
+    strings in lower case."""
+    from hairbsdf.render import schema_default, scene_schema
+
+    out = {}
+    for row in scene_schema():
+        defaults = out.setdefault(row["path"].rsplit(".", 1)[-1], set())
+        if row["default"]:
+            defaults.add(row["default"].lower())
+        for closure_type in row["only_for"].split() or [""]:
+            try:
+                value = schema_default(row["path"], closure_type)
+            except (KeyError, ValueError):
+                continue
+            defaults.add(value.lower() if isinstance(value, str) else value)
+    return out
+
+
+def test_fallbacks_do_not_repeat_scene_defaults():
+    """A scene key's default is its schema row's (the renderer's field): a reader of a Blender attribute or a keyword
+    that names a scene key leaves the key out when it is missing, or reads render.schema_default / the one named
+    default (principled.DEFAULT_MODEL, _common.TILT_AUTO); it never writes the default again as a fallback. The tilt
+    setting's "AUTO" is written once, in blender/_common.py. (compare/scenes/ builds Blender scenes in Blender
+    itself: its node settings are not scene keys.)"""
+    from hairbsdf.blender._common import TILT_AUTO
+
+    defaults = scene_defaults_by_leaf()
+    assert {"spread", "visible_camera", "emission_sampling", "model"} <= set(defaults)
+
+    def repeats(key, value):
+        value = value.lower() if isinstance(value, str) else value
+        return key in defaults and (value in defaults[key] if not isinstance(value, (list, dict)) else False)
+
+    sources = [p for p in sorted(PACKAGE.rglob("*.py")) if "scenes" not in p.relative_to(PACKAGE).parts]
+    copies = ["%s:%d: %s" % (p.relative_to(ROOT), line, source) for p in sources
+              for line, key, value, source in defaulted_reads(p) if repeats(key, value)]
+    blender = PACKAGE / "blender"
+    copies += ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in sorted(blender.glob("*.py"))
+               if p != blender / "_common.py" for line, text in string_literals(p) if text == TILT_AUTO[0]]
+    assert not copies, "a scene key's default written again as a fallback; leave the key out or read the " \
+                       "schema's default:\n" + "\n".join(copies)
+
+
+def test_huang_options_are_named_only_in_their_table():
+    """Huang's options (params/huang.h's table, principled.HUANG_OPTIONS) give _principled_huang its signature and
+    are passed on by row: principled.py spells none of their names (only those principled_hair itself takes)."""
+    from hairbsdf import principled
+
+    signature = inspect.signature(principled._principled_huang).parameters
+    assert {name: signature[name].default for name in principled.HUANG_OPTIONS} == principled.HUANG_OPTION_DEFAULTS
+    own = set(inspect.signature(principled.principled_hair).parameters)
+    path = PACKAGE / "principled.py"
+    copies = ["principled.py:%d: %r" % (line, text) for line, text in string_literals(path)
+              if text in principled.HUANG_OPTIONS and text not in own]
+    assert not copies, "a Huang option named again; read principled.HUANG_OPTIONS:\n" + "\n".join(copies)
+
+
+def test_zoo_constructors_are_named_only_by_their_decorator():
+    """Each zoo model's constructor is recorded by zoo._from_table (zoo.CONSTRUCTOR_OF_MODEL); spec's names and
+    aliases and fit's models derive from it, so no module writes a constructor's name as a string (the package's
+    __all__, its public names, aside)."""
+    from hairbsdf import fit, spec
+    from hairbsdf.zoo import CONSTRUCTOR_OF_MODEL, zoo_model_names
+
+    constructors = {CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names()}
+    assert constructors <= set(spec.CONSTRUCTORS)
+    assert all(spec.ALIASES.get(m, m) == CONSTRUCTOR_OF_MODEL[m] for m in zoo_model_names())
+    assert all(fit.fit_model(CONSTRUCTOR_OF_MODEL[m]).name == m for m in zoo_model_names() if m in fit.FIT_MODELS)
+    copies = ["%s:%d: %r" % (p.relative_to(ROOT), line, text) for p in python_sources() if p != PACKAGE / "__init__.py"
+              for line, text in string_literals(p) if text in constructors - set(zoo_model_names())]
+    assert not copies, "a zoo constructor's name written as a string; read zoo.CONSTRUCTOR_OF_MODEL:\n" + \
+                       "\n".join(copies)
+
+
+def test_materialx_inputs_are_named_only_in_their_tables():
+    """The MaterialX node helpers' signatures, checks and dicts come from their tables (params/materialx.h, read
+    through _core.materialx_schema): those functions spell no input name and tell an input's kind by its row's type
+    (no prefix test such as "roughness_"), its lower bound by its row's min. (The simple_hair graph and the .mtlx
+    writer wire the nodes' inputs by name: a graph is not a table.)"""
+    from hairbsdf import _core, materialx
+
+    nodes = ("chiang_hair_bsdf", "chiang_hair_roughness", "chiang_hair_absorption_from_color",
+             "deon_hair_absorption_from_melanin")
+    names = {row["name"] for node in nodes for row in _core.materialx_schema(node)}
+    assert all(tuple(inspect.signature(getattr(materialx, node)).parameters)[-len(_core.materialx_schema(node)):]
+               == tuple(row["name"] for row in _core.materialx_schema(node)) for node in nodes)
+    path = PACKAGE / "materialx.py"
+    helpers = [node for node in ast.parse(path.read_text()).body
+               if isinstance(node, ast.FunctionDef) and node.name in {*nodes, "_pair", "_checked", "_from_table"}]
+    assert len(helpers) == len(nodes) + 3
+    copies = ["materialx.py:%d: %r" % (n.lineno, n.value) for helper in helpers for n in ast.walk(helper)
+              if isinstance(n, ast.Constant) and isinstance(n.value, str)
+              and (n.value in names or (n.value.endswith("_") and any(name.startswith(n.value) for name in names)))]
+    assert not copies, "a MaterialX input named again; read its table row:\n" + "\n".join(copies)

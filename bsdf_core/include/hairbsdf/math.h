@@ -99,8 +99,13 @@ inline RGB operator*(RGB a, double s) { return s * a; }
 inline RGB& operator+=(RGB& a, RGB b) { return a = a + b; }
 inline RGB exp(RGB a) { return {std::exp(a.r), std::exp(a.g), std::exp(a.b)}; }
 inline double average(RGB a) { return (a.r + a.g + a.b) / 3.0; }
-// Rec.709 luminance, Cycles' rgb_to_y for the default working space.
-inline double luminance(RGB a) { return 0.2126 * a.r + 0.7152 * a.g + 0.0722 * a.b; }
+// Luminance weights of linear Rec.709 (ITU-R BT.709, four digits): luminance() below, the Huang and
+// SIMD Chiang kernels, and Python's metrics as _core.LUMINANCE_WEIGHTS. Blender's colour -> float
+// conversion weighs by Cycles' rgb_to_y instead (more digits; hairbsdf/blender/_common.py).
+inline constexpr double kLuminanceWeights[3] = {0.2126, 0.7152, 0.0722};
+inline double luminance(RGB a) {
+    return kLuminanceWeights[0] * a.r + kLuminanceWeights[1] * a.g + kLuminanceWeights[2] * a.b;
+}
 inline bool isfinite(RGB a) { return std::isfinite(a.r) && std::isfinite(a.g) && std::isfinite(a.b); }
 inline bool isfinite(Vec3 a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
 

@@ -179,7 +179,8 @@ struct ChiangKernel {
         }
         for (int p = 0; p < 4; ++p) {
             for (int k = 0; k < 3; ++k) v.att[p][k] = v.att[p][k] * B(c.tint[p][k]);
-            v.w[p] = B(0.2126f) * v.att[p][0] + B(0.7152f) * v.att[p][1] + B(0.0722f) * v.att[p][2];
+            v.w[p] = B(float(kLuminanceWeights[0])) * v.att[p][0] + B(float(kLuminanceWeights[1])) * v.att[p][1] +
+                     B(float(kLuminanceWeights[2])) * v.att[p][2];
             total = total + v.w[p];
         }
         v.valid = (total > B(0.0f)) & finite(total) & gamma_t_ok;

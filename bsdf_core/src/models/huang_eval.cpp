@@ -180,7 +180,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
             trt_by_tolerance(sp, O, nodes, trrt_node_factor, std::fabs(r_value) + std::fabs(luminance(lobes[1])),
                              final_scale, trrt_scale, lobes, count);
     } else if (factors_[2] > 0.0) {
-        const uint32_t npts = uint32_t(std::max(params_.trt_points, 16L));
+        const uint32_t npts = uint32_t(std::max(params_.trt_points, kMinFixedTrtPoints));
         const Sobol& so = sobol();
         double acc[6] = {0, 0, 0, 0, 0, 0};
         uint32_t seed = 0x2545F491u;

@@ -17,7 +17,7 @@ constexpr double kUniformProbability = 0.02;  // defensive uniform component of 
 inline double sin_theta(Vec3 w) { return w.y; }
 inline double cos_theta(Vec3 w) { return safe_sqrt(w.x * w.x + w.z * w.z); }
 inline double dir_phi(Vec3 w) { return std::atan2(w.x, w.z); }
-inline double luminance3(const double* v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; }
+inline double luminance3(const double* v) { return luminance(RGB{v[0], v[1], v[2]}); }
 
 inline bool visible(Vec3 v, Vec3 m, Vec3 h) { return dot(v, h) > 0.0 && dot(v, m) > 0.0; }
 inline bool visible(Vec3 a, Vec3 b, Vec3 m, Vec3 h) { return visible(a, m, h) && visible(b, m, h); }

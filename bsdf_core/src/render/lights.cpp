@@ -2,9 +2,11 @@
 #include "hairbsdf/render/lights.h"
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <limits>
 #include <optional>
+#include <vector>
 
 namespace hairbsdf::render {
 
@@ -269,14 +271,19 @@ void Light::make_tree_emitter(const LightDesc* desc, int map_resolution, bool tr
             nx = 1024;
             ny = 512;
         }
+        // The columns' (cos, sin) of the azimuth once, not per row (the same numbers).
+        std::vector<std::array<double, 2>> azimuth(static_cast<size_t>(nx));
+        for (int j = 0; j < nx; ++j) {
+            const double phi = kPi - kTwoPi * (j + 0.5) / nx;
+            azimuth[size_t(j)] = {std::cos(phi), std::sin(phi)};
+        }
         double sum = 0;
         for (int i = 0; i < ny; ++i) {
             const double theta = kPi * (i + 0.5) / ny, st = std::sin(theta), ct = std::cos(theta);
             double row = 0;
             for (int j = 0; j < nx; ++j) {
-                const double phi = kPi - kTwoPi * (j + 0.5) / nx;
                 LightHit h;
-                eval_direction({st * std::cos(phi), st * std::sin(phi), ct}, h);
+                eval_direction({st * azimuth[size_t(j)][0], st * azimuth[size_t(j)][1], ct}, h);
                 row += avg_abs(h.radiance);
             }
             sum += st * row;

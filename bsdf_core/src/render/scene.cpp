@@ -504,9 +504,10 @@ void warn_nothing_to_render(const SceneDesc& s, std::vector<std::string>& warnin
 // The camera: NaN/Inf or non-positive settings take defaults.
 void repair_camera(SceneDesc& s, std::vector<std::string>& warnings) {
     CameraDesc& cam = s.camera;
+    const CameraDesc defaults{};  // the fallbacks are CameraDesc's member initialisers
     if (!finite_array(cam.matrix_world)) {
-        cam.matrix_world = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-        warnings.push_back("camera: NaN/Inf matrix_world replaced by the identity");
+        cam.matrix_world = defaults.matrix_world;
+        warnings.push_back("camera: NaN/Inf matrix_world replaced by the default (the identity)");
     }
     auto positive = [&](double& v, double fallback, const char* key) {
         if (!(std::isfinite(v) && v > 0)) {
@@ -514,11 +515,11 @@ void repair_camera(SceneDesc& s, std::vector<std::string>& warnings) {
             v = fallback;
         }
     };
-    positive(cam.pixel_aspect, 1.0, "pixel_aspect");
-    positive(cam.sensor_width, 36.0, "sensor_width");
-    positive(cam.sensor_height, 24.0, "sensor_height");
-    positive(cam.lens, 50.0, "lens");
-    positive(cam.ortho_scale, 1.0, "ortho_scale");
+    positive(cam.pixel_aspect, defaults.pixel_aspect, "pixel_aspect");
+    positive(cam.sensor_width, defaults.sensor_width, "sensor_width");
+    positive(cam.sensor_height, defaults.sensor_height, "sensor_height");
+    positive(cam.lens, defaults.lens, "lens");
+    positive(cam.ortho_scale, defaults.ortho_scale, "ortho_scale");
     if (!std::isfinite(cam.shift_x)) cam.shift_x = 0;
     if (!std::isfinite(cam.shift_y)) cam.shift_y = 0;
     if (!(std::isfinite(cam.clip_start) && cam.clip_start >= 0)) cam.clip_start = 0;
@@ -531,11 +532,12 @@ void repair_camera(SceneDesc& s, std::vector<std::string>& warnings) {
 // The integrator: NaN/Inf or out-of-range settings take defaults.
 void repair_integrator(SceneDesc& s, std::vector<std::string>& warnings) {
     IntegratorSettings& in = s.integrator;
+    const IntegratorSettings defaults{};  // the fallbacks are IntegratorSettings' member initialisers
     if (!(std::isfinite(in.filter_width) && in.filter_width > 0)) {
-        warnings.push_back("integrator: filter_width must be > 0; using 1.5");
-        in.filter_width = 1.5;
+        warnings.push_back("integrator: filter_width must be > 0; using " + std::to_string(defaults.filter_width));
+        in.filter_width = defaults.filter_width;
     }
-    if (!std::isfinite(in.exposure)) in.exposure = 1.0;
+    if (!std::isfinite(in.exposure)) in.exposure = defaults.exposure;
     if (!(std::isfinite(in.filter_glossy) && in.filter_glossy >= 0)) in.filter_glossy = 0.0;
     if (!(std::isfinite(in.clamp_direct) && in.clamp_direct >= 0)) in.clamp_direct = 0.0;
     if (!(std::isfinite(in.clamp_indirect) && in.clamp_indirect >= 0)) in.clamp_indirect = 0.0;

@@ -1,6 +1,8 @@
 // Materials and the per-hit closure mixture; see render/shading.h.
 #include "hairbsdf/render/shading.h"
 
+#include <atomic>
+#include <cstring>
 
 namespace hairbsdf::render {
 
@@ -15,6 +17,21 @@ HuangHairParams render_huang_params(const PrincipledHairInputs& in, HuangSampler
     p.mixture_detail = sampler == HuangSampler::Cycles ? HuangHairParams::MixtureDetail::None
                                                        : HuangHairParams::MixtureDetail::Coarse;
     return p;
+}
+
+uint64_t next_material_id() {
+    static std::atomic<uint64_t> last{0};
+    return ++last;
+}
+
+// Builds a Principled Hair closure's model for its (per-hit) inputs in `out`, in place.
+const HairModel& build_principled_hair(const MaterialShader& material, const MaterialShader::MaterialClosure& m,
+                                       const PrincipledHairInputs& in, std::optional<HairModel>& out) {
+    if (m.huang)
+        return out.emplace(std::in_place_type<HuangHair>,
+                           render_huang_params(in, material.huang_sampler(), material.huang_glass_albedo_table()));
+    return out.emplace(std::in_place_type<ChiangHair>,
+                       chiang_params_from_principled(in, material.accuracy(), material.tilt()));
 }
 
 bool hair_depends_on_random(const PrincipledHairInputs& in) {
@@ -81,7 +98,7 @@ RGB MaterialShader::emission(const float* registers) const {
 
 MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Accuracy accuracy,
                                HuangSampler huang_sampler, GlassAlbedoTable huang_glass_albedo_table)
-    : program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler),
+    : id_(next_material_id()), program_(desc.program), tilt_(tilt), accuracy_(accuracy), huang_sampler_(huang_sampler),
       huang_glass_albedo_table_(huang_glass_albedo_table) {
     const bool with_program = !desc.program.empty();
     // The register of a closure's per-hit input (-1: none).
@@ -191,7 +208,8 @@ void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, dou
     ctx.near_field = g.near_field;
     ctx.shading_normal = g.n;
     ctx.geometric_normal = g.ng;
-    for (const MaterialShader::MaterialClosure& m : material.closures()) {
+    for (size_t closure = 0; closure < material.closures().size(); ++closure) {
+        const MaterialShader::MaterialClosure& m = material.closures()[closure];
         const size_t slot = sum_.count;
         RGB weight = m.weight;
         if (m.weight_register >= 0) weight = g.registers ? weight * register_rgb(g.registers, m.weight_register) : RGB(0.0);
@@ -199,23 +217,39 @@ void Bsdf::prepare(const MaterialShader& material, const ShadingGeometry& g, dou
         // Cycles' bsdf_alloc leaves out a closure below its cutoff at the hit
         if (m.weight_register >= 0 && std::fabs(average(weight)) < kClosureWeightCutoff) continue;
         const HairModel* model = m.model.get();
-        if (!model) {  // Principled Hair with per-hit inputs
+        if (!model && m.links.empty()) {  // Principled Hair whose only per-hit input is the curve's Random
+            model = &curve_model(material, closure, slot, g.random);
+        } else if (!model) {  // Principled Hair with inputs from the shading program
             PrincipledHairInputs in = m.hair;
             bool random_from_curve = m.random_from_curve;
             if (g.registers) apply_links(m.links, g.registers, in, random_from_curve);
             if (random_from_curve) in.random = g.random;
-            if (m.huang)
-                hit_models_[slot].emplace(std::in_place_type<HuangHair>,
-                                          render_huang_params(in, material.huang_sampler(),
-                                                              material.huang_glass_albedo_table()));
-            else
-                hit_models_[slot].emplace(std::in_place_type<ChiangHair>,
-                                          chiang_params_from_principled(in, material.accuracy(), material.tilt()));
-            model = &*hit_models_[slot];
+            model = &build_principled_hair(material, m, in, hit_models_[slot]);
         }
         if (blur_roughness > 0 && blur_model(*model, blur_roughness, hit_models_[slot])) model = &*hit_models_[slot];
         sum_.add_at_hit(weight, *model, ctx);
     }
+}
+
+const HairModel& Bsdf::curve_model(const MaterialShader& material, size_t closure, size_t slot, double random) {
+    uint64_t bits;
+    std::memcpy(&bits, &random, sizeof bits);
+    // The entry: multiplicative hashing (the top bits of the product with 2^64 / golden ratio) of the
+    // Random, the material and the closure, so that materials sharing a Random do not take turns in one entry.
+    const uint64_t key = bits ^ (material.id() << 40) ^ (uint64_t(closure) << 56);
+    const uint64_t entry = (key * 0x9e3779b97f4a7c15ull) >> (64 - kCurveModelBits);
+    if (!curve_models_[slot]) curve_models_[slot] = std::make_unique<CurveModel[]>(kCurveModels);
+    CurveModel& e = curve_models_[slot][entry];
+    if (e.material != material.id() || e.closure != closure || e.random_bits != bits || !e.model) {
+        const MaterialShader::MaterialClosure& m = material.closures()[closure];
+        PrincipledHairInputs in = m.hair;
+        if (m.random_from_curve) in.random = random;
+        build_principled_hair(material, m, in, e.model);
+        e.material = material.id();
+        e.closure = closure;
+        e.random_bits = bits;
+    }
+    return *e.model;
 }
 
 void Bsdf::set(const MaterialShader& material, const ShadingGeometry& g, double blur_roughness, Sampler& rng,

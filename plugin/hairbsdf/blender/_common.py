@@ -58,6 +58,10 @@ def blender_version() -> tuple:
     return tuple(bpy.app.version)
 
 
+# The engine's tilt choice "Auto" (ui.py's tilt setting, the exporter's reading of it): default_tilt().
+TILT_AUTO = ("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
+
+
 def default_tilt() -> str:
     """Principled Hair tilt convention of the running Blender (docs/cycles.md §0, §5b)."""
     return tilt_convention(blender_version())
@@ -149,9 +153,10 @@ def rgb(value, n: int = 3) -> tuple:
     return v[:n]
 
 
-# Luminance of linear Rec.709 (Cycles' rgb_to_y for the default working space); used for
-# Blender's implicit colour -> float socket conversion.
-REC709_Y = (0.2126729, 0.7151522, 0.0721750)
+# Cycles' rgb_to_y in Linear Rec.709 (the Y row of its Rec.709 -> XYZ D65 matrix), the weights of
+# Blender's implicit colour -> float socket conversion there. Not the four-digit Rec.709 weights of
+# C++ luminance() (_core.LUMINANCE_WEIGHTS), which the models and metrics use: another fact.
+CYCLES_REC709_RGB_TO_Y = (0.2126729, 0.7151522, 0.0721750)
 REC709_WORKING_SPACES = ("Linear Rec.709", "Linear")
 
 
@@ -175,7 +180,7 @@ def working_space() -> WorkingSpace:
     if cached is not None:
         return cached
     if name in REC709_WORKING_SPACES:
-        space = WorkingSpace(name, None, REC709_Y)
+        space = WorkingSpace(name, None, CYCLES_REC709_RGB_TO_Y)
     else:
         from mathutils import Color
         basis = [Color(tuple(float(i == j) for j in range(3))) for i in range(3)]

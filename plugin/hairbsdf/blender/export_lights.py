@@ -91,7 +91,9 @@ def export_light(obj, matrix, report):
     elif light.type == "AREA":
         out = {"type": "AREA", "matrix_world": m, "shape": light.shape, "size_x": float(light.size),
                "size_y": float(light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size),
-               "strength": strength, "spread": float(getattr(light, "spread", np.pi))}
+               "strength": strength}
+        if hasattr(light, "spread"):  # missing: the scene's default
+            out["spread"] = float(light.spread)
         if legacy:
             out["strength"] = tuple(c * 0.25 * np.pi for c in strength)
     else:
@@ -101,15 +103,16 @@ def export_light(obj, matrix, report):
         out["normalize"] = bool(light.normalize)
     # Object > Visibility > Ray Visibility: Camera is off for new lights (3.0+): camera rays
     # do not see the light. The other ray types are not supported (the light reaches all).
-    out["visible_camera"] = bool(getattr(obj, "visible_camera", True))
+    if hasattr(obj, "visible_camera"):  # missing: the scene's default
+        out["visible_camera"] = bool(obj.visible_camera)
     hidden = [p[len("visible_"):] for p in ("visible_diffuse", "visible_glossy", "visible_transmission")
               if not getattr(obj, p, True)]
     if hidden:
         report.warn(f"light '{obj.name}': ray visibility ({', '.join(hidden)} off) is not supported; it lights "
                     "all rays")
-    cl = getattr(light, "cycles", None)
-    if cl is not None and hasattr(cl, "use_multiple_importance_sampling"):
+    cl = light.cycles  # the Cycles add-on's light settings (export requires the add-on)
+    if hasattr(cl, "use_multiple_importance_sampling"):
         out["use_mis"] = bool(cl.use_multiple_importance_sampling)
-    if cl is not None and hasattr(cl, "cast_shadow") and not cl.cast_shadow:
+    if hasattr(cl, "cast_shadow") and not cl.cast_shadow:
         report.warn(f"light '{obj.name}': Cast Shadow off is not supported; it casts shadows")
     return out

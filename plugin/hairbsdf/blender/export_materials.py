@@ -27,7 +27,7 @@ import os
 
 from .. import _core
 from .._blender_versions import EMISSION_SAMPLING_FROM
-from ..render import schema_choices, schema_default
+from ..render import principled_hair_input_rows, scene_schema, schema_choices, schema_default
 from ..zoo import PLUGIN_MODEL
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
@@ -44,11 +44,16 @@ def principled_hair_inputs(model: str) -> tuple:
     """(key in scene_desc, socket identifier, kind) of the Principled Hair inputs `model` reads
     (Random apart): the scene schema's rows (plugin/bindings/scene_schema.cpp), so the exporter,
     the renderer and docs/scene_desc.md share one table."""
-    from hairbsdf.render import scene_schema  # lazily, as the VM's instruction set
+    return tuple((key, k["socket"], k["socket_kind"]) for key, k in principled_hair_input_rows().items()
+                 if model in k["hair_models"].split())
 
-    prefix = "materials[].closures[].inputs."
-    return tuple((k["path"][len(prefix):], k["socket"], k["socket_kind"]) for k in scene_schema()
-                 if k["path"].startswith(prefix) and model in k["hair_models"].split())
+
+@functools.cache
+def cycles_hair_inputs() -> tuple:
+    """(key in scene_desc, socket identifier, kind) of the legacy Hair BSDF's inputs: the scene schema's
+    cycles_hair rows that name a socket, as principled_hair_inputs reads Principled Hair's."""
+    return tuple((k["path"].rsplit(".", 1)[1], k["socket"], k["socket_kind"]) for k in scene_schema()
+                 if k["socket"] and "cycles_hair" in k["only_for"].split())
 
 
 @functools.cache
@@ -189,7 +194,9 @@ class MaterialTranslator:
         if program is not None:
             out["program"] = program
         if any(c.get("type") == "emission" for c in out["closures"]):
-            out["emission_sampling"] = emission_sampling(material)
+            sampling = emission_sampling(material)
+            if sampling is not None:  # None: the scene's default
+                out["emission_sampling"] = sampling
         return out
 
     def _closures(self, material) -> list:
@@ -335,21 +342,22 @@ class MaterialTranslator:
             self.warn(f"'{node.name}' > 'Tangent' is linked, which hairbsdf does not evaluate; "
                       "using the curve tangent (the unlinked default)")
         defaults = cycles_hair_defaults()
-        c = {"type": "cycles_hair", "weight": weight, "component": node.component.upper(),
-             **{key: defaults[key] for key in ("color", "offset", "roughness_u", "roughness_v")}}
-        for ident, kind, key in (("Color", "color", "color"), ("Offset", "float", "offset"),
-                                 ("RoughnessU", "float", "roughness_u"), ("RoughnessV", "float", "roughness_v")):
+        c = {"type": "cycles_hair", "weight": weight, "component": node.component.upper()}
+        for key, ident, kind in cycles_hair_inputs():
+            c[key] = defaults[key]
             self.per_render(node, ident, kind, c, key)
         return c
 
 
-def emission_sampling(material) -> str:
+def emission_sampling(material) -> str | None:
     """Which sides of the material's emissive triangles Cycles light-samples (docs/scene_desc.md):
     Blender >= 4.0's Settings > Emission Sampling ("AUTO" is resolved by the engine, by Cycles' rule),
-    Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold)."""
-    settings = getattr(material, "cycles", None)
+    Blender 3.x's Settings > Multiple Importance (on: both sides, there is no threshold).
+    None when the setting is missing (the scene key is then left out: its default applies)."""
+    settings = material.cycles  # the Cycles add-on's material settings (export requires the add-on)
     if blender_version() >= EMISSION_SAMPLING_FROM:
-        return str(getattr(settings, "emission_sampling", "AUTO"))
+        sampling = getattr(settings, "emission_sampling", None)
+        return None if sampling is None else str(sampling)
     return "FRONT_BACK" if getattr(settings, "sample_as_light", True) else "NONE"
 
 

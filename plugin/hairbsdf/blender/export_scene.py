@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from ._common import ExportError  # noqa: F401 (re-exported for the engine)
-from ._common import ExportReport, blender_version, default_tilt, lookup3_hash_uint2, matrix_to_numpy
+from ._common import TILT_AUTO, ExportReport, blender_version, default_tilt, lookup3_hash_uint2, matrix_to_numpy
 from .export_camera import export_camera
 from .export_hair import CurvesCache, HairBuffer, camera_inside_hair, export_curves_object, export_particle_hair
 from .export_lights import export_light
@@ -67,8 +67,8 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
     ftype = cy.pixel_filter_type
     # Cycles' Blender sync forces the box filter to 1 px whatever filter_width says.
     fwidth = 1.0 if ftype == "BOX" else float(cy.filter_width)
-    tilt = settings.get("tilt", "AUTO")
-    tilt = default_tilt() if tilt in ("AUTO", "", None) else tilt
+    tilt = settings.get("tilt")  # missing ({}: no add-on properties) means Auto too
+    tilt = default_tilt() if tilt in (TILT_AUTO[0], "", None) else tilt
     ignored = []
     if render and cy.use_denoising:
         ignored.append("Denoising")

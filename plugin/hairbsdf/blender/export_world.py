@@ -100,9 +100,7 @@ def world_mis(world) -> bool:
     """World > Settings > Sampling: Method (4.x, off for None) or Multiple Importance (3.x).
     The renderer samples the world as a light only when it also has a texture, as Cycles
     enables its background light only for a spatially varying world (render/lights.h)."""
-    cw = getattr(world, "cycles", None)
-    if cw is None:
-        return True
+    cw = world.cycles  # the Cycles add-on's world settings (export requires the add-on)
     if hasattr(cw, "sampling_method"):
         return cw.sampling_method != "NONE"
     return bool(getattr(cw, "sample_as_light", True))
@@ -111,8 +109,8 @@ def world_mis(world) -> bool:
 def world_map_resolution(world) -> int:
     """World > Settings > Map Resolution when Sampling is Manual; 0 (Automatic) lets the renderer take
     the environment texture's size, as Cycles does for its importance map (render/lights.cpp)."""
-    cw = getattr(world, "cycles", None)
-    if cw is not None and getattr(cw, "sampling_method", "AUTOMATIC") == "MANUAL":
+    cw = world.cycles
+    if getattr(cw, "sampling_method", "AUTOMATIC") == "MANUAL":
         return int(getattr(cw, "sample_map_resolution", 0))
     return 0
 

@@ -11,6 +11,7 @@ import bpy
 from .. import _core
 from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
 from .._param_docs import BOOL, CHOICE, FLOAT, INT
+from ._common import TILT_AUTO
 from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
@@ -93,7 +94,6 @@ def unpatch_panels():
 # an identifier is the scene's name in capitals (the exporter writes it lower-case). A .blend file
 # saves an item's position, so the schema's order is part of the file format. Only the prose is
 # the UI's: (label, description) per choice; a choice without prose shows its name.
-TILT_AUTO = ("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
 CHOICE_PROSE = {
     "tilt": {
         "4.2": ("Blender 4.2+", "Tilt applied to the view angle (Cycles 4.2 and later)"),

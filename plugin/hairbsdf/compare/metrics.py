@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from .. import _core
 from .._deps import require
 
 WHAT = "hairbsdf compare"
@@ -55,8 +56,10 @@ def rgb(img):
 
 
 def luminance(img):
+    """Rec.709 luminance of linear RGB, with C++ luminance()'s weights (_core.LUMINANCE_WEIGHTS)."""
     c = rgb(img).astype(np.float64)
-    return 0.2126 * c[..., 0] + 0.7152 * c[..., 1] + 0.0722 * c[..., 2]
+    w = _core.LUMINANCE_WEIGHTS
+    return w[0] * c[..., 0] + w[1] * c[..., 1] + w[2] * c[..., 2]
 
 
 def srgb_oetf(x):

@@ -23,6 +23,8 @@ import tarfile
 import tempfile
 from pathlib import Path
 
+from ..render import PRINCIPLED_HAIR_INPUTS, schema_default
+
 FORMAT = "hairbsdf-portable-scene"
 FORMAT_VERSION = 1
 SCENE_FILE = "hairbsdf_scene.npz"
@@ -55,14 +57,12 @@ class UsageError(ValueError):
 
 def _key(section: dict, path: str, closure_type: str = ""):
     """section's value of the scene key `path` (its last part), or the key's default from the scene schema."""
-    from ..render import schema_default
-
     name = path.rsplit(".", 1)[-1]
     return section[name] if section.get(name) is not None else schema_default(path, closure_type)
 
 
 CLOSURE = "materials[].closures[]."
-INPUT = CLOSURE + "inputs."
+INPUT = PRINCIPLED_HAIR_INPUTS + "."
 
 
 # --------------------------------------------------------------------------- MaterialX
@@ -139,7 +139,8 @@ def write_materialx(desc, path):
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
             surface.setConnectedNode("bsdf", node)
         else:  # emission
-            col = [float(v) * float(c.get("strength", 1.0)) for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
+            strength = float(_key(c, CLOSURE + "strength", c["type"]))
+            col = [float(v) * strength for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
             node = doc.addNode("uniform_edf", name + "_edf", "EDF")
             node.setInputValue("color", ", ".join(repr(v) for v in col), "color3")
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")

@@ -79,6 +79,10 @@ enum class HuangQuadrature { Cycles, Converged };
 // Sampler: mixture of analytic lobes with an exact pdf, or Cycles' sampler (pdf reported as 1).
 enum class HuangSampler { Mixture, Cycles };
 
+// trt_points: 0 (TRT / TRRT+ points set by `tolerance`) or at least this many fixed points per h node.
+constexpr long kMinFixedTrtPoints = 16;
+inline bool trt_points_allowed(long n) { return n == 0 || n >= kMinFixedTrtPoints; }
+
 struct HuangHairParams {
     RGB sigma_a{0.0};          // absorption per unit fibre diameter (major axis)
     double roughness = 0.3;    // GGX alpha; clamped to [0.001, 1] like Cycles
@@ -90,7 +94,7 @@ struct HuangHairParams {
     // The API's defaults (the Python module reads them from here, huang_option_defaults):
     double tolerance = 1e-2;   // error target relative to the row's total (TT cubature, TRT points, albedo)
     long max_evaluations = 200000;  // cap on TT integrand evaluations (and on TRT points) per eval
-    long trt_points = 0;       // 0: TRT / TRRT+ points set by tolerance; >= 16: fixed points per h node
+    long trt_points = 0;       // trt_points_allowed: 0, set by tolerance; else fixed points per h node
     HuangSampler sampler = HuangSampler::Mixture;
     GlassAlbedoTable glass_albedo_table = GlassAlbedoTable::Cycles4;  // Cycles 4.x or 5.x energy compensation
     // Mixture sampler resolution: Full (up to 48 R, 144 TT and 128 TRT components per shading

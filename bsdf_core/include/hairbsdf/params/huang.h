@@ -5,6 +5,8 @@
 // a test checks docs/huang.md's table against them.
 #pragma once
 
+#include <string>
+
 #include "hairbsdf/models/huang.h"
 #include "hairbsdf/params/param_table.h"
 
@@ -18,6 +20,9 @@ struct ParamTable<HuangHairParams> {
     static const std::vector<ParamRow<HuangHairParams>>& rows() {
         using P = HuangHairParams;
         namespace r = param_rows;
+        static const std::string trt_points_meaning = "0: TRT / TRRT+ points set by tolerance; N >= " +
+                                                      std::to_string(kMinFixedTrtPoints) +
+                                                      ": N fixed quasi-Monte Carlo points per h node";
         static const std::vector<ParamRow<P>> s = {
             r::choice<P, HuangQuadrature>("accuracy", &P::quadrature,
                                           {{"cycles", HuangQuadrature::Cycles}, {"converged", HuangQuadrature::Converged}},
@@ -33,8 +38,7 @@ struct ParamTable<HuangHairParams> {
                          "error target of eval and albedo relative to the row's total (R + TT + TRT + TRRT+)"),
             r::integer<P>("max_evaluations", &P::max_evaluations, 1000, r::kMaxInteger,
                           "cap on TT integrand evaluations (and on TRT points) per eval"),
-            r::integer<P>("trt_points", &P::trt_points, 0, r::kMaxInteger,
-                          "0: TRT / TRRT+ points set by tolerance; N >= 16: N fixed quasi-Monte Carlo points per h node"),
+            r::integer<P>("trt_points", &P::trt_points, 0, r::kMaxInteger, trt_points_meaning.c_str()),
             r::input_choice<P>("color_roughness", {"svm", "osl"},
                                "the roughness of the colour / tint conversion: Cycles' SVM or OSL"),
             r::choice<P, GlassAlbedoTable>("glass_albedo_table", &P::glass_albedo_table,

@@ -71,8 +71,11 @@ public:
     Accuracy accuracy() const { return accuracy_; }
     HuangSampler huang_sampler() const { return huang_sampler_; }
     GlassAlbedoTable huang_glass_albedo_table() const { return huang_glass_albedo_table_; }
+    // Unique to this material's closures (copies share it): the key of the per-hit models Bsdf keeps.
+    uint64_t id() const { return id_; }
 
 private:
+    uint64_t id_;
     std::vector<MaterialClosure> closures_;
     RGB emission_{0.0};                          // the emission closures without program inputs
     std::vector<EmissionClosure> linked_emission_;  // those with
@@ -126,8 +129,22 @@ public:
 private:
     // Fills the sum with the material's closures at this hit.
     void prepare(const MaterialShader& material, const ShadingGeometry& geometry, double blur_roughness, bool lobes);
+    // The Principled Hair model of closure `closure` of `material` for a curve's Random (a closure
+    // without program inputs): built on the first hit, kept for the next hits with the same Random
+    // (the same model, so the same numbers); `slot`'s own entries, so the sum's models stay put.
+    const HairModel& curve_model(const MaterialShader& material, size_t closure, size_t slot, double random);
     ClosureSum::ShadingPoint sum_;
     std::array<std::optional<HairModel>, kMaxBsdfClosures> hit_models_;  // models built or blurred for this hit
+    struct CurveModel {
+        uint64_t material = 0;  // MaterialShader::id(); 0: empty
+        size_t closure = 0;
+        uint64_t random_bits = 0;
+        std::optional<HairModel> model;
+    };
+    // Entries per slot (about 0.85 MB), indexed by a hash of the material, the closure and the Random.
+    static constexpr int kCurveModelBits = 10;
+    static constexpr size_t kCurveModels = size_t(1) << kCurveModelBits;
+    std::array<std::unique_ptr<CurveModel[]>, kMaxBsdfClosures> curve_models_;  // a slot's on its first use
     mutable uint32_t eval_state_ = 0;  // the stochastic evals' random state, advanced by each eval
     bool lobes_ = false;
 };
