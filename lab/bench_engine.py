@@ -12,8 +12,7 @@
            export alone, and the renderer's own account; goal <= 2 GB
            (blender_tests/scenes/engine_memory.py).
 --blender34  also run --export in Debian's Blender 3.4 (`blender -b`).
-Without --export / --memory both run (bpy 4.5). Render time against Cycles:
-blender_tests/render_units/bench_vs_cycles.py.
+Without --export / --memory both run (bpy 4.5). Render time against Cycles: lab/bench_vs_cycles.py.
 """
 
 import argparse

@@ -7,12 +7,14 @@
 
 The module must be the profiling build's (lab/README.md, "A profiling build"), the very build that was
 profiled (the addresses are looked up in it): GCC inlines the hit's frame, the closure eval and MIS into
-trace_path, so only its line tables say which statement an instruction belongs to. Every instruction of
-trace_path, and every call it makes (with all below it), goes to the stage of its trace_path statement
-(addr2line -i: the innermost frame of the inline chain on a line of trace_path, so a lambda's body counts
-where it is written), refined by what was called or inlined there (the rules below). Outside trace_path:
-camera rays and the film, and the BVH build. Shares are of the render loop: RenderJob::run without the
-BVH build and scene preparation.
+the path's stage functions (src/render/path_stages.h) and those into trace_path, so only the line tables
+say which statement an instruction belongs to. Every instruction of trace_path, of the stages and of the
+wavefront's driver (trace_tile_wavefront, with --wavefront), and every call they make (with all below it),
+goes to the stage of its statement in integrator.cpp (addr2line -i: the innermost frame of the inline chain
+on a line of the stages, so a helper's body counts where it is written), refined by what was called or
+inlined there (the rules below); the driver's own lines are the wavefront's queues. Outside them: camera
+rays and the film, and the BVH build. Shares are of the render loop: RenderJob::run without the BVH build
+and scene preparation.
 """
 
 import argparse
@@ -24,39 +26,44 @@ import subprocess
 import sys
 
 TRACE_PATH = "hairbsdf::render::trace_path("
+# The path loop's functions: the per-pixel loop, the stages it and the wavefront call (path_stages.h, when
+# GCC did not inline them), and the wavefront's driver (its own lines: queues, sorting, gathers).
+PATH_FUNCTIONS = (TRACE_PATH, "hairbsdf::render::stages::", "hairbsdf::render::trace_tile_wavefront(")
+WAVEFRONT = "hairbsdf::render::trace_tile_wavefront("
 RENDER_SO = "_render"
 
-# trace_path's statements in source order: (a substring of the first line of a block, its stage). Each
+# The stages' statements in source order: (a substring of the first line of a block, its stage). Each
 # line of integrator.cpp from that line on belongs to the stage until the next marker.
 BLOCKS = [
-    ("PathResult trace_path(", "path loop: bookkeeping (bounces, roulette, throughput)"),
-    ("auto add = [&](RGB c, int light_bounce)", "film: a path's contributions (clamp, lobe shares)"),
-    ("const uint32_t lcg_path_seed", "path loop: bookkeeping (bounces, roulette, throughput)"),
-    ("auto forward_mis = ", "MIS: lights hit by rays (forward MIS, suns, world)"),
-    ("for (;;) {", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("namespace stages {", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("RGB add(const IntegratorSettings& is", "film: a path's contributions (clamp, lobe shares)"),
+    ("double forward_mis(const PathState& st", "MIS: lights hit by rays (forward MIS, suns, world)"),
+    ("int hit_material(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("// Lights crossed before the surface", "MIS: lights hit by rays (forward MIS, suns, world)"),
-    ("SurfacePoint sp = surface_point(", "hit set-up: frame, tangent, h, attributes, material program"),
-    ("const bool first_hair = ", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("bool prepare_bsdf(", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("surface_point(s, ray, hit, sp);", "hit set-up: frame, tangent, h, attributes, material program"),
+    ("h.first_hair = ", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("if (!material.program().empty())", "hit set-up: frame, tangent, h, attributes, material program"),
     ("const RGB emission = ", "MIS: lights hit by rays (forward MIS, suns, world)"),
-    ("if (killed || terminate_after", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("if (killed || st.terminate_after", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("bsdf.set(material", "closure set-up: Bsdf::set (models' parameters, view terms)"),
-    ("// Next-event estimation.", "NEE: MIS weight, contribution, shadow-ray set-up"),
-    ("// BSDF sample.", "BSDF sample (closure pick, model sample, MIS pdf)"),
-    ("if (!isfinite(throughput))", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("bool sample_light(", "NEE: MIS weight, contribution, shadow-ray set-up"),
+    ("bool sample_bsdf(", "BSDF sample (closure pick, model sample, MIS pdf)"),
+    ("if (!isfinite(st.throughput))", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("PathResult trace_path(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("Ray camera_ray(", "outside"),
 ]
 # Refinements by a function called, or inlined, at the statement: (substring of its name, stage).
 CALLEES = [
-    ("Geometry::occluded(", "Embree: shadow rays (rtcOccluded1, our filters)"),
-    ("Geometry::intersect(", "Embree: camera and bounce rays (rtcIntersect1, our filters)"),
+    ("Geometry::occluded", "Embree: shadow rays (rtcOccluded1 / 1M, our filters)"),
+    ("Geometry::intersect", "Embree: camera and bounce rays (rtcIntersect1 / 1M, our filters)"),
     ("LightSet::sample(", "NEE: light pick and light sample"),
     ("render_eval(", "NEE: BSDF eval"),
     ("Bsdf::eval(", "NEE: BSDF eval"),
 ]
 ORDER = [
-    "Embree: camera and bounce rays (rtcIntersect1, our filters)",
-    "Embree: shadow rays (rtcOccluded1, our filters)",
+    "Embree: camera and bounce rays (rtcIntersect1 / 1M, our filters)",
+    "Embree: shadow rays (rtcOccluded1 / 1M, our filters)",
     "hit set-up: frame, tangent, h, attributes, material program",
     "closure set-up: Bsdf::set (models' parameters, view terms)",
     "NEE: light pick and light sample",
@@ -66,7 +73,8 @@ ORDER = [
     "MIS: lights hit by rays (forward MIS, suns, world)",
     "path loop: bookkeeping (bounces, roulette, throughput)",
     "film: a path's contributions (clamp, lobe shares)",
-    "camera rays and film (outside trace_path)",
+    "wavefront: queues, sorting, gathers",
+    "camera rays and film (outside the path loop)",
     "BVH build and scene preparation",
 ]
 
@@ -98,11 +106,15 @@ def parse(path):
 
 
 def load_base(own, module):
-    """Where the module was loaded: trace_path's lowest executed address minus its symbol's value."""
+    """Where the module was loaded: a path function's lowest executed address (its entry) minus its symbol's value."""
     sym = subprocess.run(["nm", "-C", module], capture_output=True, text=True, check=True).stdout
-    value = next(int(l.split()[0], 16) for l in sym.splitlines() if " " + TRACE_PATH in l and "clone" not in l)
-    lowest = min(a for (f, a) in own if f.startswith(TRACE_PATH))
-    return lowest - value
+    for prefix in PATH_FUNCTIONS:
+        names = {f for f, _ in own if f.startswith(prefix) and "clone" not in f}
+        for l in sym.splitlines():
+            name = l.split(" ", 2)[-1]
+            if name in names:
+                return min(a for (f, a) in own if f == name) - int(l.split()[0], 16)
+    sys.exit("no path function of the module in the profile")
 
 
 def inline_chains(module, addrs):
@@ -126,7 +138,7 @@ def inline_chains(module, addrs):
 def block_stages(source):
     """integrator.cpp line number -> stage, from BLOCKS."""
     lines = open(source).read().splitlines()
-    stage_of, marker, stage = {}, 0, "outside"  # "outside": not a line of trace_path
+    stage_of, marker, stage = {}, 0, "outside"  # "outside": not a line of the stages
     for n, text in enumerate(lines, 1):
         if marker < len(BLOCKS) and BLOCKS[marker][0] in text:
             stage = BLOCKS[marker][1]
@@ -150,20 +162,23 @@ def main():
     source = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                           "bsdf_core", "src", "render", "integrator.cpp")
     own, calls = parse(a.callgrind_out)
-    if not any(f.startswith(TRACE_PATH) for f, _ in own):
-        ap.error("callgrind_out: no trace_path in it (the profiling build, --dump-instr=yes, --compress-strings=no?)")
+    if not any(f.startswith(PATH_FUNCTIONS) for f, _ in own):
+        ap.error("callgrind_out: no path loop in it (the profiling build, --dump-instr=yes, --compress-strings=no?)")
     total = sum(own.values())
     base = load_base(own, module)
     stage_of = block_stages(source)
 
-    in_path = [(addr, cost, None) for (f, addr), cost in own.items() if f.startswith(TRACE_PATH)]
-    in_path += [(addr, cost, callee) for f, addr, callee, cost in calls if f.startswith(TRACE_PATH)]
-    chains = inline_chains(module, {addr - base for addr, _, _ in in_path})
+    in_path = [(f, addr, cost, None) for (f, addr), cost in own.items() if f.startswith(PATH_FUNCTIONS)]
+    # Calls between the path functions are left out: the callee's own instructions and calls count.
+    in_path += [(f, addr, cost, callee) for f, addr, callee, cost in calls
+                if f.startswith(PATH_FUNCTIONS) and not callee.startswith(PATH_FUNCTIONS)]
+    chains = inline_chains(module, {addr - base for _, addr, _, _ in in_path})
     stages = collections.Counter()
-    for addr, cost, callee in in_path:
+    for function, addr, cost, callee in in_path:
         chain = chains[addr - base]
-        # The innermost frame on a line of trace_path (a lambda's body, else the statement).
-        stage = "path loop: bookkeeping (bounces, roulette, throughput)"
+        # The innermost frame on a line of the stages (a function's body, else the statement).
+        stage = ("wavefront: queues, sorting, gathers" if function.startswith(WAVEFRONT)
+                 else "path loop: bookkeeping (bounces, roulette, throughput)")
         for _, where in chain:
             file, line = where.rsplit(":", 1)
             number = re.match(r"\d+", line)
@@ -177,10 +192,10 @@ def main():
                 break
         stages[stage] += cost
     path_total = sum(stages.values())
-    # Outside trace_path: the scene's preparation (BVH build) and the rest (camera rays, film, TBB).
+    # Outside the path loop: the scene's preparation (BVH build) and the rest (camera rays, film, TBB).
     build = sum(cost for f, _, callee, cost in calls if callee.startswith("hairbsdf::render::PreparedScene::PreparedScene"))
     stages["BVH build and scene preparation"] = build
-    stages["camera rays and film (outside trace_path)"] = total - path_total - build
+    stages["camera rays and film (outside the path loop)"] = total - path_total - build
     loop = total - build
     print(f"{total / 1e6:.1f} M instructions inside RenderJob::run; {loop / 1e6:.1f} M without the BVH build\n")
     print(f"| stage | M instructions | share of the render loop |\n|---|---|---|")

@@ -41,12 +41,18 @@ def main():
                     "lab/render_identity/dump_scenes.py) at --samples instead of --scene")
     ap.add_argument("--camera-ray-stream", action="store_true",
                     help="integrator.camera_ray_stream: camera rays as one Embree stream per tile row")
+    ap.add_argument("--wavefront", action="store_true",
+                    help="integrator.wavefront: the wavefront path tracer (each bounce's rays as Embree streams)")
+    ap.add_argument("--one-by-one", action="store_true",
+                    help="with --wavefront: integrator.wavefront_streams off (its rays traced one by one)")
     ap.add_argument("--repeat", type=int, default=1, help="render this many times (default 1)")
     ap.add_argument("--modules", default="", help="a folder holding hairbsdf's _core and _render native modules "
                     "to use instead of the installed ones: a profiling build's plugin/ (lab/README.md)")
     a = ap.parse_args()
     if a.samples < 1 or a.threads < 1 or a.repeat < 1:
         ap.error("--samples, --threads and --repeat must be positive")
+    if a.one_by_one and not a.wavefront:
+        ap.error("--one-by-one: only with --wavefront")
     if a.modules:
         use_native_modules(a.modules, ap)
     from hairbsdf.render import render
@@ -60,9 +66,12 @@ def main():
         spec.loader.exec_module(cases)
         desc, name = cases.scene_desc(cases.case(a.scene), samples=a.samples), a.scene
     desc["integrator"]["camera_ray_stream"] = a.camera_ray_stream
+    if a.wavefront:  # absent otherwise, so that modules from before the option still read the scene
+        desc["integrator"].update(wavefront=True, wavefront_streams=not a.one_by_one)
     for _ in range(a.repeat):
         out = render(desc, threads=a.threads)
-        print(f"{name}, {a.samples} spp, {a.threads} thread(s), camera_ray_stream {a.camera_ray_stream}: "
+        print(f"{name}, {a.samples} spp, {a.threads} thread(s), camera_ray_stream {a.camera_ray_stream}, "
+              f"wavefront {a.wavefront}{' one by one' if a.one_by_one else ''}: "
               f"{out['stats']['seconds']:.2f} s, {out['stats']['rays']} rays, mean {out['combined'][..., :3].mean():.6f}"
               + (f", modules from {a.modules}" if a.modules else ""),
               flush=True)

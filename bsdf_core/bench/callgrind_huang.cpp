@@ -21,10 +21,13 @@ struct Row {
     uint32_t rng;
 };
 
-__attribute__((noinline)) double run_stochastic(std::vector<Row>& rows) {
+// `lanes`: the engine's eval (float lanes over the nodes); otherwise the double path, one node at a time
+// (eval_cycles_stochastic_double, the lanes' reference and the engine's eval before them).
+__attribute__((noinline)) double run_stochastic(std::vector<Row>& rows, bool lanes) {
     double acc = 0;
     for (Row& r : rows) {
-        const auto lobes = r.model->eval_cycles_stochastic(r.sp, r.O, r.rng);
+        const auto lobes = lanes ? r.model->eval_cycles_stochastic(r.sp, r.O, r.rng)
+                                 : r.model->eval_cycles_stochastic_double(r.sp, r.O, r.rng);
         for (const RGB& l : lobes) acc += l.r + l.g + l.b;
     }
     return acc;
@@ -65,8 +68,9 @@ int print_values() {
 
 int main(int argc, char** argv) {
     if (argc >= 2 && std::strcmp(argv[1], "values") == 0) return print_values();
-    if (argc < 2 || std::strcmp(argv[1], "stochastic") != 0) {
-        std::fprintf(stderr, "usage: %s stochastic [calls] | values\n", argv[0]);
+    const bool lanes = argc >= 2 && std::strcmp(argv[1], "stochastic") == 0;
+    if (argc < 2 || (!lanes && std::strcmp(argv[1], "stochastic-double") != 0)) {
+        std::fprintf(stderr, "usage: %s stochastic|stochastic-double [calls] | values\n", argv[0]);
         return 2;
     }
     const size_t calls = argc > 2 ? size_t(std::atol(argv[2])) : 2000;
@@ -97,7 +101,7 @@ int main(int argc, char** argv) {
         if (r.sp.valid) nodes += r.sp.residual_nodes.size();
         rows.push_back(std::move(r));
     }
-    const double acc = run_stochastic(rows);
+    const double acc = run_stochastic(rows, lanes);
     std::printf("calls %zu residual_nodes %zu checksum %.17g\n", calls, nodes, acc);
     return 0;
 }

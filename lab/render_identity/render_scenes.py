@@ -1,5 +1,10 @@
 """Renders the dumped scenes (and variants: Filter Glossy, a zoo hair_model, emission, lobe passes)
-with the running Python's hairbsdf and saves the images; compare with compare.py."""
+with the running Python's hairbsdf and saves the images; compare with compare.py.
+
+    python lab/render_identity/render_scenes.py SCENES OUT [--wavefront | --wavefront-one-by-one] [VARIANT ...]
+
+--wavefront renders with integrator.wavefront (rays as Embree streams: the per-pixel engine's images at
+float rounding); --wavefront-one-by-one also sets wavefront_streams off (its images must be bit-identical)."""
 import copy, glob, os, sys
 import numpy as np
 from hairbsdf.blender.export_scene import load_scene
@@ -27,11 +32,14 @@ def variants(name, desc):
         yield name + "+huang_mixture", d
         d = copy.deepcopy(desc); d["integrator"]["passes"] = ["hair_lobes"]
         yield name + "+lobes", d
-only = sys.argv[3:] 
+options = {"--wavefront": {"wavefront": True}, "--wavefront-one-by-one": {"wavefront": True, "wavefront_streams": False}}
+integrator = {k: v for a in sys.argv[3:] for k, v in options.get(a, {}).items()}
+only = [a for a in sys.argv[3:] if a not in options]
 for path in sorted(glob.glob(os.path.join(src, "*.npz"))):
     name = os.path.basename(path)[:-4]
     for vname, desc in variants(name, load_scene(path)[0]):
         if only and vname not in only: continue
+        desc["integrator"].update(integrator)
         try:
             r = render(desc, threads=2)
         except Exception as e:

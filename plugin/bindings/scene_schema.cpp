@@ -587,6 +587,10 @@ std::vector<SceneKey> make_schema() {
         Row("integrator.chiang_lcg", K::Bool, "Cycles < 3.6: Chiang's per-hit LCG").field(&Settings::chiang_lcg),
         Row("integrator.camera_ray_stream", K::Bool, "camera rays as one Embree stream per tile row (same image at float rounding)")
             .field(&Settings::camera_ray_stream),
+        Row("integrator.wavefront", K::Bool, "wavefront path tracer: a tile's rays as Embree streams, hits shaded by material (same image at float rounding)")
+            .field(&Settings::wavefront),
+        Row("integrator.wavefront_streams", K::Bool, "the wavefront's bounce and shadow rays as Embree streams; off: one by one (bit-identical image)")
+            .field(&Settings::wavefront_streams),
         Row("integrator.tilt", K::Enum, "Principled Hair tilt convention")
             .choices<TiltConvention>({{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}})
             .field(&Settings::tilt),

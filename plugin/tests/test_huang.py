@@ -241,7 +241,8 @@ def test_cycles_estimator_mean_equals_eval():
         runs = np.stack([c.cycles_estimate(wo, wi, 0.3, samples=4000, seed=seed, **kw) for seed in range(5)])
         mc, err = runs.mean(axis=0), runs.std(axis=0, ddof=1) / np.sqrt(len(runs))
         total = ours.sum(axis=1)[:, 1]
-        np.testing.assert_allclose(ours[:, 0], mc[:, 0], rtol=1e-12)  # R is deterministic in Cycles
+        # R is deterministic in Cycles; the stochastic eval sums it in float lanes (docs/simd.md): 3.3e-6 measured
+        np.testing.assert_allclose(ours[:, 0], mc[:, 0], rtol=2e-5)
         assert np.all(np.abs(ours[:, 1:, 1] - mc[:, 1:, 1]) <= 4 * err[:, 1:, 1] + 5e-3 * total[:, None])
 
 

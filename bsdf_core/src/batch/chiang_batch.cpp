@@ -1,5 +1,6 @@
-// Constants and run-time dispatch of the Chiang batch kernels (docs/simd.md).
+// Constants and run-time dispatch of the Chiang batch kernels and of Huang's residual lanes (docs/simd.md).
 #include "hairbsdf/batch/chiang_batch.h"
+#include "huang_lanes.h"
 
 #include <algorithm>
 #include <atomic>
@@ -20,9 +21,13 @@ namespace {
 
 using RunFn = size_t (*)(const ChiangBatchConstants&, ChiangBatchOp, const ChiangBatchRows&,
                          const ChiangBatchOutput&, size_t, size_t);
+using HuangFn = void (*)(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
+using HuangRFn = double (*)(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 struct Isa {
     const char* name;
     RunFn run;
+    HuangFn huang;  // Huang's stochastic eval lanes (huang_lanes.h) on the same instruction set
+    HuangRFn huang_r;
     bool (*supported)();
 };
 bool has_avx512() {
@@ -32,9 +37,12 @@ bool has_avx512() {
 bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 bool always() { return true; }
 // Best first.
-constexpr Isa kIsas[] = {{"avx512", batch_detail::run_avx512, has_avx512},
-                         {"avx2", batch_detail::run_avx2, has_avx2},
-                         {"sse2", batch_detail::run_sse2, always}};
+constexpr Isa kIsas[] = {{"avx512", batch_detail::run_avx512, batch_detail::huang_residual_avx512,
+                          batch_detail::huang_r_avx512, has_avx512},
+                         {"avx2", batch_detail::run_avx2, batch_detail::huang_residual_avx2,
+                          batch_detail::huang_r_avx2, has_avx2},
+                         {"sse2", batch_detail::run_sse2, batch_detail::huang_residual_sse2,
+                          batch_detail::huang_r_sse2, always}};
 
 int best_isa() {
     for (int i = 0; i < 3; ++i)
@@ -119,6 +127,15 @@ ChiangBatchConstants chiang_batch_constants_principled(const PrincipledHairInput
 size_t chiang_batch_run(const ChiangBatchConstants& c, ChiangBatchOp op, const ChiangBatchRows& rows,
                         const ChiangBatchOutput& out, size_t begin, size_t end) {
     return kIsas[g_isa.load(std::memory_order_relaxed)].run(c, op, rows, out, begin, end);
+}
+
+void huang_residual_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
+                          double out[9]) {
+    kIsas[g_isa.load(std::memory_order_relaxed)].huang(c, p, nodes, out);
+}
+
+double huang_r_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
+    return kIsas[g_isa.load(std::memory_order_relaxed)].huang_r(c, p, nodes);
 }
 
 const char* chiang_batch_isa() { return kIsas[g_isa.load()].name; }

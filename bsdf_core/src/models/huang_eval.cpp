@@ -2,6 +2,8 @@
 // and Cycles' stochastic eval.
 #include "huang_internal.h"
 
+#include "../batch/huang_lanes.h"
+
 #include "hairbsdf/math_cubature.h"
 #include "hairbsdf/math_quadrature.h"
 
@@ -360,29 +362,100 @@ void HuangHair::add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::ve
     lobes[3] = RGB(acc[6], acc[7], acc[8]);
 }
 
-// The Simpson nodes are the shading point's (prepare made them) unless it has none (Converged quadrature).
+// The same eval in float lanes: R's nodes, then the residual's with every node's numbers drawn first, in
+// add_residual_node's order (src/batch/huang_lanes_kernel.h). wh is normalize(I + O) (R only).
+void HuangHair::eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::vector<Node>& r_nodes,
+                           const std::vector<Node>& nodes, uint32_t& rng, std::array<RGB, kLobeCount>& lobes) const {
+    const Vec3 I = sp.I;
+    const size_t count = std::max(r_nodes.size(), nodes.size());
+    constexpr size_t kOnStack = 64;  // Cycles' node counts at roughness >= 0.03 fit
+    float on_stack[6][kOnStack];
+    std::vector<float> on_heap;
+    float* column[6];
+    if (count > kOnStack) on_heap.resize(6 * count);
+    for (size_t a = 0; a < 6; ++a) column[a] = count > kOnStack ? on_heap.data() + a * count : on_stack[a];
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    const bool trt = factors_[2] > 0.0;
+    HuangLanePoint p{};
+    const double i[3] = {I.x, I.y, I.z}, o[3] = {O.x, O.y, O.z}, h[3] = {wh.x, wh.y, wh.z};
+    for (int k = 0; k < 3; ++k) {
+        p.I[k] = float(i[k]);
+        p.O[k] = float(o[k]);
+        p.wh[k] = float(h[k]);
+    }
+    p.gamma_base = float(sp.gamma_base);
+    p.sin_phi_i = float(sp.sin_phi_i);
+    p.cos_phi_i = float(sp.cos_phi_i);
+    p.tt_scale = float(factors_[1] * final_scale);
+    p.trt_scale = float(factors_[2] * final_scale);
+    p.trrt_scale = float(trrt_scale);
+    p.tt = factors_[1] > 0.0;
+    p.trt = trt;
+    if (factors_[0] > 0.0) {
+        for (size_t k = 0; k < r_nodes.size(); ++k) {
+            column[0][k] = float(r_nodes[k].h);
+            column[1][k] = float(r_nodes[k].weight);
+        }
+        const double integral = huang_r_lanes(lanes_, p, {r_nodes.size(), column[0], column[1], {}, {}, {}, {}});
+        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+    }
+    if (!(factors_[1] > 0.0) && !trt) return;
+    for (size_t k = 0; k < nodes.size(); ++k) {
+        column[0][k] = float(nodes[k].h);
+        column[1][k] = float(nodes[k].weight);
+        column[2][k] = float(lcg_step_float(rng));
+        column[3][k] = float(lcg_step_float(rng));
+        if (trt) {
+            column[4][k] = float(lcg_step_float(rng));
+            column[5][k] = float(lcg_step_float(rng));
+        }
+    }
+    double acc[9] = {};
+    huang_residual_lanes(lanes_, p, {nodes.size(), column[0], column[1], column[2], column[3], column[4], column[5]},
+                         acc);
+    lobes[1] = RGB(acc[0], acc[1], acc[2]);
+    lobes[2] = RGB(acc[3], acc[4], acc[5]);
+    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+}
+
 std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng) const {
+    return eval_cycles_stochastic_impl(sp, O, rng, true);
+}
+
+std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic_double(const ShadingPoint& sp, Vec3 O,
+                                                                     uint32_t& rng) const {
+    return eval_cycles_stochastic_impl(sp, O, rng, false);
+}
+
+// The Simpson nodes are the shading point's (prepare made them) unless it has none (Converged quadrature).
+std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic_impl(const ShadingPoint& sp, Vec3 O, uint32_t& rng,
+                                                                   bool lanes) const {
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
     const double cto = cos_theta(O);
     if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
     const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
+    std::vector<Node> r_computed, computed;
+    if (!have_nodes) {
+        if (factors_[0] > 0.0) r_computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
+        if (factors_[1] > 0.0 || factors_[2] > 0.0) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);
+    }
+    const std::vector<Node>& r_nodes = have_nodes ? sp.r_nodes : r_computed;
+    const std::vector<Node>& nodes = have_nodes ? sp.residual_nodes : computed;
+    const Vec3 wh = normalize(I + O);
+    if (lanes) {
+        eval_lanes(sp, O, wh, r_nodes, nodes, rng, lobes);
+        return lobes;
+    }
     if (factors_[0] > 0.0) {
-        const Vec3 wh = normalize(I + O);
         double integral = 0.0;
-        if (have_nodes) {
-            for (const Node& n : sp.r_nodes) integral += n.weight * r_integrand(sp, O, wh, n.h);
-        } else {
-            for (const Node& n : simpson_nodes(sp.h_lo, sp.h_hi, kRStep)) integral += n.weight * r_integrand(sp, O, wh, n.h);
-        }
+        for (const Node& n : r_nodes) integral += n.weight * r_integrand(sp, O, wh, n.h);
         lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
-    if (have_nodes)
-        add_residual_nodes(sp, O, sp.residual_nodes, rng, lobes);
-    else
-        add_residual_nodes(sp, O, simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep), rng, lobes);
+    add_residual_nodes(sp, O, nodes, rng, lobes);
     return lobes;
 }
 

@@ -40,6 +40,37 @@ HuangHair::HuangHair(const HuangHairParams& params)
     z_eta_ = huang::energy_scale_z(eta_);
     z_inv_eta_ = huang::energy_scale_z(inv_eta_);
     factors_ = {std::max(params.r_factor, 0.0), std::max(params.tt_factor, 0.0), std::max(params.trt_factor, 0.0)};
+    fill_lane_constants();
+}
+
+void HuangHair::fill_lane_constants() {
+    HuangLaneConstants& l = lanes_;
+    l.alpha = float(alpha_);
+    l.alpha2 = float(alpha2_);
+    l.sin_tilt = float(sin_tilt_);
+    l.cos_tilt = float(cos_tilt_);
+    l.b = float(b_);
+    l.e2 = float(e2_);
+    l.eta = float(eta_);
+    l.inv_eta = float(inv_eta_);
+    l.sigma_a[0] = float(params_.sigma_a.r);
+    l.sigma_a[1] = float(params_.sigma_a.g);
+    l.sigma_a[2] = float(params_.sigma_a.b);
+    l.circular = b_ == 1.0;
+    const bool v5 = params_.glass_albedo_table == GlassAlbedoTable::Cycles5;
+    l.sqrt_mu = v5;
+    l.row_size = v5 ? 32 : 16;
+    // The row at the table's mu nodes j / (n - 1) (sqrt(mu) nodes for Cycles 5.x), by the table's own lookup.
+    for (int j = 0; j < l.row_size; ++j) {
+        const double y = double(j) / double(l.row_size - 1);
+        auto row = [&](double eta, double z) {
+            const int which = huang::glass_albedo_side(eta);
+            return float(v5 ? huang::lookup_table_3d(huang::kGgxGlassAlbedo5[which], sqrt_alpha_, y, z)
+                            : huang::lookup_table_3d(huang::kGgxGlassAlbedo[which], sqrt_alpha_, y, z));
+        };
+        l.energy_entering[j] = row(eta_, z_eta_);
+        l.energy_leaving[j] = row(inv_eta_, z_inv_eta_);
+    }
 }
 
 // --- cross-section geometry (docs/cycles.md §5.1) ----------------------------------------------

@@ -18,7 +18,18 @@ struct QueryContext {
     RTCIntersectContext rtc;
     SkipPrim skip;
     int light_triangle = -1;  // shadow rays towards an emissive triangle skip it (Cycles' light_prim)
+    // A stream of rays with their own skips (the wavefront): indexed by the ray's id; null: the above.
+    const SkipPrim* skips = nullptr;
+    const int* light_triangles = nullptr;
 };
+
+// The primitive ray `i` of a filter call skips, and the light triangle it aims at.
+SkipPrim ray_skip(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
+    return ctx->skips ? ctx->skips[RTCRayN_id(args->ray, args->N, i)] : ctx->skip;
+}
+int ray_light_triangle(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
+    return ctx->light_triangles ? ctx->light_triangles[RTCRayN_id(args->ray, args->N, i)] : ctx->light_triangle;
+}
 
 struct MemoryCounter {
     std::atomic<long long> current{0};
@@ -35,7 +46,8 @@ bool memory_monitor(void* user, ssize_t bytes, bool /*post*/) {
 }
 
 // Filters shared by intersect and occluded queries: single rays (N = 1), and the packets of a
-// coherent camera-ray stream (N = 4 to 16; every ray of a stream has the same context).
+// coherent camera-ray stream (N = 4 to 16; every ray of a stream has the same context). The
+// wavefront's streams give each ray its own skip, looked up by the ray's id.
 template <bool kCullBackFaces>
 void curve_filter(const RTCFilterFunctionNArguments* args) {
     const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
@@ -46,7 +58,8 @@ void curve_filter(const RTCFilterFunctionNArguments* args) {
     for (unsigned i = 0; i < args->N; ++i) {
         if (args->valid[i] == 0) continue;
         const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-        if (ctx->skip.kind == PrimKind::Curve && segment_curve[prim] == ctx->skip.id) {
+        const SkipPrim skip = ray_skip(ctx, args, i);
+        if (skip.kind == PrimKind::Curve && segment_curve[prim] == skip.id) {
             args->valid[i] = 0;
             continue;
         }
@@ -64,7 +77,8 @@ void triangle_filter(const RTCFilterFunctionNArguments* args) {
     for (unsigned i = 0; i < args->N; ++i) {
         if (args->valid[i] == 0) continue;
         const int prim = int(RTCHitN_primID(args->hit, args->N, i));
-        if ((ctx->skip.kind == PrimKind::Triangle && prim == ctx->skip.id) || prim == ctx->light_triangle) {
+        const SkipPrim skip = ray_skip(ctx, args, i);
+        if ((skip.kind == PrimKind::Triangle && prim == skip.id) || prim == ray_light_triangle(ctx, args, i)) {
             args->valid[i] = 0;
         }
     }
@@ -321,6 +335,46 @@ void Geometry::intersect_stream(const Ray* rays, Hit* hits, size_t count) const 
     }
     rtcIntersect1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRayHit));
     for (size_t i = 0; i < count; ++i) hits[i] = to_hit(stream[i]);
+}
+
+void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hits, size_t count) const {
+    if (empty()) {
+        std::fill(hits, hits + count, Hit{});
+        return;
+    }
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);  // incoherent: Embree traces the rays one by one
+    ctx.skips = skips;
+    thread_local std::vector<RTCRayHit> stream;
+    stream.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+        setup_ray(rays[i], stream[i].ray);
+        stream[i].ray.id = unsigned(i);
+        stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRayHit));
+    for (size_t i = 0; i < count; ++i) hits[i] = to_hit(stream[i]);
+}
+
+void Geometry::occluded_stream(const Ray* rays, const SkipPrim* skips, const int* light_triangles, uint8_t* occluded,
+                               size_t count) const {
+    if (empty()) {
+        std::fill(occluded, occluded + count, uint8_t(0));
+        return;
+    }
+    QueryContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.skips = skips;
+    ctx.light_triangles = light_triangles;
+    thread_local std::vector<RTCRay> stream;
+    stream.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+        setup_ray(rays[i], stream[i]);
+        stream[i].id = unsigned(i);
+    }
+    rtcOccluded1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRay));
+    for (size_t i = 0; i < count; ++i) occluded[i] = stream[i].tfar < 0.0f ? 1 : 0;  // tfar = -inf on a hit
 }
 
 bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const {

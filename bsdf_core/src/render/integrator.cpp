@@ -1,6 +1,8 @@
 // The path tracer; see render/integrator.h for the Cycles behaviour it follows.
 #include "hairbsdf/render/integrator.h"
 
+#include "path_stages.h"
+
 #include <algorithm>
 #include <cfloat>
 #include <limits>
@@ -30,17 +32,11 @@ std::array<RGB, kLobeCount> lobe_shares(const std::array<RGB, kLobeCount>& lobes
     return out;
 }
 
-struct SurfacePoint {
-    Vec3 p;
-    ShadingGeometry g;
-    int material = 0;
-    SkipPrim self;
-    Vec3 ng_triangle;  // triangles: geometric normal on the viewer's side (for ray offsets)
-};
+using stages::SurfacePoint;
 
-// Hit -> position, frame, h and material (docs/cycles.md §3, geom/curve.h).
-SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit) {
-    SurfacePoint sp;
+// Hit -> position, frame, h and material (docs/cycles.md §3, geom/curve.h), written into `sp`.
+void surface_point(const PreparedScene& s, const Ray& ray, const Hit& hit, SurfacePoint& sp) {
+    sp = SurfacePoint{};
     sp.g.wo = -1.0 * ray.dir;
     if (hit.kind == PrimKind::Curve) {
         const CurveData& cd = s.desc.curves;
@@ -136,7 +132,6 @@ SurfacePoint surface_point(const PreparedScene& s, const Ray& ray, const Hit& hi
         sp.g.h = clamp(dot(cross(ng, sp.g.tangent), z), -1.0, 1.0);
         sp.g.random = 0.0;
     }
-    return sp;
 }
 
 // Runs the material's shading program at a hit with Hair Info and the curve attributes there
@@ -210,212 +205,264 @@ PreparedScene::PreparedScene(SceneDesc& scene)
     for (const ImageDesc& im : scene.images) images.push_back({im.width, im.height, im.pixels.data()});
 }
 
-PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters,
-                      const Hit* first_hit) {
-    const IntegratorSettings& is = s.desc.integrator;
+namespace stages {
+
+namespace {
+
+// Adds a contribution; `light_bounce` < 1 counts as direct light for clamping; `split`: also
+// to the lobe passes by the path's shares. Returns the contribution as added (clamped, finite).
+RGB add(const IntegratorSettings& is, PathState& st, PathCounters& counters, RGB c, int light_bounce, bool split) {
+    if (!isfinite(c)) {
+        ++counters.nan;
+        c = RGB(std::isfinite(c.r) ? c.r : 0.0, std::isfinite(c.g) ? c.g : 0.0, std::isfinite(c.b) ? c.b : 0.0);
+    }
     const double clamp_direct = is.clamp_direct > 0 ? 3.0 * is.clamp_direct : 0.0;
     const double clamp_indirect = is.clamp_indirect > 0 ? 3.0 * is.clamp_indirect : 0.0;
-
-    PathResult res;
-    RGB throughput(1.0);
-    int bounce = 0, diffuse = 0, glossy = 0, transmission = 0, transparent = 0;
-    bool camera = true;            // no scatter yet: PATH_RAY_CAMERA and MIS_SKIP
-    bool terminate_after = false;  // PATH_RAY_TERMINATE_AFTER_TRANSPARENT
-    double mis_ray_pdf = 0.0;
-    // Where the last BSDF ray left (Cycles' ray.P, mis_origin_n, PATH_RAY_MIS_HAD_TRANSMISSION):
-    // the light tree's selection pdf for forward MIS is taken there.
-    LightPickContext mis_origin;
-    double min_ray_pdf = std::numeric_limits<double>::infinity();
-    SkipPrim skip;
-    // Hair lobe passes: the lobe shares of the first hair hit's sampled direction, once chosen.
-    const bool lobe_passes = is.pass_hair_lobes;
-    bool split = false;
-    std::array<RGB, kLobeCount> shares{};
-
-    // Adds a contribution; `light_bounce` < 1 counts as direct light for clamping. Returns
-    // the contribution as added (clamped, finite).
-    auto add = [&](RGB c, int light_bounce) -> RGB {
-        if (!isfinite(c)) {
-            ++counters.nan;
-            c = RGB(std::isfinite(c.r) ? c.r : 0.0, std::isfinite(c.g) ? c.g : 0.0, std::isfinite(c.b) ? c.b : 0.0);
-        }
-        const double limit = light_bounce > 0 ? clamp_indirect : clamp_direct;
-        if (limit > 0) {
-            const double sum = std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b);
-            if (sum > limit) c = (limit / sum) * c;
-        }
-        res.radiance += c;
-        if (split)
-            for (size_t k = 0; k < shares.size(); ++k) res.lobes[k] += shares[k] * c;
-        return c;
-    };
-    // Cycles < 3.6 (integrator.chiang_lcg): the per-path part of its per-hit LCG seed.
-    const uint32_t lcg_path_seed = is.chiang_lcg ? uint32_t(rng.next() * 4294967296.0) : 0u;
-    auto forward_mis = [&](double light_pdf) { return camera ? 1.0 : power_heuristic(mis_ray_pdf, light_pdf); };
-    auto selection = [&](int light) { return camera ? 0.0 : s.lights.selection_pdf(light, mis_origin); };
-
-    for (;;) {
-        const Hit hit = first_hit ? *first_hit : s.geometry.intersect(ray, skip);
-        first_hit = nullptr;
-        ++counters.rays;
-        const double t_end = hit ? hit.t : ray.tmax;
-
-        // Lights crossed before the surface (transparent to rays, Cycles' shade_light).
-        if (s.lights.has_finite_mis_lights(camera)) {
-            LightHit lh[kMaxLightHits];
-            const int n = s.lights.intersect(ray, t_end, camera, lh, kMaxLightHits);
-            for (int k = 0; k < n; ++k) {
-                add(forward_mis(lh[k].pdf * selection(lh[k].light)) * (throughput * lh[k].radiance), bounce - 1);
-                if (++transparent >= is.transparent_bounces + 1) return res;
-            }
-        }
-
-        if (!hit) {
-            LightHit sh[kMaxLightHits];
-            const int n = s.lights.eval_suns(ray.dir, camera, sh, kMaxLightHits);
-            for (int k = 0; k < n; ++k) add(forward_mis(sh[k].pdf * selection(sh[k].light)) * (throughput * sh[k].radiance), bounce - 1);
-            if (camera && is.film_transparent) {
-                res.transparent += average(throughput);
-            } else if (const Light* world = s.lights.world()) {
-                LightHit wh;
-                world->eval_direction(ray.dir, wh);
-                const double mis = world->use_mis() ? forward_mis(wh.pdf * selection(s.lights.world_index())) : 1.0;
-                add(mis * (throughput * wh.radiance), bounce - 1);
-            }
-            return res;
-        }
-
-        SurfacePoint sp = surface_point(s, ray, hit);
-        const MaterialShader& material = s.materials[size_t(sp.material)];
-        if (camera && !res.hit) {
-            res.hit = true;
-            res.depth = s.camera.depth(sp.p);
-            res.normal = sp.g.n;
-        }
-        // The camera ray's first hair interaction (a transparent Huang hit keeps `camera`).
-        const bool first_hair = lobe_passes && camera && hit.kind == PrimKind::Curve;
-
-        // Russian roulette (decided before shading, applied after the emission).
-        double q = 1.0;
-        if (bounce > is.min_light_bounces + 1) q = std::min(std::sqrt(max_abs(throughput)), 1.0);
-        const bool killed = q < 1.0 && (q == 0.0 || rng.next() >= q);
-
-        if (!material.program().empty())
-            sp.g.registers = run_material_program(s, hit, sp, material.program(), scratch, scratch.registers);
-        const RGB emission = material.emission(sp.g.registers);
-        if (emission.r != 0 || emission.g != 0 || emission.b != 0) {
-            // A light-sampled emissive triangle hit by a BSDF ray: MIS against next-event
-            // estimation on the sides it samples (Cycles' SD_MIS_FRONT / SD_MIS_BACK).
-            double mis = 1.0;
-            const int tri_light = hit.kind == PrimKind::Triangle ? s.lights.triangle_light(hit.prim) : -1;
-            if (tri_light >= 0 && !camera) {
-                const Light& l = s.lights.light(size_t(tri_light));
-                const auto& tri = s.desc.meshes.triangles[size_t(hit.prim)];
-                const auto& v0 = s.desc.meshes.vertices[size_t(tri[0])];
-                const auto& v1 = s.desc.meshes.vertices[size_t(tri[1])];
-                const auto& v2 = s.desc.meshes.vertices[size_t(tri[2])];
-                const Vec3 a{v0[0], v0[1], v0[2]}, b{v1[0], v1[1], v1[2]}, c{v2[0], v2[1], v2[2]};
-                const bool back = dot(cross(b - a, c - a), ray.dir) > 0;
-                if (l.samples_side(back)) mis = forward_mis(l.triangle_pdf(mis_origin.p, sp.p) * selection(tri_light));
-            }
-            add(mis * (throughput * emission), bounce - 1);
-        }
-        if (killed || terminate_after || !material.has_bsdf()) return res;
-        if (q != 1.0) throughput = (1.0 / q) * throughput;
-
-        double blur = 0.0;
-        if (is.filter_glossy > 0 && !camera) {
-            const double blur_pdf = min_ray_pdf / is.filter_glossy;
-            if (blur_pdf < 1.0) blur = 0.5 * std::sqrt(1.0 - blur_pdf);
-        }
-        Bsdf& bsdf = scratch.bsdf;
-        sp.g.near_field = camera && hit.kind == PrimKind::Curve;
-        bsdf.set(material, sp.g, blur, rng, first_hair);  // draws the seed of a stochastic eval
-        if (bsdf.empty()) return res;
-
-        // Next-event estimation.
-        if (s.lights.size() > 0) {
-            const double u_sel = rng.next(), u0 = rng.next(), u1 = rng.next();
-            LightSample ls;
-            const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
-            if (s.lights.sample(at, u_sel, u0, u1, ls)) {
-                if (ls.triangle >= 0) {
-                    // An emissive triangle: its material's emission at the sampled point.
-                    Hit on_light;
-                    on_light.kind = PrimKind::Triangle;
-                    on_light.prim = ls.triangle;
-                    on_light.u = ls.u;
-                    on_light.v = ls.v;
-                    const MaterialShader& emitter = s.materials[size_t(s.desc.meshes.material[size_t(ls.triangle)])];
-                    const float* regs = emitter.program().empty()
-                                            ? nullptr
-                                            : run_material_program(s, on_light, SurfacePoint{}, emitter.program(), scratch,
-                                                                   scratch.light_registers);
-                    ls.radiance = emitter.emission(regs);
-                }
-                const BsdfValue b = bsdf.eval(ls.wi);
-                const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
-                const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (throughput * b.value * ls.radiance);
-                if (c.r != 0 || c.g != 0 || c.b != 0) {
-                    const double tmax = std::isfinite(ls.distance) ? ls.distance : 1e30;
-                    const Ray shadow = leaving_ray(sp, ls.wi, tmax);
-                    ++counters.rays;
-                    if (!s.geometry.occluded(shadow, sp.self, ls.triangle)) {
-                        const RGB added = add(c, bounce);
-                        if (first_hair) {
-                            const auto direct = lobe_shares(b.lobes, b.value);
-                            for (size_t k = 0; k < direct.size(); ++k) res.lobes[k] += direct[k] * added;
-                        }
-                    }
-                }
-            }
-        }
-
-        // BSDF sample.
-        const double u0 = rng.next(), u1 = rng.next(), u2 = rng.next();
-        LongitudinalNumbers lcg_numbers;
-        if (is.chiang_lcg) {
-            // Cycles' rng_offset grows by 16 at every path_state_next: each scatter and each
-            // transparent step (lights crossed, transparent closures).
-            lcg_numbers = LongitudinalNumbers::from_cycles_lcg(lcg_path_seed + 16u * uint32_t(bounce + transparent));
-        }
-        const BsdfScatter sc = bsdf.sample(u0, u1, u2, is.chiang_lcg ? &lcg_numbers : nullptr);
-        if (sc.label == LabelNone) return res;
-        throughput = throughput * ((1.0 / sc.pdf) * sc.value);
-        if (!isfinite(throughput)) {
-            ++counters.nan;
-            return res;
-        }
-        if (sc.label & LabelTransparent) {
-            // Straight on (Huang outside the projected ellipse): as Cycles, the same ray goes on
-            // past the hit (tmin moved, the skipped primitive kept, so the tube's far wall can be
-            // hit); the path keeps its camera state, MIS pdfs and bounce counts.
-            if (++transparent >= is.transparent_bounces) terminate_after = true;
-            ray.tmin = std::nextafter(float(hit.t), std::numeric_limits<float>::infinity());
-            mis_origin.p = sp.p;  // Cycles moves ray.P to the hit; N and the flag stay
-            continue;
-        }
-        if (first_hair) {
-            shares = lobe_shares(sc.lobes, sc.value);
-            split = true;
-        }
-        mis_ray_pdf = sc.pdf;
-        mis_origin = {sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
-        min_ray_pdf = std::min(min_ray_pdf, sc.blur_pdf);
-        if (++bounce >= is.max_bounces + 1) terminate_after = true;
-        if (sc.label & LabelReflect) {
-            if (sc.label & LabelDiffuse) {
-                if (++diffuse >= is.diffuse_bounces + 1) terminate_after = true;
-            } else if (++glossy >= is.glossy_bounces + 1) {
-                terminate_after = true;
-            }
-        } else if (++transmission >= is.transmission_bounces + 1) {
-            terminate_after = true;
-        }
-        camera = false;
-        ray = leaving_ray(sp, sc.wi, 1e30);
-        skip = sp.self;
+    const double limit = light_bounce > 0 ? clamp_indirect : clamp_direct;
+    if (limit > 0) {
+        const double sum = std::fabs(c.r) + std::fabs(c.g) + std::fabs(c.b);
+        if (sum > limit) c = (limit / sum) * c;
     }
+    st.res.radiance += c;
+    if (split)
+        for (size_t k = 0; k < st.shares.size(); ++k) st.res.lobes[k] += st.shares[k] * c;
+    return c;
+}
+
+// Light reached along the path's last ray: weight 1 for camera rays, else the power heuristic
+// against the light's pdf (with the light tree's selection pdf at the ray's origin).
+double forward_mis(const PathState& st, double light_pdf) {
+    return st.camera ? 1.0 : power_heuristic(st.mis_ray_pdf, light_pdf);
+}
+double selection(const PreparedScene& s, const PathState& st, int light) {
+    return st.camera ? 0.0 : s.lights.selection_pdf(light, st.mis_origin);
+}
+
+}  // namespace
+
+int hit_material(const PreparedScene& s, const Hit& hit) {
+    return hit.kind == PrimKind::Curve ? s.desc.curves.material[size_t(hit.prim)]
+                                       : s.desc.meshes.material[size_t(hit.prim)];
+}
+
+void begin_path(const PreparedScene& s, PathState& st) {
+    if (s.desc.integrator.chiang_lcg) st.lcg_path_seed = uint32_t(st.rng.next() * 4294967296.0);
+}
+
+bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters) {
+    const IntegratorSettings& is = s.desc.integrator;
+    const Ray& ray = st.ray;
+    const Hit& hit = st.hit;
+    ++counters.rays;
+    const double t_end = hit ? hit.t : ray.tmax;
+
+    // Lights crossed before the surface (transparent to rays, Cycles' shade_light).
+    if (s.lights.has_finite_mis_lights(st.camera)) {
+        LightHit lh[kMaxLightHits];
+        const int n = s.lights.intersect(ray, t_end, st.camera, lh, kMaxLightHits);
+        for (int k = 0; k < n; ++k) {
+            const double mis = forward_mis(st, lh[k].pdf * selection(s, st, lh[k].light));
+            add(is, st, counters, mis * (st.throughput * lh[k].radiance), st.bounce - 1, st.split);
+            if (++st.transparent >= is.transparent_bounces + 1) return false;
+        }
+    }
+
+    if (!hit) {
+        LightHit sh[kMaxLightHits];
+        const int n = s.lights.eval_suns(ray.dir, st.camera, sh, kMaxLightHits);
+        for (int k = 0; k < n; ++k) {
+            const double mis = forward_mis(st, sh[k].pdf * selection(s, st, sh[k].light));
+            add(is, st, counters, mis * (st.throughput * sh[k].radiance), st.bounce - 1, st.split);
+        }
+        if (st.camera && is.film_transparent) {
+            st.res.transparent += average(st.throughput);
+        } else if (const Light* world = s.lights.world()) {
+            LightHit wh;
+            world->eval_direction(ray.dir, wh);
+            const double mis =
+                world->use_mis() ? forward_mis(st, wh.pdf * selection(s, st, s.lights.world_index())) : 1.0;
+            add(is, st, counters, mis * (st.throughput * wh.radiance), st.bounce - 1, st.split);
+        }
+        return false;
+    }
+    return true;
+}
+
+bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
+    const IntegratorSettings& is = s.desc.integrator;
+    const Ray& ray = st.ray;
+    const Hit& hit = st.hit;
+    SurfacePoint& sp = h.sp;
+    surface_point(s, ray, hit, sp);
+    const MaterialShader& material = s.materials[size_t(sp.material)];
+    if (st.camera && !st.res.hit) {
+        st.res.hit = true;
+        st.res.depth = s.camera.depth(sp.p);
+        st.res.normal = sp.g.n;
+    }
+    // The camera ray's first hair interaction (a transparent Huang hit keeps `camera`).
+    h.first_hair = is.pass_hair_lobes && st.camera && hit.kind == PrimKind::Curve;
+
+    // Russian roulette (decided before shading, applied after the emission).
+    double q = 1.0;
+    if (st.bounce > is.min_light_bounces + 1) q = std::min(std::sqrt(max_abs(st.throughput)), 1.0);
+    const bool killed = q < 1.0 && (q == 0.0 || st.rng.next() >= q);
+
+    if (!material.program().empty())
+        sp.g.registers = run_material_program(s, hit, sp, material.program(), scratch, scratch.registers);
+    const RGB emission = material.emission(sp.g.registers);
+    if (emission.r != 0 || emission.g != 0 || emission.b != 0) {
+        // A light-sampled emissive triangle hit by a BSDF ray: MIS against next-event
+        // estimation on the sides it samples (Cycles' SD_MIS_FRONT / SD_MIS_BACK).
+        double mis = 1.0;
+        const int tri_light = hit.kind == PrimKind::Triangle ? s.lights.triangle_light(hit.prim) : -1;
+        if (tri_light >= 0 && !st.camera) {
+            const Light& l = s.lights.light(size_t(tri_light));
+            const auto& tri = s.desc.meshes.triangles[size_t(hit.prim)];
+            const auto& v0 = s.desc.meshes.vertices[size_t(tri[0])];
+            const auto& v1 = s.desc.meshes.vertices[size_t(tri[1])];
+            const auto& v2 = s.desc.meshes.vertices[size_t(tri[2])];
+            const Vec3 a{v0[0], v0[1], v0[2]}, b{v1[0], v1[1], v1[2]}, c{v2[0], v2[1], v2[2]};
+            const bool back = dot(cross(b - a, c - a), ray.dir) > 0;
+            if (l.samples_side(back))
+                mis = forward_mis(st, l.triangle_pdf(st.mis_origin.p, sp.p) * selection(s, st, tri_light));
+        }
+        add(is, st, counters, mis * (st.throughput * emission), st.bounce - 1, st.split);
+    }
+    if (killed || st.terminate_after || !material.has_bsdf()) return false;
+    if (q != 1.0) st.throughput = (1.0 / q) * st.throughput;
+
+    double blur = 0.0;
+    if (is.filter_glossy > 0 && !st.camera) {
+        const double blur_pdf = st.min_ray_pdf / is.filter_glossy;
+        if (blur_pdf < 1.0) blur = 0.5 * std::sqrt(1.0 - blur_pdf);
+    }
+    Bsdf& bsdf = scratch.bsdf;
+    sp.g.near_field = st.camera && hit.kind == PrimKind::Curve;
+    bsdf.set(material, sp.g, blur, st.rng, h.first_hair);  // draws the seed of a stochastic eval
+    return !bsdf.empty();
+}
+
+bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                  PathCounters& counters, ShadowRay& shadow) {
+    if (s.lights.size() == 0) return false;
+    const SurfacePoint& sp = h.sp;
+    const Bsdf& bsdf = scratch.bsdf;
+    const double u_sel = st.rng.next(), u0 = st.rng.next(), u1 = st.rng.next();
+    LightSample ls;
+    const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
+    if (!s.lights.sample(at, u_sel, u0, u1, ls)) return false;
+    if (ls.triangle >= 0) {
+        // An emissive triangle: its material's emission at the sampled point.
+        Hit on_light;
+        on_light.kind = PrimKind::Triangle;
+        on_light.prim = ls.triangle;
+        on_light.u = ls.u;
+        on_light.v = ls.v;
+        const MaterialShader& emitter = s.materials[size_t(s.desc.meshes.material[size_t(ls.triangle)])];
+        const float* regs = emitter.program().empty()
+                                ? nullptr
+                                : run_material_program(s, on_light, SurfacePoint{}, emitter.program(), scratch,
+                                                       scratch.light_registers);
+        ls.radiance = emitter.emission(regs);
+    }
+    const BsdfValue b = bsdf.eval(ls.wi);
+    const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
+    const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (st.throughput * b.value * ls.radiance);
+    if (c.r == 0 && c.g == 0 && c.b == 0) return false;
+    const double tmax = std::isfinite(ls.distance) ? ls.distance : 1e30;
+    shadow.ray = leaving_ray(sp, ls.wi, tmax);
+    shadow.self = sp.self;
+    shadow.light_triangle = ls.triangle;
+    shadow.contribution = c;
+    shadow.light_bounce = st.bounce;
+    shadow.split = st.split;
+    shadow.first_hair = h.first_hair;
+    if (h.first_hair) shadow.direct_shares = lobe_shares(b.lobes, b.value);
+    ++counters.rays;
+    return true;
+}
+
+void add_light_sample(const PreparedScene& s, PathState& st, PathCounters& counters, const ShadowRay& shadow) {
+    const RGB added = add(s.desc.integrator, st, counters, shadow.contribution, shadow.light_bounce, shadow.split);
+    if (shadow.first_hair)
+        for (size_t k = 0; k < shadow.direct_shares.size(); ++k) st.res.lobes[k] += shadow.direct_shares[k] * added;
+}
+
+bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                 PathCounters& counters) {
+    const IntegratorSettings& is = s.desc.integrator;
+    const SurfacePoint& sp = h.sp;
+    const Bsdf& bsdf = scratch.bsdf;
+    const double u0 = st.rng.next(), u1 = st.rng.next(), u2 = st.rng.next();
+    LongitudinalNumbers lcg_numbers;
+    if (is.chiang_lcg) {
+        // Cycles' rng_offset grows by 16 at every path_state_next: each scatter and each
+        // transparent step (lights crossed, transparent closures).
+        lcg_numbers =
+            LongitudinalNumbers::from_cycles_lcg(st.lcg_path_seed + 16u * uint32_t(st.bounce + st.transparent));
+    }
+    const BsdfScatter sc = bsdf.sample(u0, u1, u2, is.chiang_lcg ? &lcg_numbers : nullptr);
+    if (sc.label == LabelNone) return false;
+    st.throughput = st.throughput * ((1.0 / sc.pdf) * sc.value);
+    if (!isfinite(st.throughput)) {
+        ++counters.nan;
+        return false;
+    }
+    if (sc.label & LabelTransparent) {
+        // Straight on (Huang outside the projected ellipse): as Cycles, the same ray goes on
+        // past the hit (tmin moved, the skipped primitive kept, so the tube's far wall can be
+        // hit); the path keeps its camera state, MIS pdfs and bounce counts.
+        if (++st.transparent >= is.transparent_bounces) st.terminate_after = true;
+        st.ray.tmin = std::nextafter(float(st.hit.t), std::numeric_limits<float>::infinity());
+        st.mis_origin.p = sp.p;  // Cycles moves ray.P to the hit; N and the flag stay
+        return true;
+    }
+    if (h.first_hair) {
+        st.shares = lobe_shares(sc.lobes, sc.value);
+        st.split = true;
+    }
+    st.mis_ray_pdf = sc.pdf;
+    st.mis_origin = {sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
+    st.min_ray_pdf = std::min(st.min_ray_pdf, sc.blur_pdf);
+    if (++st.bounce >= is.max_bounces + 1) st.terminate_after = true;
+    if (sc.label & LabelReflect) {
+        if (sc.label & LabelDiffuse) {
+            if (++st.diffuse >= is.diffuse_bounces + 1) st.terminate_after = true;
+        } else if (++st.glossy >= is.glossy_bounces + 1) {
+            st.terminate_after = true;
+        }
+    } else if (++st.transmission >= is.transmission_bounces + 1) {
+        st.terminate_after = true;
+    }
+    st.camera = false;
+    st.ray = leaving_ray(sp, sc.wi, 1e30);
+    st.skip = sp.self;
+    return true;
+}
+
+}  // namespace stages
+
+PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters,
+                      const Hit* first_hit) {
+    using namespace stages;
+    PathState st(rng);
+    st.ray = ray;
+    begin_path(s, st);
+    HitShading h;  // each hit's, written by prepare_bsdf
+    ShadowRay shadow;  // each hit's light sample, written by sample_light
+    for (;;) {
+        st.hit = first_hit ? *first_hit : s.geometry.intersect(st.ray, st.skip);
+        first_hit = nullptr;
+        if (!after_trace(s, st, counters)) break;
+        if (!prepare_bsdf(s, st, scratch, counters, h)) break;
+        if (sample_light(s, st, scratch, h, counters, shadow) &&
+            !s.geometry.occluded(shadow.ray, shadow.self, shadow.light_triangle))
+            add_light_sample(s, st, counters, shadow);
+        if (!sample_bsdf(s, st, scratch, h, counters)) break;
+    }
+    rng = st.rng;
+    return st.res;
 }
 
 Ray camera_ray(const PreparedScene& s, int column, int row, uint32_t sample, Sampler& rng) {

@@ -11,6 +11,7 @@
 
 #include "hairbsdf/render/camera_stream.h"
 #include "hairbsdf/render/integrator.h"
+#include "hairbsdf/render/wavefront.h"
 
 namespace hairbsdf::render {
 
@@ -91,26 +92,31 @@ void RenderJob::run() {
                 PathCounters& pc = counters.local();
                 for (size_t i = r.begin(); i != r.end(); ++i) {
                     const Tile& t = tiles[i];
+                    auto to_film = [&](int x, int y, const PathResult& p) {
+                        const size_t pixel = size_t(y) * size_t(width) + size_t(x);
+                        film.add(pixel, p.radiance, p.transparent);
+                        if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
+                    };
+                    if (st.wavefront) {  // the tile's paths together; the film in the per-pixel order
+                        if (cancelled()) return;
+                        trace_tile_wavefront(prepared, t.x0, t.y0, t.x1, t.y1, s0, s1, sc, pc, to_film);
+                        tile_done(t);
+                        continue;
+                    }
                     if (st.camera_ray_stream) {  // one coherent stream per tile row; the film in the same order
                         for (int y = t.y0; y < t.y1; ++y) {
                             if (cancelled()) return;
-                            trace_row_stream(prepared, y, t.x0, t.x1, s0, s1, sc, pc, [&](int x, const PathResult& p) {
-                                const size_t pixel = size_t(y) * size_t(width) + size_t(x);
-                                film.add(pixel, p.radiance, p.transparent);
-                                if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
-                            });
+                            trace_row_stream(prepared, y, t.x0, t.x1, s0, s1, sc, pc,
+                                             [&](int x, const PathResult& p) { to_film(x, y, p); });
                         }
                         tile_done(t);
                         continue;
                     }
                     for (int y = t.y0; y < t.y1; ++y) {
                         for (int x = t.x0; x < t.x1; ++x) {
-                            const size_t pixel = size_t(y) * size_t(width) + size_t(x);
                             for (int s = s0; s < s1; ++s) {
                                 if (cancelled()) return;
-                                const PathResult p = trace_pixel_sample(prepared, x, y, uint32_t(s), sc, pc);
-                                film.add(pixel, p.radiance, p.transparent);
-                                if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
+                                to_film(x, y, trace_pixel_sample(prepared, x, y, uint32_t(s), sc, pc));
                             }
                         }
                     }

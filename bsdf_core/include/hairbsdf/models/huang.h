@@ -61,8 +61,10 @@ inline double lookup_table_3d(const double (&t)[n][n][n], double x, double y, do
 // energy_scale's coordinate of eta: sqrt(|(eta - 1) / (eta + 1)|).
 inline double energy_scale_z(double eta) { return std::sqrt(std::fabs((eta - 1.0) / (eta + 1.0))); }
 // energy_scale with z = energy_scale_z(eta) computed once per model.
+// The tables' first index: eta >= 1 or eta < 1.
+inline int glass_albedo_side(double eta) { return eta < 1.0 ? 1 : 0; }
 inline double energy_scale_at(GlassAlbedoTable table, double sqrt_alpha, double mu, double eta, double z) {
-    const int which = eta < 1.0 ? 1 : 0;
+    const int which = glass_albedo_side(eta);
     const double e = table == GlassAlbedoTable::Cycles5
                          ? lookup_table_3d(kGgxGlassAlbedo5[which], sqrt_alpha, safe_sqrt(mu), z)
                          : lookup_table_3d(kGgxGlassAlbedo[which], sqrt_alpha, mu, z);
@@ -103,6 +105,21 @@ struct HuangHairParams {
     // mixture is built: for the renderer with Cycles' sampler; sample_direction then returns -1
     // and pdf_local 0).
     enum class MixtureDetail { Full, Coarse, None } mixture_detail = MixtureDetail::Full;
+};
+
+// The per-model numbers of Cycles' stochastic eval in float SIMD lanes (src/batch/huang_lanes_kernel.h,
+// docs/simd.md), filled by the HuangHair constructor. energy_scale's table lookup has only mu varying
+// per node (sqrt(alpha) and eta are the model's), so each interface's E_glass is reduced once to a
+// row over mu: trilinear interpolation is linear in each coordinate, so interpolating that row in mu
+// gives lookup_table_3d's value.
+struct HuangLaneConstants {
+    static constexpr int kMaxRow = 32;  // the larger table's side (Cycles 5.x)
+    float alpha, alpha2, sin_tilt, cos_tilt, b, e2, eta, inv_eta;
+    float sigma_a[3];
+    bool circular;   // b == 1
+    bool sqrt_mu;    // the table's axis is sqrt(mu) (Cycles 5.x)
+    int row_size;    // 16 or 32
+    float energy_entering[kMaxRow], energy_leaving[kMaxRow];  // E_glass over the mu axis
 };
 
 class HuangHair {
@@ -174,7 +191,12 @@ public:
     std::array<RGB, kLobeCount> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
+    // Its Simpson nodes (R's and the residual's) run as float SIMD lanes, as Cycles computes in float
+    // (docs/simd.md); the nodes, their weights and the draws are those of the double path.
     std::array<RGB, kLobeCount> eval_cycles_stochastic(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
+    // The same estimator (same draws, nodes and weights) in double precision, one node at a time: the
+    // reference the lanes are tested against.
+    std::array<RGB, kLobeCount> eval_cycles_stochastic_double(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
     // Cycles' stochastic eval over a subset of its residual nodes: R by its Simpson sum, the residual
     // at `count` nodes chosen systematically by their Simpson weight (positions (u_node + j) / count
     // of the cumulative weight), each divided by its expected count. Over u_node and rng_state its
@@ -270,9 +292,14 @@ private:
     void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double sin_gamma, double cos_gamma,
                            double weight, double final_scale, double trrt_scale, uint32_t& rng,
                            std::array<double, 9>& acc) const;
-    // eval_cycles_stochastic's residual: every node of `nodes`, into lobes 1..3.
+    // eval_cycles_stochastic's residual in double, one node at a time: every node of `nodes`, into lobes 1..3.
     void add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
                             std::array<RGB, kLobeCount>& lobes) const;
+    // eval_cycles_stochastic in float lanes: R over r_nodes, the residual over nodes.
+    void eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::vector<Node>& r_nodes,
+                    const std::vector<Node>& nodes, uint32_t& rng, std::array<RGB, kLobeCount>& lobes) const;
+    std::array<RGB, kLobeCount> eval_cycles_stochastic_impl(const ShadingPoint& sp, Vec3 O, uint32_t& rng,
+                                                            bool lanes) const;
     RGB trrt_series(double t, double r, RGB a) const;
     // Cycles' composite Simpson nodes over [lo, hi]: an even count of steps of at most step x alpha
     // (the steps divided by simpson_refinement_).
@@ -314,6 +341,7 @@ private:
     double r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const;
     RGB absorption(double path, double cos_theta) const;
     void build_sampler(ShadingPoint& sp) const;
+    void fill_lane_constants();
     void set_frame(const ShadingContext& ctx, ShadingPoint& sp) const;  // frame, I, r, transparent
     BsdfSample sample_cycles(const ShadingPoint& sp, const std::array<double, 3>& u) const;
 
@@ -334,6 +362,7 @@ private:
     std::array<double, 3> factors_;
     LongitudinalLobe trrt_m_;        // Cycles' M with v = 4 alpha (truncated Bessel series)
     LongitudinalLobe trrt_sampler_;  // exact M with v = 4 alpha: the TRRT+ sampling density
+    HuangLaneConstants lanes_;       // the stochastic eval's float lanes
 };
 
 }  // namespace hairbsdf

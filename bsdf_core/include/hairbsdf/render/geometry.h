@@ -88,8 +88,15 @@ public:
     // Camera rays as one coherent stream (rtcIntersect1M; integrator.camera_ray_stream): the
     // same hits as intersect(rays[i], {}) each, traced as Embree packets.
     void intersect_stream(const Ray* rays, Hit* hits, size_t count) const;
+    // Rays that each skip their own primitive, as one incoherent stream (rtcIntersect1M; the
+    // wavefront's bounce rays): Embree traces them one by one, so hits[i] = intersect(rays[i], skips[i]).
+    void intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hits, size_t count) const;
     // `light_triangle`: a triangle the ray aims at (an emissive-triangle light sample), ignored.
     bool occluded(const Ray& ray, SkipPrim skip, int light_triangle = -1) const;
+    // Shadow rays as one stream (rtcOccluded1M; the wavefront):
+    // occluded[i] = occluded(rays[i], skips[i], light_triangles[i]).
+    void occluded_stream(const Ray* rays, const SkipPrim* skips, const int* light_triangles, uint8_t* occluded,
+                         size_t count) const;
 
     CurveShape curve_shape() const { return shape_; }
     int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }

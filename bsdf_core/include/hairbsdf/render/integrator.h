@@ -71,6 +71,8 @@ struct PathResult {
     Vec3 normal;             // world-space shading normal of the first hit
 };
 
+struct WavefrontStorage;  // render/wavefront.h's per-thread paths and streams
+
 // Per-thread scratch state of the integrator (no allocation per sample).
 struct PathScratch {
     Bsdf bsdf;
@@ -81,6 +83,7 @@ struct PathScratch {
     std::vector<Sampler> stream_samplers;
     std::vector<Ray> stream_rays;
     std::vector<Hit> stream_hits;
+    std::shared_ptr<WavefrontStorage> wavefront;  // integrator.wavefront: a tile's paths, kept for the next tile
 };
 
 // The camera sample of pixel (column, row), row 0 at the top: filter offsets, camera ray, path.

@@ -211,6 +211,13 @@ struct IntegratorSettings {
     // Trace each tile row's camera rays as one coherent Embree stream (render/camera_stream.h);
     // the same image at float rounding. Off: one rtcIntersect1 per camera ray.
     bool camera_ray_stream = false;
+    // The wavefront path tracer (render/wavefront.h): each bounce of a tile's paths traced as
+    // Embree streams, hits shaded grouped by material; the per-pixel loop's image.
+    bool wavefront = false;
+    // The wavefront's bounce and shadow rays as Embree streams (rtcIntersect1M / rtcOccluded1M, whose
+    // packets return some hits a rounding step away); off: one rtcIntersect1 / rtcOccluded1 per ray,
+    // and with incoherent camera rays the image is the per-pixel loop's bit for bit.
+    bool wavefront_streams = true;
 };
 
 // An equirectangular Environment Texture on the world, as Cycles reads it: the lookup vector

@@ -1,0 +1,15 @@
+// Huang's stochastic eval lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt).
+#define HAIRBSDF_BATCH_NS avx512
+#include "huang_lanes_kernel.h"
+
+namespace hairbsdf {
+namespace batch_detail {
+void huang_residual_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
+                         double* out) {
+    avx512::HuangLanes<xsimd::avx512bw>{c, p}.run(nodes, out);
+}
+double huang_r_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
+    return avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_r(nodes);
+}
+}  // namespace batch_detail
+}  // namespace hairbsdf

@@ -1,0 +1,15 @@
+// Huang's stochastic eval lanes built for sse2 (compile flags in bsdf_core/CMakeLists.txt).
+#define HAIRBSDF_BATCH_NS sse2
+#include "huang_lanes_kernel.h"
+
+namespace hairbsdf {
+namespace batch_detail {
+void huang_residual_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
+                         double* out) {
+    sse2::HuangLanes<xsimd::sse2>{c, p}.run(nodes, out);
+}
+double huang_r_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
+    return sse2::HuangLanes<xsimd::sse2>{c, p}.run_r(nodes);
+}
+}  // namespace batch_detail
+}  // namespace hairbsdf
