@@ -221,7 +221,10 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
 // Sobol' set per node, each copy with its own digital shifts; the spread of the copies' totals is
 // the standard error of their mean. Points per node double until that error is below half the
 // tolerance times the row's total (R + TT + TRT + TRRT+) or the budget is spent, so TRT gets few
-// points where it is a small part of the row and many where it dominates. Budget: max_evaluations
+// points where it is a small part of the row and many where it dominates. The first round already has
+// kTrtMinimum / tolerance points over the row (within the budget): TRT's value on some rows comes from
+// rare large points (1 in ~1000), and 4 copies of a few points that all missed them agree, so their
+// spread said "done" with TRT 0 (docs/huang.md §4). Budget: max_evaluations
 // TRT points (TT's cubature has its own), and at most kTrtBudget / tolerance^2 (what an estimate whose points have a relative
 // spread of ~2 needs to reach the target where TRT is the whole row): loose tolerances stay cheap
 // on the rows TRT dominates, whose error then exceeds the tolerance (docs/huang.md §4).
@@ -229,6 +232,7 @@ namespace {
 constexpr int kTrtReplicates = 4;
 constexpr uint32_t kTrtFirstPoints = 4;  // per node and replicate
 constexpr double kTrtBudget = 20.0;
+constexpr double kTrtMinimum = 20.0;  // at least kTrtMinimum / tolerance TRT points per row
 }  // namespace
 
 void HuangHair::trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
@@ -273,7 +277,11 @@ void HuangHair::trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vect
     };
     // TRT's own budget (TT's cubature has its own max_evaluations).
     const double budget = std::min(double(params_.max_evaluations), kTrtBudget / (params_.tolerance * params_.tolerance));
-    add(0, kTrtFirstPoints);
+    const double per_point = double(node_count) * kTrtReplicates;  // TRT points per point of each node and copy
+    uint32_t first = kTrtFirstPoints;
+    while (double(first) * per_point < kTrtMinimum / params_.tolerance && 2.0 * double(first) * per_point <= budget)
+        first *= 2;
+    add(0, first);
     for (;;) {
         double mean = 0.0, var = 0.0;
         for (int r = 0; r < kTrtReplicates; ++r) mean += luminance_of(r) / kTrtReplicates;

@@ -11,6 +11,7 @@ constexpr double kHClamp = 0.999;
 constexpr double kRStep = 0.7;
 constexpr double kResidualStep = 0.8;
 constexpr double kTirEpsilon = 1e-5;
+constexpr double kTrrtShellFresnel = 0.25;  // TRRT+'s shell: internal Fresnel factor from this to 1
 constexpr double kUniformProbability = 0.02;  // defensive uniform component of the mixture
 
 inline double sin_theta(Vec3 w) { return w.y; }

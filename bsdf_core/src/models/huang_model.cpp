@@ -23,6 +23,20 @@ HuangHair::HuangHair(const HuangHairParams& params)
     e2_ = 1.0 - b_ * b_;
     eta_ = params.eta;
     inv_eta_ = 1.0 / eta_;
+    // TRRT+'s shell: from the critical cosine of total internal reflection (inside, relative index
+    // 1 / eta) up to where the internal Fresnel factor falls to kTrrtShellFresnel (it decreases with
+    // the cosine). No shell where eta <= 1 (no total internal reflection).
+    trrt_shell_lo_ = trrt_shell_hi_ = 0.0;
+    if (eta_ > 1.0) {
+        trrt_shell_lo_ = std::sqrt(1.0 - inv_eta_ * inv_eta_);
+        double lo = trrt_shell_lo_, hi = 1.0;
+        if (ggx::fresnel(hi, inv_eta_) >= kTrrtShellFresnel) lo = hi;
+        for (int k = 0; k < 60 && lo < hi; ++k) {
+            const double mid = 0.5 * (lo + hi);
+            (ggx::fresnel(mid, inv_eta_) > kTrrtShellFresnel ? lo : hi) = mid;
+        }
+        trrt_shell_hi_ = hi;
+    }
     z_eta_ = huang::energy_scale_z(eta_);
     z_inv_eta_ = huang::energy_scale_z(inv_eta_);
     factors_ = {std::max(params.r_factor, 0.0), std::max(params.tt_factor, 0.0), std::max(params.trt_factor, 0.0)};

@@ -81,7 +81,7 @@ RGB HuangHair::tt_exit(const EntryState& e, Vec3 O) const {
 
 // The internal reflection at the second interface with microfacet normal wh2 and the exit to O:
 // TRT (returned) and the TRRT+ series (trrt; 0 where Cycles does not add it).
-RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out) const {
+RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out, bool trrt_only) const {
     trrt = RGB();
     const double cos_hi2 = dot(e.mwt, wh2);
     if (!(cos_hi2 > 0.0)) return {};
@@ -96,6 +96,7 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     }
     if (!visible(e.mwt, mwtr, e.wmt, wh2) || !visible(e.mwt, mwtr, e.wmt_, wh2)) return {};
     trrt = series;
+    if (trrt_only) return {};
     const double phi_tr = b_ == 1.0 ? dir_phi(wtr) : 0.0;
     const double phi_tr_b = b_ == 1.0 ? phi_tr : std::atan2(b_ * wtr.x, wtr.z);
     const double gmtr = e.gamma - 2.0 * (e.phi_t_b - phi_tr_b) + kPi;
@@ -159,6 +160,55 @@ void HuangHair::trt_from_entry(const EntryState& e, Vec3 O, double r2, double an
     if (isfinite(t)) f[6] = t.r, f[7] = t.g, f[8] = t.b;
 }
 
+// TRRT+'s shell (docs/huang.md §4): the TRRT+ series is large only where the internal Fresnel factor is
+// between kTrrtShellFresnel and 1, a thin band of the internal normal's angle to -wt just short of
+// total internal reflection, which Cycles' visible normals rarely hit. The proposal: the cosine c to
+// -wt uniform over that band; the azimuth around -wt wrapped Cauchy around the internal mesonormal's,
+// of scale sqrt(alpha^2 + sin^2 d) / sin(theta) (d = theta - beta: the band's angle from the
+// mesonormal), about the width of the GGX lobe where the circle of angle theta crosses it. Density in
+// solid angle (d omega = dc d psi): 1 / (the band's width in cosine) x the azimuth's density.
+namespace {
+// The azimuth's scale at cosine c with sin(theta) = sn, for the mesonormal at angle beta.
+double shell_azimuth_scale(double cos_beta, double sin_beta, double c, double sn, double alpha) {
+    const double sin_d = sn * cos_beta - c * sin_beta;
+    return clamp(std::sqrt(alpha * alpha + sin_d * sin_d) / std::max(sn, 1e-6), 1e-6, 50.0);
+}
+}  // namespace
+
+HuangHair::ShellFrame HuangHair::trrt_shell_frame(const EntryState& e) const {
+    ShellFrame f;
+    f.a = e.mwt;
+    f.cos_beta = clamp(e.cos_mi2, -1.0, 1.0);
+    const Vec3 across = e.wmt - f.cos_beta * f.a;  // the mesonormal's part across a
+    f.sin_beta = length(across);
+    if (f.sin_beta > 1e-9) {
+        f.s = (1.0 / f.sin_beta) * across;
+        f.t = cross(f.a, f.s);
+    } else {
+        make_orthonormals(f.a, f.s, f.t);
+    }
+    return f;
+}
+
+Vec3 HuangHair::trrt_shell_sample(const ShellFrame& f, double u2, double u3) const {
+    const double c = trrt_shell_lo_ + u2 * (trrt_shell_hi_ - trrt_shell_lo_);
+    const double sn = std::sqrt(std::max(1.0 - c * c, 0.0));
+    // Wrapped Cauchy by inversion: psi = 2 atan(x), x = tanh(scale / 2) tan(pi (u3 - 1/2)).
+    const double x = std::tanh(0.5 * shell_azimuth_scale(f.cos_beta, f.sin_beta, c, sn, alpha_)) * std::tan(kPi * (u3 - 0.5));
+    const double cos_psi = (1.0 - x * x) / (1.0 + x * x), sin_psi = 2.0 * x / (1.0 + x * x);
+    return (sn * cos_psi) * f.s + (sn * sin_psi) * f.t + c * f.a;
+}
+
+double HuangHair::trrt_shell_density(const ShellFrame& f, Vec3 h) const {
+    const double c = dot(f.a, h);
+    if (!(c > trrt_shell_lo_) || !(c < trrt_shell_hi_)) return 0.0;
+    const double sn = std::sqrt(std::max(1.0 - c * c, 0.0));
+    const double cos_psi = clamp(dot(h, f.s) / sn, -1.0, 1.0);
+    const double rho = std::exp(-shell_azimuth_scale(f.cos_beta, f.sin_beta, c, sn, alpha_));
+    const double azimuth = (1.0 - rho * rho) / (kTwoPi * (1.0 + rho * rho - 2.0 * rho * cos_psi));
+    return azimuth / (trrt_shell_hi_ - trrt_shell_lo_);
+}
+
 // TRT with two strategies for the internal direction, combined by the balance heuristic: the
 // internal-reflection visible normals (what Cycles samples: density qa of wtr) and refraction of O
 // into the fibre through visible normals around the mesonormal of the specular exit point
@@ -204,6 +254,17 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
         const double d = oh + eta_ * th;
         return vndf_density(cb, h, alpha2_) * eta_ * eta_ * std::fabs(th) / (d * d);
     };
+    // TRRT+ with two strategies for the internal normal h, by the balance heuristic: Cycles' visible
+    // normals (density pa) and the shell proposal (pc, trrt_shell_sample); off where -wt does not see
+    // the internal mesonormal (pa is then not a density) or there is no shell.
+    const bool shell = trrt_shell_ && cos_vm > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
+    const ShellFrame frame = shell ? trrt_shell_frame(e) : ShellFrame{};
+    auto trrt_weight = [&](Vec3 h) {  // pa / (pa + pc)
+        const double pc = trrt_shell_density(frame, h);
+        if (!(pc > 0.0)) return 1.0;
+        const double pa = vndf_density(ca, h, alpha2_);
+        return pa / (pa + pc);
+    };
     // Strategy A: Cycles' internal visible normal.
     {
         const Vec3 wh2 = vndf_sample(ca.v, ca.m, ca.s, ca.t, alpha_, std::sqrt(u2), kTwoPi * u3);
@@ -211,10 +272,18 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
         Vec3 wtr;
         const RGB g = trt_internal(e, wh2, O, trrt, &wtr);
         trrt_out = weight * trrt;
+        if (shell && (trrt.r != 0.0 || trrt.g != 0.0 || trrt.b != 0.0)) trrt_out = trrt_weight(wh2) * trrt_out;
         if (g.r != 0.0 || g.g != 0.0 || g.b != 0.0) {
             const double a = qa(wtr), b = qb(wtr);
             if (a > 0.0) trt_out += (weight * a / (a + b)) * g;
         }
+    }
+    // Strategy C (TRRT+ only): the shell proposal.
+    if (shell) {
+        const Vec3 h = trrt_shell_sample(frame, u2, u3);
+        RGB trrt;
+        trt_internal(e, h, O, trrt, nullptr, true);
+        if (trrt.r != 0.0 || trrt.g != 0.0 || trrt.b != 0.0) trrt_out += (weight * trrt_weight(h)) * trrt;
     }
     // Strategy B: refraction of O into the fibre.
     if (use_b) {

@@ -319,7 +319,19 @@ private:
     void trt_from_entry(const EntryState& e, Vec3 O, double r2, double angle2, double weight, double final_scale,
                         double trrt_scale, std::array<double, 9>& f) const;
     RGB tt_exit(const EntryState& e, Vec3 O) const;
-    RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr) const;
+    // trrt_only: return after the TRRT+ series is known (TRT left 0).
+    RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr,
+                     bool trrt_only = false) const;
+    // TRRT+'s shell proposal for the internal microfacet normal (trt_mis_point): its frame at an entry
+    // state (a = -wt; s towards the internal mesonormal, at angle beta from a; t = a x s), a point from
+    // (u2, u3), and its density (solid angle) at a normal.
+    struct ShellFrame {
+        Vec3 a, s, t;
+        double cos_beta, sin_beta;
+    };
+    ShellFrame trrt_shell_frame(const EntryState& e) const;
+    Vec3 trrt_shell_sample(const ShellFrame& f, double u2, double u3) const;
+    double trrt_shell_density(const ShellFrame& f, Vec3 h) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
                           const std::vector<double>& trrt_node_factor, double known_value, double final_scale,
                           double trrt_scale, std::array<RGB, kLobeCount>& lobes, long& count) const;
@@ -337,11 +349,15 @@ private:
 
     HuangHairParams params_;
     int simpson_refinement_ = 1;  // 1: Cycles' steps; more only through HuangLab
+    bool trrt_shell_ = true;      // TRRT+'s shell proposal in trt_mis_point; off only through HuangLab
     double alpha_, alpha2_, sqrt_alpha_;
     double tilt_;          // Cycles' tilt = -offset
     double tan_tilt_, sin_tilt_, cos_tilt_;
     double b_, e2_;
     double eta_, inv_eta_;
+    // Cosines of the internal incidence (on -wt) between which the internal Fresnel factor rises from
+    // kTrrtShellFresnel to total internal reflection: where the TRRT+ series is large (huang_paths.cpp).
+    double trrt_shell_lo_, trrt_shell_hi_;
     double z_eta_, z_inv_eta_;  // huang::energy_scale_z of eta_ and inv_eta_
     std::array<double, 3> factors_;
     LongitudinalLobe trrt_m_;        // Cycles' M with v = 4 alpha (truncated Bessel series)
