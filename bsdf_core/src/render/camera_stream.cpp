@@ -12,13 +12,12 @@ void trace_row_stream(const PreparedScene& s, int row, int x0, int x1, int s0, i
     samplers.clear();
     rays.clear();
     hits.resize(count);
-    for (int x = x0; x < x1; ++x) {
-        const uint64_t pixel = uint64_t(row) * uint64_t(s.camera.width()) + uint64_t(x);
+    for (int x = x0; x < x1; ++x)
         for (int k = s0; k < s1; ++k) {
-            samplers.emplace_back(pixel, uint64_t(k), s.desc.integrator.seed);
-            rays.push_back(camera_ray(s, x, row, uint32_t(k), samplers.back()));
+            const CameraPathStart start = start_camera_path(s, x, row, uint32_t(k));
+            samplers.push_back(start.rng);
+            rays.push_back(start.ray);
         }
-    }
     s.geometry.intersect_stream(rays.data(), hits.data(), count);
     size_t i = 0;
     for (int x = x0; x < x1; ++x)

@@ -465,6 +465,9 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     return st.res;
 }
 
+namespace {
+
+// The camera ray of pixel (column, row)'s sample, its filter offsets drawn from `rng`.
 Ray camera_ray(const PreparedScene& s, int column, int row, uint32_t sample, Sampler& rng) {
     const Camera& cam = s.camera;
     // Cycles (integrate_camera_sample, 3.0+): sample 0 of every pixel uses the filter random
@@ -482,12 +485,19 @@ Ray camera_ray(const PreparedScene& s, int column, int row, uint32_t sample, Sam
     return ray;
 }
 
+}  // namespace
+
+CameraPathStart start_camera_path(const PreparedScene& s, int column, int row, uint32_t sample) {
+    const uint64_t pixel = uint64_t(row) * uint64_t(s.camera.width()) + uint64_t(column);
+    CameraPathStart start{Sampler(pixel, sample, s.desc.integrator.seed), Ray{}};
+    start.ray = camera_ray(s, column, row, sample, start.rng);
+    return start;
+}
+
 PathResult trace_pixel_sample(const PreparedScene& s, int column, int row, uint32_t sample, PathScratch& scratch,
                               PathCounters& counters) {
-    const uint64_t pixel = uint64_t(row) * uint64_t(s.camera.width()) + uint64_t(column);
-    Sampler rng(pixel, sample, s.desc.integrator.seed);
-    const Ray ray = camera_ray(s, column, row, sample, rng);
-    return trace_path(s, ray, rng, scratch, counters);
+    CameraPathStart start = start_camera_path(s, column, row, sample);
+    return trace_path(s, start.ray, start.rng, scratch, counters);
 }
 
 }  // namespace hairbsdf::render

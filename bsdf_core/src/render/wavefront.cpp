@@ -39,16 +39,13 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
     // Camera rays, each from its own sample's Sampler, which the path keeps.
     w.paths.clear();
     for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
-            const uint64_t pixel = uint64_t(y) * uint64_t(s.camera.width()) + uint64_t(x);
+        for (int x = x0; x < x1; ++x)
             for (int k = s0; k < s1; ++k) {
-                Sampler rng(pixel, uint64_t(k), is.seed);
-                const Ray ray = camera_ray(s, x, y, uint32_t(k), rng);
-                PathState& st = w.paths.emplace_back(rng);
-                st.ray = ray;
+                const CameraPathStart start = start_camera_path(s, x, y, uint32_t(k));
+                PathState& st = w.paths.emplace_back(start.rng);
+                st.ray = start.ray;
                 begin_path(s, st);
             }
-        }
     w.live.resize(w.paths.size());
     for (size_t i = 0; i < w.live.size(); ++i) w.live[i] = uint32_t(i);
 

@@ -90,9 +90,14 @@ struct PathScratch {
 PathResult trace_pixel_sample(const PreparedScene& scene, int column, int row, uint32_t sample, PathScratch& scratch,
                               PathCounters& counters);
 
-// The camera ray of pixel (column, row)'s sample, drawing its filter offsets from `rng` (the
-// first numbers of the sample's stream; trace_pixel_sample = camera_ray + trace_path).
-Ray camera_ray(const PreparedScene& scene, int column, int row, uint32_t sample, Sampler& rng);
+// Where the path of pixel (column, row)'s sample starts: its sampler (the sample's own stream),
+// after the camera ray has drawn the filter offsets from its first numbers, and that ray. Every
+// driver (trace_pixel_sample, the camera-ray stream, the wavefront) starts its paths here.
+struct CameraPathStart {
+    Sampler rng;
+    Ray ray;
+};
+CameraPathStart start_camera_path(const PreparedScene& scene, int column, int row, uint32_t sample);
 
 // One path from a given primary ray. `first_hit`: the primary ray's hit when it was traced
 // already (a camera-ray stream); otherwise the path traces it.
