@@ -922,6 +922,7 @@ PYBIND11_MODULE(_core, m) {
     // Cycles' default surface colour (render/scene.h): the exporter's fallback diffuse.
     const RGB grey = render::kDefaultSurfaceColor;
     m.attr("DEFAULT_SURFACE_COLOR") = py::make_tuple(grey.r, grey.g, grey.b);
+    m.attr("CLOSURES") = bindings::kClosuresPath;  // the scene key of a material's closures
     m.attr("PRINCIPLED_HAIR_INPUTS") = bindings::kPrincipledHairInputsPath;  // the scene key of the node's inputs
     m.attr("LUMINANCE_WEIGHTS") = py::make_tuple(kLuminanceWeights[0], kLuminanceWeights[1], kLuminanceWeights[2]);
     py::class_<PluginLibrary, std::shared_ptr<PluginLibrary>>(m, "PluginLibrary")

@@ -11,7 +11,7 @@ from . import _core
 from . import _validate as check
 from ._param_docs import CHOICE, FLOAT, with_parameters
 from .closure import Closure
-from .render import principled_hair_input_rows
+from .render import CLOSURES, principled_hair_input_rows
 
 _SCENE_SCHEMA = _core.scene_schema()
 
@@ -26,10 +26,10 @@ def _choices(path: str) -> dict:
     return {default: names.pop(default), **names}
 
 
-PARAMETRIZATIONS = _choices("materials[].closures[].parametrization")
+PARAMETRIZATIONS = _choices(CLOSURES + ".parametrization")
 ACCURACIES = _choices("integrator.accuracy")
 TILTS = _choices("integrator.tilt")
-MODELS = tuple(_choices("materials[].closures[].model"))
+MODELS = tuple(_choices(CLOSURES + ".model"))
 # The defaults: each table's first entry (the schema row's default).
 DEFAULT_MODEL, DEFAULT_PARAMETRIZATION, DEFAULT_ACCURACY, DEFAULT_TILT = (
     next(iter(t)) for t in (MODELS, PARAMETRIZATIONS, ACCURACIES, TILTS))

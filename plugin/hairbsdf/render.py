@@ -36,7 +36,9 @@ def schema_choices(path: str) -> tuple:
     return tuple(next(k["allowed"] for k in scene_schema() if k["path"] == path and k["allowed"]))
 
 
-# The scene key of Principled Hair's inputs (a closure's dict of socket values), the scene schema's.
+# The scene keys of a material's closures and of Principled Hair's inputs (a closure's dict of socket values),
+# the scene schema's.
+CLOSURES = _core.CLOSURES
 PRINCIPLED_HAIR_INPUTS = _core.PRINCIPLED_HAIR_INPUTS
 
 

@@ -27,7 +27,7 @@ import os
 
 from .. import _core
 from .._blender_versions import EMISSION_SAMPLING_FROM
-from ..render import principled_hair_input_rows, scene_schema, schema_choices, schema_default
+from ..render import CLOSURES, principled_hair_input_rows, scene_schema, schema_choices, schema_default
 from ..zoo import PLUGIN_MODEL
 from ._common import luminance_weights, blender_version, find_socket, rgb
 from .shading_network import AttributeTable, ShadingNetwork, Value
@@ -317,8 +317,8 @@ class MaterialTranslator:
 
     def _principled_hair(self, node, weight) -> dict:
         # Blender < 4.0 has no model enum: its node is the schema's default model (Chiang).
-        model = getattr(node, "model", None) or schema_default("materials[].closures[].model", "principled_hair")
-        if model not in schema_choices("materials[].closures[].model"):
+        model = getattr(node, "model", None) or schema_default(CLOSURES + ".model", "principled_hair")
+        if model not in schema_choices(CLOSURES + ".model"):
             self.warn(f"'{node.name}': the {model.title()} model is not supported; "
                       f"rendered as {_GREY_DIFFUSE}")
             return _diffuse(weight, GREY)

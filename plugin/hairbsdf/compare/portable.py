@@ -23,7 +23,7 @@ import tarfile
 import tempfile
 from pathlib import Path
 
-from ..render import PRINCIPLED_HAIR_INPUTS, schema_default
+from ..render import CLOSURES, PRINCIPLED_HAIR_INPUTS, schema_default
 
 FORMAT = "hairbsdf-portable-scene"
 FORMAT_VERSION = 1
@@ -61,7 +61,7 @@ def _key(section: dict, path: str, closure_type: str = ""):
     return section[name] if section.get(name) is not None else schema_default(path, closure_type)
 
 
-CLOSURE = "materials[].closures[]."
+CLOSURE = CLOSURES + "."
 INPUT = PRINCIPLED_HAIR_INPUTS + "."
 
 
@@ -114,7 +114,7 @@ def _ident(name):
 def write_materialx(desc, path):
     """One MaterialX document with a surfacematerial per material (only call it when
     materialx_limits is empty for every material)."""
-    from .. import _core, materialx
+    from .. import materialx
     mx = materialx._mx()
     doc = mx.createDocument()
     for m in desc.get("materials", []):
@@ -133,14 +133,14 @@ def write_materialx(desc, path):
             continue
         if c["type"] == "diffuse":
             node = doc.addNode("oren_nayar_diffuse_bsdf", name + "_bsdf", "BSDF")
-            color = c.get("color", _core.DEFAULT_SURFACE_COLOR)
+            color = _key(c, CLOSURE + "color", c["type"])
             node.setInputValue("color", ", ".join(repr(float(v)) for v in color), "color3")
             node.setInputValue("roughness", "0.0", "float")  # Lambert, as Cycles' Diffuse BSDF at roughness 0
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
             surface.setConnectedNode("bsdf", node)
         else:  # emission
             strength = float(_key(c, CLOSURE + "strength", c["type"]))
-            col = [float(v) * strength for v in c.get("color", _core.DEFAULT_SURFACE_COLOR)]
+            col = [float(v) * strength for v in _key(c, CLOSURE + "color", c["type"])]
             node = doc.addNode("uniform_edf", name + "_edf", "EDF")
             node.setInputValue("color", ", ".join(repr(v) for v in col), "color3")
             surface = doc.addNode("surface", name + "_surface", "surfaceshader")
