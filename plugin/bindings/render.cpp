@@ -61,16 +61,7 @@ py::array_t<T, py::array::c_style | py::array::forcecast> array_shape(py::handle
 // only copy. Plain values and arrays go through the schema's field bindings
 // (bindings::read_fields, bindings::read_list); keys with rules of their own are copied here. -----
 
-template <class T>
-py::array_t<T, py::array::c_style | py::array::forcecast> checked_array(const py::dict& d, const char* name) {
-    return py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(d[name]);  // contiguous, its dtype
-}
-
 py::dict dict_at(const py::dict& d, const char* name) { return py::reinterpret_borrow<py::dict>(d[name]); }
-
-void read_environment(const py::dict& t, EnvironmentDesc& env, int32_t& weight_register) {
-    bindings::read_fields("world.texture", t, env, [&](int, int reg) { weight_register = reg; });
-}
 
 void read_curves(const py::dict& scene, SceneDesc& out) {
     if (!scene.contains("curves")) return;
@@ -155,7 +146,7 @@ void read_lights(const py::dict& scene, SceneDesc& out) {
         LightDesc d;
         bindings::read_fields("lights[]", l, d);
         if (l.contains("matrix_world")) {  // SPOT (optional: the cone's scale), AREA (required)
-            const auto m = checked_array<double>(l, "matrix_world");
+            const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(l["matrix_world"]);
             std::copy(m.data(), m.data() + 16, d.matrix_world.begin());
             d.has_matrix = true;
         }
@@ -191,7 +182,8 @@ SceneDesc scene_from_dict(py::handle scene_dict) {
         bindings::read_fields("world", world, out, [&](int, int reg) { out.world_color_register = reg; });
         if (world.contains("program")) out.world_program = read_program(dict_at(world, "program"), "world.program");
         if (world.contains("texture"))
-            read_environment(dict_at(world, "texture"), out.world_texture, out.world_texture_weight_register);
+            bindings::read_fields("world.texture", dict_at(world, "texture"), out.world_texture,
+                                  [&](int, int reg) { out.world_texture_weight_register = reg; });
     }
     read_integrator(scene, out);
     return out;
