@@ -3,6 +3,7 @@
 
     .venv/bin/python lab/bench_vs_cycles.py [--scenes bench_hair,swatch] [--model chiang|huang|scene]
                                             [--rounds 3] [--spp N] [--res WxH] [--before DIR] [--json F]
+                                            [--perf]
 
 Scenes: `bench_hair` (blender_tests/render_units: 1500 strands over a plane, sun + world, 160 x 160, 32 spp)
 and the harness scenes of plugin/hairbsdf/compare/scenes/catalog.py (`swatch`, `huang_ellipse`, ...), at
@@ -20,11 +21,17 @@ build's hairbsdf package and .so files). Per render:
 On a shared machine the CPU ratio is the steadier one: a loaded machine stretches wall time, much
 less the CPU time a render needs. The table goes to stdout, progress to stderr, the medians
 per scene at the end with the goal each model has. Ctrl-C stops the run and prints what was measured.
+
+--perf runs each child under `perf record` (cpu-clock, 499 Hz), switched on only around the render call,
+and splits its samples by library: how much of each engine's render is Embree (Cycles' bundled Embree 4,
+our Debian Embree 3.13), and "ours' Embree / Cycles' all", the ratio to Cycles our engine would reach if
+everything but Embree were free (docs/benchmarks.md, "Embree in both engines"). Needs perf (linux-perf).
 """
 
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -37,8 +44,19 @@ GOALS = {"chiang": 0.7, "huang": 1.0}  # issue 29's hard goals, ours / Cycles at
 # (WxH or None for the scene's own, spp): sizes where sampling, not start-up, takes most of the time.
 BENCH_SIZE = {"bench_hair": (None, 32), "swatch": ([256, 192], 32), "huang_ellipse": ([320, 240], 32)}
 
+# --perf: the child switches the parent's `perf record` on and off around the render call (its control fifo).
+PERF_SWITCH = r"""
+import os
+def perf_switch(command):
+    if os.environ.get("HAIRBSDF_PERF_CTL"):
+        with open(os.environ["HAIRBSDF_PERF_CTL"], "w") as f:
+            f.write(command + "\n")
+        with open(os.environ["HAIRBSDF_PERF_ACK"]) as f:
+            f.readline()
+"""
+
 # Builds one scene in bpy, exports ours once, then times Cycles' render of it.
-CYCLES_CHILD = r"""
+CYCLES_CHILD = PERF_SWITCH + r"""
 import importlib, json, os, resource, sys, time
 import bpy
 import hairbsdf, hairbsdf.blender
@@ -81,18 +99,20 @@ scene.cycles.device = "CPU"
 scene.render.threads_mode = "FIXED"
 scene.render.threads = 2
 scene.render.filepath = os.path.join(os.path.dirname(npz), "cycles")
+perf_switch("enable")
 u0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
 bpy.ops.render.render(write_still=False)
 wall = time.perf_counter() - t0
 u1 = resource.getrusage(resource.RUSAGE_SELF)
+perf_switch("disable")
 cpu = (u1.ru_utime - u0.ru_utime) + (u1.ru_stime - u0.ru_stime)
 print("@@RESULT@@", json.dumps(dict(wall=wall, cpu=cpu, models=sorted(models),
                                     samples=scene.cycles.samples,
                                     res=[scene.render.resolution_x, scene.render.resolution_y])))
 """
 
-OURS_CHILD = r"""
+OURS_CHILD = PERF_SWITCH + r"""
 import json, resource, sys, time
 first, npz = sys.argv[-2], sys.argv[-1]
 if first:  # the other build: drop the editable install's finder, which would win over sys.path
@@ -102,22 +122,51 @@ import hairbsdf
 from hairbsdf.render import render
 from hairbsdf.scene_file import load_scene
 desc = load_scene(npz)[0]
+perf_switch("enable")
 u0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
 o = render(desc, threads=2)
 wall = time.perf_counter() - t0
 u1 = resource.getrusage(resource.RUSAGE_SELF)
+perf_switch("disable")
 cpu = (u1.ru_utime - u0.ru_utime) + (u1.ru_stime - u0.ru_stime)
 print("@@RESULT@@", json.dumps(dict(wall=wall, cpu=cpu, module=hairbsdf.__file__, rays=o["stats"]["rays"])))
 """
 
 
-def child(code, args):
-    r = subprocess.run([sys.executable, "-c", code] + args, capture_output=True, text=True)
+def child(code, args, perf_dir=None):
+    """Runs a child render; with perf_dir, under `perf record` around its render call, and adds the
+    child's samples by library (`perf`: {"samples": all, "embree": Embree's})."""
+    command, env = [sys.executable, "-c", code] + args, dict(os.environ)
+    if perf_dir:
+        ctl, ack, data = (os.path.join(perf_dir, n) for n in ("ctl", "ack", "perf.data"))
+        for fifo in (ctl, ack):
+            if not os.path.exists(fifo):
+                os.mkfifo(fifo)
+        env.update(HAIRBSDF_PERF_CTL=ctl, HAIRBSDF_PERF_ACK=ack)
+        command = ["perf", "record", "-q", "-e", "cpu-clock", "-F", "499", "-D", "-1",
+                   "--control", f"fifo:{ctl},{ack}", "-o", data, "--"] + command
+    r = subprocess.run(command, capture_output=True, text=True, env=env)
     for line in r.stdout.splitlines():
         if line.startswith("@@RESULT@@"):
-            return json.loads(line.split(None, 1)[1])
+            result = json.loads(line.split(None, 1)[1])
+            if perf_dir:
+                result["perf"] = samples_by_library(data)
+            return result
     raise SystemExit("a child render failed:\n" + r.stdout[-2000:] + r.stderr[-4000:])
+
+
+def samples_by_library(data):
+    """{"samples": the render call's samples, "embree": those in an Embree library} of a perf.data file."""
+    report = subprocess.run(["perf", "report", "-i", data, "--sort", "dso", "-n", "--stdio", "-q"],
+                            capture_output=True, text=True, check=True).stdout
+    total = embree = 0
+    for line in report.splitlines():
+        parts = line.split()
+        if len(parts) >= 3 and parts[0].endswith("%") and parts[1].isdigit():
+            total += int(parts[1])
+            embree += int(parts[1]) if parts[2].startswith("libembree") else 0
+    return dict(samples=total, embree=embree)
 
 
 def parse_res(text, ap):
@@ -130,6 +179,17 @@ def parse_res(text, ap):
         return res
     except ValueError:
         ap.error(f"--res: expected WxH with positive integers (e.g. 320x240), got {text!r}")
+
+
+def perf_line(row):
+    """One render pair's perf split: Embree's share of each engine's render call, and ours' Embree samples
+    over Cycles' samples (the ratio ours would reach if everything else were free)."""
+    cy, ours = row["cycles"]["perf"], row["ours"]["perf"]
+    share = lambda p: 100.0 * p["embree"] / max(p["samples"], 1)
+    return (f"perf: Embree {share(cy):.1f} % of Cycles' {cy['samples']} samples, {share(ours):.1f} % of ours' "
+            f"{ours['samples']}; ours / Cycles: all {ours['samples'] / max(cy['samples'], 1):.3f}, Embree "
+            f"{ours['embree'] / max(cy['embree'], 1):.3f}, ours' Embree / Cycles' all "
+            f"{ours['embree'] / max(cy['samples'], 1):.3f}")
 
 
 def known_scenes():
@@ -149,6 +209,8 @@ def main(argv=None):
     ap.add_argument("--res", default="", help="WxH (default: the scene's)")
     ap.add_argument("--before", default="", help="a folder put first on sys.path for a second build of ours")
     ap.add_argument("--json", default="", help="also write every measurement to this JSON file")
+    ap.add_argument("--perf", action="store_true",
+                    help="profile each render call with perf and split it into Embree and the rest")
     a = ap.parse_args(argv)
     scenes = [s for s in a.scenes.split(",") if s]
     allowed = known_scenes()
@@ -162,6 +224,8 @@ def main(argv=None):
     if a.before and not os.path.isdir(a.before):
         ap.error(f"--before: {a.before!r} is not a folder")
     res = parse_res(a.res, ap)
+    if a.perf and not shutil.which("perf"):
+        ap.error("--perf: the perf tool is not installed (Debian: apt-get install linux-perf)")
 
     rows = []
     print("| round | scene | models | Cycles wall / cpu s | ours wall / cpu s | ours / Cycles: wall / cpu |"
@@ -176,18 +240,21 @@ def main(argv=None):
                           file=sys.stderr, flush=True)
                     size = BENCH_SIZE.get(name, (None, 0))
                     args = [name, a.model, res or size[0], a.spp or size[1], npz, RENDER_UNITS]
-                    cy = child(CYCLES_CHILD, [json.dumps(args)])
-                    ours = child(OURS_CHILD, ["", npz])
+                    perf_dir = tmp if a.perf else None
+                    cy = child(CYCLES_CHILD, [json.dumps(args)], perf_dir)
+                    ours = child(OURS_CHILD, ["", npz], perf_dir)
                     row = dict(round=k + 1, scene=name, models=cy["models"], res=cy["res"], samples=cy["samples"],
                                cycles=cy, ours=ours)
                     line = (f"| {k + 1} | {name} | {'+'.join(cy['models'])} | {cy['wall']:.2f} / {cy['cpu']:.2f} | "
                             f"{ours['wall']:.2f} / {ours['cpu']:.2f} | {ours['wall'] / cy['wall']:.3f} / "
                             f"{ours['cpu'] / cy['cpu']:.3f} |")
                     if a.before:
-                        row["before"] = b = child(OURS_CHILD, [a.before, npz])
+                        row["before"] = b = child(OURS_CHILD, [a.before, npz], perf_dir)
                         line += f" {b['wall']:.2f} / {b['cpu']:.2f} | {b['cpu'] / cy['cpu']:.3f} |"
                     rows.append(row)
                     print(line, flush=True)
+                    if a.perf:
+                        print("  " + perf_line(row), flush=True)
     except KeyboardInterrupt:
         print("interrupted: the medians below cover the renders measured so far", file=sys.stderr)
     print()
@@ -203,6 +270,10 @@ def main(argv=None):
                                                                       "met in CPU time" if cpu <= goal else "not met"))
         print(f"{name} ({'+'.join(models)}, {mine[0]['res'][0]}x{mine[0]['res'][1]}, {mine[0]['samples']} spp, "
               f"{len(mine)} rounds): median ours / Cycles wall {wall:.3f}, cpu {cpu:.3f}{verdict}")
+        if a.perf:
+            floor = statistics.median(r["ours"]["perf"]["embree"] / max(r["cycles"]["perf"]["samples"], 1)
+                                      for r in mine)
+            print(f"  perf: median ours' Embree / Cycles' all {floor:.3f} (ours / Cycles with free shading)")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(rows, f, indent=1)
