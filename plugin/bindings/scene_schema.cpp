@@ -585,7 +585,7 @@ std::vector<SceneKey> make_schema() {
             .field(&Settings::light_sampling_threshold),
         Row("integrator.light_tree", K::Bool, "Cycles' light tree for NEE (4.x)").field(&Settings::light_tree),
         Row("integrator.chiang_lcg", K::Bool, "Cycles < 3.6: Chiang's per-hit LCG").field(&Settings::chiang_lcg),
-        Row("integrator.camera_ray_stream", K::Bool, "camera rays as one Embree stream per tile row (same image at float rounding)")
+        Row("integrator.camera_ray_stream", K::Bool, "camera rays as one coherent Embree stream per tile (same image at float rounding)")
             .field(&Settings::camera_ray_stream),
         Row("integrator.wavefront", K::Bool, "wavefront path tracer: a tile's rays as Embree streams, hits shaded by material (same image at float rounding)")
             .field(&Settings::wavefront),

@@ -1,5 +1,5 @@
 """integrator.camera_ray_stream (issue 29's first wavefront step, docs/engine.md "A wavefront engine"):
-camera rays traced as one coherent Embree stream per tile row give the per-pixel path tracer's image at
+camera rays traced as one coherent Embree stream per tile give the per-pixel path tracer's image at
 float rounding, on curves (round and ribbons), a mesh, and Huang's transparent bounces. Not bit for bit:
 Embree 3's packet traversal returns some hits one float rounding away from rtcIntersect1's (the depth
 and normal passes show it), and a path continues from that point; every path keeps its own random

@@ -443,8 +443,7 @@ bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, co
 
 }  // namespace stages
 
-PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters,
-                      const Hit* first_hit) {
+PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch& scratch, PathCounters& counters) {
     using namespace stages;
     PathState st(rng);
     st.ray = ray;
@@ -452,8 +451,7 @@ PathResult trace_path(const PreparedScene& s, Ray ray, Sampler& rng, PathScratch
     HitShading h;  // each hit's, written by prepare_bsdf
     ShadowRay shadow;  // each hit's light sample, written by sample_light
     for (;;) {
-        st.hit = first_hit ? *first_hit : s.geometry.intersect(st.ray, st.skip);
-        first_hit = nullptr;
+        st.hit = s.geometry.intersect(st.ray, st.skip);
         if (!after_trace(s, st, counters)) break;
         if (!prepare_bsdf(s, st, scratch, counters, h)) break;
         if (sample_light(s, st, scratch, h, counters, shadow) &&

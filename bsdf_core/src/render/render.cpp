@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 
-#include "hairbsdf/render/camera_stream.h"
 #include "hairbsdf/render/integrator.h"
 #include "hairbsdf/render/wavefront.h"
 
@@ -97,18 +96,12 @@ void RenderJob::run() {
                         film.add(pixel, p.radiance, p.transparent);
                         if (any_pass) film.add_passes(pixel, p.lobes, p.hit, p.depth, p.normal, p.radiance);
                     };
-                    if (st.wavefront) {  // the tile's paths together; the film in the per-pixel order
+                    // The tile's paths together (the wavefront, or only the camera rays as a stream);
+                    // the film in the per-pixel order.
+                    if (st.wavefront || st.camera_ray_stream) {
                         if (cancelled()) return;
-                        trace_tile_wavefront(prepared, t.x0, t.y0, t.x1, t.y1, s0, s1, sc, pc, to_film);
-                        tile_done(t);
-                        continue;
-                    }
-                    if (st.camera_ray_stream) {  // one coherent stream per tile row; the film in the same order
-                        for (int y = t.y0; y < t.y1; ++y) {
-                            if (cancelled()) return;
-                            trace_row_stream(prepared, y, t.x0, t.x1, s0, s1, sc, pc,
-                                             [&](int x, const PathResult& p) { to_film(x, y, p); });
-                        }
+                        trace_tile_wavefront(prepared, t.x0, t.y0, t.x1, t.y1, s0, s1,
+                                             st.wavefront && st.wavefront_streams, sc, pc, to_film);
                         tile_done(t);
                         continue;
                     }

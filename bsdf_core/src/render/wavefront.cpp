@@ -30,8 +30,9 @@ namespace {
 constexpr size_t kMaxPaths = 512;
 
 // Rows [y0, y1) of a tile: the wavefront proper.
-void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1, PathScratch& scratch,
-                PathCounters& counters, const std::function<void(int, int, const PathResult&)>& emit) {
+void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1, bool streams,
+                PathScratch& scratch, PathCounters& counters,
+                const std::function<void(int, int, const PathResult&)>& emit) {
     using namespace stages;
     const IntegratorSettings& is = s.desc.integrator;
     WavefrontStorage& w = *scratch.wavefront;
@@ -61,7 +62,7 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
         }
         if (camera_rays && is.camera_ray_stream) {
             s.geometry.intersect_stream(w.rays.data(), w.hits.data(), n);  // coherent packets
-        } else if (is.wavefront_streams) {
+        } else if (streams) {
             s.geometry.intersect_stream(w.rays.data(), w.skips.data(), w.hits.data(), n);
         } else {
             for (size_t j = 0; j < n; ++j) w.hits[j] = s.geometry.intersect(w.rays[j], w.skips[j]);
@@ -105,7 +106,7 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
             w.shadow_skips[j] = w.shadows[j].self;
             w.shadow_light_triangles[j] = w.shadows[j].light_triangle;
         }
-        if (is.wavefront_streams) {
+        if (streams) {
             s.geometry.occluded_stream(w.shadow_rays.data(), w.shadow_skips.data(), w.shadow_light_triangles.data(),
                                        w.occluded.data(), m);
         } else {
@@ -127,14 +128,14 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
 
 }  // namespace
 
-void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1,
+void trace_tile_wavefront(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1, bool streams,
                           PathScratch& scratch, PathCounters& counters,
                           const std::function<void(int, int, const PathResult&)>& emit) {
     if (!scratch.wavefront) scratch.wavefront = std::make_shared<WavefrontStorage>();
     const size_t row_paths = std::max<size_t>(1, size_t(x1 - x0) * size_t(s1 - s0));
     const int rows = int(std::max<size_t>(1, kMaxPaths / row_paths));
     for (int y = y0; y < y1; y += rows)
-        trace_rows(s, x0, y, x1, std::min(y + rows, y1), s0, s1, scratch, counters, emit);
+        trace_rows(s, x0, y, x1, std::min(y + rows, y1), s0, s1, streams, scratch, counters, emit);
 }
 
 }  // namespace hairbsdf::render

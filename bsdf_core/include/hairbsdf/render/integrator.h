@@ -79,10 +79,6 @@ struct PathScratch {
     std::vector<float> registers;   // the hit material's shading program
     std::vector<float> light_registers;  // an emissive triangle's program at a light sample
     std::vector<float> attributes;  // RGBA of each curve attribute at the hit
-    // A camera-ray stream's row (integrator.camera_ray_stream): kept so that rows reuse the storage.
-    std::vector<Sampler> stream_samplers;
-    std::vector<Ray> stream_rays;
-    std::vector<Hit> stream_hits;
     std::shared_ptr<WavefrontStorage> wavefront;  // integrator.wavefront: a tile's paths, kept for the next tile
 };
 
@@ -99,9 +95,8 @@ struct CameraPathStart {
 };
 CameraPathStart start_camera_path(const PreparedScene& scene, int column, int row, uint32_t sample);
 
-// One path from a given primary ray. `first_hit`: the primary ray's hit when it was traced
-// already (a camera-ray stream); otherwise the path traces it.
+// One path from a given primary ray, one ray at a time (the wavefront runs the same stages over many).
 PathResult trace_path(const PreparedScene& scene, Ray ray, Sampler& rng, PathScratch& scratch,
-                      PathCounters& counters, const Hit* first_hit = nullptr);
+                      PathCounters& counters);
 
 }  // namespace hairbsdf::render

@@ -208,15 +208,15 @@ struct IntegratorSettings {
     bool pass_depth = false;       // camera-space depth of the first hit
     bool pass_normal = false;      // world-space shading normal of the first hit
     bool pass_variance = false;    // variance of the pixel's mean radiance (squared standard error)
-    // Trace each tile row's camera rays as one coherent Embree stream (render/camera_stream.h);
-    // the same image at float rounding. Off: one rtcIntersect1 per camera ray.
+    // Trace a tile's camera rays as one coherent Embree stream (the wavefront's camera stream,
+    // render/wavefront.h); the same image at float rounding. Off: one rtcIntersect1 per camera ray.
     bool camera_ray_stream = false;
     // The wavefront path tracer (render/wavefront.h): each bounce of a tile's paths traced as
     // Embree streams, hits shaded grouped by material; the per-pixel loop's image.
     bool wavefront = false;
     // The wavefront's bounce and shadow rays as Embree streams (rtcIntersect1M / rtcOccluded1M, whose
     // packets return some hits a rounding step away); off: one rtcIntersect1 / rtcOccluded1 per ray,
-    // and with incoherent camera rays the image is the per-pixel loop's bit for bit.
+    // and without camera_ray_stream the image is the per-pixel loop's bit for bit.
     bool wavefront_streams = true;
 };
 
