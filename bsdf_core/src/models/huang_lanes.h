@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 #include "hairbsdf/models/huang.h"
 
@@ -28,9 +29,25 @@ struct HuangLanePoint {
     bool tt, trt;      // the lobes with a positive factor
 };
 
+// Points of the deterministic eval's TRT rule at one node and copy (HuangHair::trt_mis_point): the Sobol'
+// points [0, count) of dimensions 0-3, each XORed with the copy's digital shift; each point weighs
+// 2 u0 x weight.
+struct HuangTrtPoints {
+    size_t count;
+    const uint32_t* sobol[4];  // unshifted
+    uint32_t shift[4];
+    float gamma, sin_gamma, cos_gamma;
+    float weight;  // the node's Simpson weight x |d gamma / dh|
+    bool trrt_shell;  // TRRT+'s shell proposal (strategy C)
+};
+
 // Adds TT rgb, TRT rgb and TRRT+ rgb of every node into out[0..8], on the batch kernels' instruction set.
 void huang_residual_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
                           double out[9]);
+// Adds the sums of TRT rgb and TRRT+ rgb over the points (trt_mis_point's values: before the eval's
+// factors) into out[0..5]; each lane's values are summed in double.
+void huang_trt_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTrtPoints& points,
+                     double out[6]);
 // R's Simpson sum over its nodes (h and weight only; the draws are not read): sum of weight x r_integrand.
 double huang_r_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes);
 
@@ -38,6 +55,9 @@ namespace huang_lanes_detail {
 void huang_residual_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
 void huang_residual_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
 void huang_residual_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&, double*);
+void huang_trt_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
+void huang_trt_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
+void huang_trt_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
 double huang_r_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);

@@ -8,6 +8,10 @@ void huang_residual_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, c
                          double* out) {
     avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run(nodes, out);
 }
+void huang_trt_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTrtPoints& points,
+                     double* out) {
+    avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_trt(points, out);
+}
 double huang_r_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_r(nodes);
 }

@@ -8,6 +8,10 @@ void huang_residual_avx512(const HuangLaneConstants& c, const HuangLanePoint& p,
                          double* out) {
     avx512::HuangLanes<xsimd::avx512bw>{c, p}.run(nodes, out);
 }
+void huang_trt_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTrtPoints& points,
+                     double* out) {
+    avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_trt(points, out);
+}
 double huang_r_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_r(nodes);
 }

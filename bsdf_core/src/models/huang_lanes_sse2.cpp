@@ -8,6 +8,10 @@ void huang_residual_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, c
                          double* out) {
     sse2::HuangLanes<xsimd::sse2>{c, p}.run(nodes, out);
 }
+void huang_trt_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTrtPoints& points,
+                     double* out) {
+    sse2::HuangLanes<xsimd::sse2>{c, p}.run_trt(points, out);
+}
 double huang_r_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return sse2::HuangLanes<xsimd::sse2>{c, p}.run_r(nodes);
 }
