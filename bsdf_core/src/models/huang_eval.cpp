@@ -54,6 +54,31 @@ struct HuangHair::Residual {
         m.residual_point(sp, O, gamma, u1a, kTwoPi * u1b, u2a, kTwoPi * u2b, q.kind, w, final_scale, trrt_scale, g);
         for (int j = 0; j < 9; ++j) f[size_t(j)] = g[size_t(j)];
     }
+    // A box's points together: TT at a fixed gamma on the float lanes (huang_tt_lanes) when `lane` is set,
+    // else point by point.
+    const HuangLanePoint* lane = nullptr;
+    void eval_points(int p, const std::array<double, adaptive::kMaxDim>* xs, size_t n,
+                     std::array<double, adaptive::kMaxValues>* fs) const {
+        const Problem& q = problems[size_t(p)];
+        constexpr size_t kMaxPoints = 64;
+        if (!lane || q.kind != 0 || q.gamma_free || n > kMaxPoints) {
+            for (size_t k = 0; k < n; ++k) eval(p, xs[k], fs[k]);
+            return;
+        }
+        float u1a[kMaxPoints], u1b[kMaxPoints];
+        double v[3 * kMaxPoints];
+        for (size_t k = 0; k < n; ++k) {
+            u1a[k] = float(xs[k][0]);
+            u1b[k] = float(xs[k][1]);
+        }
+        huang_tt_lanes(m.lanes_, *lane, {n, u1a, u1b, float(q.gamma), float(std::sin(q.gamma)), float(std::cos(q.gamma))}, v);
+        for (size_t k = 0; k < n; ++k) {
+            // residual_point's weight: the node's, 2 u1a (the disk's radius linear in u), TT's factor and scale.
+            const double w = q.weight * 2.0 * xs[k][0] * m.factors_[1] * final_scale;
+            fs[k].fill(0.0);
+            for (size_t j = 0; j < 3; ++j) fs[k][j] = w * v[3 * k + j];
+        }
+    }
 };
 
 
@@ -237,6 +262,8 @@ std::array<RGB, kLobeCount> HuangHair::eval_local_impl(const ShadingPoint& sp, V
     // priority queue over all nodes, to the relative tolerance of the total.
     if (factors_[1] > 0.0 && !nodes.empty()) {
         Residual res{*this, sp, O, trrt_scale, final_scale, {}, 0.0};
+        const HuangLanePoint lane = lane_point(sp, O, wh, 1.0, 0.0, 0.0);
+        if (lanes) res.lane = &lane;
         adaptive::Integrator<Residual> integ(res);
         const std::array<double, adaptive::kMaxDim> lo{}, hi{1, 1, 1, 1, 1};
         // Each node starts as 3 x 3 boxes: the 17-point rule on the whole disk can miss the exit

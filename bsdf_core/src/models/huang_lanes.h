@@ -41,6 +41,14 @@ struct HuangTrtPoints {
     bool trrt_shell;  // TRRT+'s shell proposal (strategy C)
 };
 
+// Points of the deterministic eval's TT cubature at one node (HuangHair::Residual): entry disk points at
+// radius u1a and angle 2 pi u1b.
+struct HuangTtPoints {
+    size_t count;
+    const float *u1a, *u1b;
+    float gamma, sin_gamma, cos_gamma;
+};
+
 // Adds TT rgb, TRT rgb and TRRT+ rgb of every node into out[0..8], on the batch kernels' instruction set.
 void huang_residual_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes,
                           double out[9]);
@@ -48,6 +56,8 @@ void huang_residual_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, 
 // factors) into out[0..5]; each lane's values are summed in double.
 void huang_trt_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTrtPoints& points,
                      double out[6]);
+// tt_exit's rgb of each point (before any weight; 0 where the double path gives 0) into out[3 i + channel].
+void huang_tt_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTtPoints& points, double* out);
 // R's Simpson sum over its nodes (h and weight only; the draws are not read): sum of weight x r_integrand.
 double huang_r_lanes(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes);
 
@@ -58,6 +68,9 @@ void huang_residual_avx512(const HuangLaneConstants&, const HuangLanePoint&, con
 void huang_trt_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
 void huang_trt_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
 void huang_trt_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangTrtPoints&, double*);
+void huang_tt_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTtPoints&, double*);
+void huang_tt_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangTtPoints&, double*);
+void huang_tt_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangTtPoints&, double*);
 double huang_r_sse2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx2(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);
 double huang_r_avx512(const HuangLaneConstants&, const HuangLanePoint&, const HuangLaneNodes&);

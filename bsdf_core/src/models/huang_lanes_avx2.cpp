@@ -12,6 +12,10 @@ void huang_trt_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const 
                      double* out) {
     avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_trt(points, out);
 }
+void huang_tt_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTtPoints& points,
+                    double* out) {
+    avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_tt(points, out);
+}
 double huang_r_avx2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx2::HuangLanes<xsimd::fma3<xsimd::avx2>>{c, p}.run_r(nodes);
 }

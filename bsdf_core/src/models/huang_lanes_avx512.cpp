@@ -12,6 +12,10 @@ void huang_trt_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, cons
                      double* out) {
     avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_trt(points, out);
 }
+void huang_tt_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTtPoints& points,
+                    double* out) {
+    avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_tt(points, out);
+}
 double huang_r_avx512(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return avx512::HuangLanes<xsimd::avx512bw>{c, p}.run_r(nodes);
 }

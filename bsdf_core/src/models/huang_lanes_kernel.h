@@ -309,31 +309,37 @@ struct HuangLanes {
         return out;
     }
 
+    // HuangHair::tt_exit in lanes: TT's rgb into v where the returned mask is set.
+    HAIRBSDF_BATCH_INLINE M tt_exit(const Entry& e, B v[3]) const {
+        const V O = vec(p.O);
+        M tt = e.ok & (dot(O, e.wt) >= B(c.inv_eta - kTirEpsilonF));
+        const V wh2u = add(e.mwt, mul(B(c.inv_eta), O));
+        const B len = xsimd::sqrt(dot(wh2u, wh2u));
+        tt = tt & (len > B(1e-7f));
+        const B inv_len = B(1.0f) / len;
+        const V wh2 = mul(inv_len, wh2u);
+        const B cos_mh2 = dot(e.wmt, wh2), cos_hi2 = dot(e.mwt, wh2), cos_ho2 = -dot(O, wh2);
+        tt = tt & (cos_mh2 >= B(0.0f)) & (cos_hi2 > B(0.0f)) & (cos_ho2 > B(0.0f));
+        const B cos_mo2 = -dot(O, e.wmt);
+        const B t2 = (B(1.0f) - fresnel(cos_hi2, c.inv_eta)) * e.scale2;
+        const B scalar = e.entry * t2 * ggx_d(cos_mh2) * g2(e.cos_mi2, cos_mo2) * cos_hi2 * cos_ho2 * inv_len *
+                         inv_len * arc_length(e.sgmt);
+        for (int k = 0; k < 3; ++k) v[k] = scalar * e.a_t[k];
+        return tt & finite(v[0]) & finite(v[1]) & finite(v[2]);
+    }
+
     // W residual nodes from arrays holding at least W numbers from there.
     HAIRBSDF_BATCH_INLINE void nodes(M active, const float* h_in, const float* weight_in, const float* u1a,
                                      const float* u1b, const float* u2a, const float* u2b, B acc[9]) const {
-        const V O = vec(p.O);
         B gamma, sg, cg, weight;
         node_gamma(h_in, weight_in, gamma, sg, cg, weight);
         const B r1 = xsimd::sqrt(B::load_unaligned(u1a)), angle1 = B(kTwoPiF) * B::load_unaligned(u1b);
         const Entry e = entry_state(active, gamma, sg, cg, r1, angle1, p.trt);
         if (!xsimd::any(e.ok)) return;
 
-        if (p.tt) {  // tt_exit
-            M tt = e.ok & (dot(O, e.wt) >= B(c.inv_eta - kTirEpsilonF));
-            const V wh2u = add(e.mwt, mul(B(c.inv_eta), O));
-            const B len = xsimd::sqrt(dot(wh2u, wh2u));
-            tt = tt & (len > B(1e-7f));
-            const B inv_len = B(1.0f) / len;
-            const V wh2 = mul(inv_len, wh2u);
-            const B cos_mh2 = dot(e.wmt, wh2), cos_hi2 = dot(e.mwt, wh2), cos_ho2 = -dot(O, wh2);
-            tt = tt & (cos_mh2 >= B(0.0f)) & (cos_hi2 > B(0.0f)) & (cos_ho2 > B(0.0f));
-            const B cos_mo2 = -dot(O, e.wmt);
-            const B t2 = (B(1.0f) - fresnel(cos_hi2, c.inv_eta)) * e.scale2;
-            const B scalar = e.entry * t2 * ggx_d(cos_mh2) * g2(e.cos_mi2, cos_mo2) * cos_hi2 * cos_ho2 * inv_len *
-                             inv_len * arc_length(e.sgmt);
-            const B v[3] = {scalar * e.a_t[0], scalar * e.a_t[1], scalar * e.a_t[2]};
-            tt = tt & finite(v[0]) & finite(v[1]) & finite(v[2]);
+        if (p.tt) {
+            B v[3];
+            const M tt = tt_exit(e, v);
             const B w = weight * B(p.tt_scale);
             for (int k = 0; k < 3; ++k) acc[k] = xsimd::select(tt, xsimd::fma(w, v[k], acc[k]), acc[k]);
         }
@@ -505,6 +511,28 @@ struct HuangLanes {
                 const B w = weight * a / (a + b);
                 for (int k = 0; k < 3; ++k) trt[k] = xsimd::select(in.trt, xsimd::fma(w, in.v[k], trt[k]), trt[k]);
             }
+        }
+    }
+
+    // The TT cubature's points of one node (HuangTtPoints), W at a time: tt_exit's rgb per point into out.
+    void run_tt(const HuangTtPoints& n, double* out) const {
+        const B gamma(n.gamma), sg(n.sin_gamma), cg(n.cos_gamma);
+        alignas(64) float buf[2][W], on[W], v_out[3][W];
+        for (size_t k = 0; k < n.count; k += W) {
+            for (size_t j = 0; j < W; ++j) {
+                const bool in = k + j < n.count;
+                buf[0][j] = in ? n.u1a[k + j] : 0.0f;
+                buf[1][j] = in ? n.u1b[k + j] : 0.0f;
+                on[j] = in ? 1.0f : 0.0f;
+            }
+            const M active = B::load_aligned(on) != B(0.0f);
+            const Entry e = entry_state(active, gamma, sg, cg, B::load_aligned(buf[0]), B(kTwoPiF) * B::load_aligned(buf[1]),
+                                        false);
+            B v[3] = {B(0.0f), B(0.0f), B(0.0f)};
+            const M tt = xsimd::any(e.ok) ? tt_exit(e, v) : M(false);
+            for (int j = 0; j < 3; ++j) xsimd::select(tt, v[j], B(0.0f)).store_aligned(v_out[j]);
+            for (size_t j = 0; j < W && k + j < n.count; ++j)
+                for (int ch = 0; ch < 3; ++ch) out[3 * (k + j) + size_t(ch)] = double(v_out[ch][j]);
         }
     }
 

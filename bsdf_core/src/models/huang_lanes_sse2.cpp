@@ -12,6 +12,10 @@ void huang_trt_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const 
                      double* out) {
     sse2::HuangLanes<xsimd::sse2>{c, p}.run_trt(points, out);
 }
+void huang_tt_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangTtPoints& points,
+                    double* out) {
+    sse2::HuangLanes<xsimd::sse2>{c, p}.run_tt(points, out);
+}
 double huang_r_sse2(const HuangLaneConstants& c, const HuangLanePoint& p, const HuangLaneNodes& nodes) {
     return sse2::HuangLanes<xsimd::sse2>{c, p}.run_r(nodes);
 }
