@@ -1,6 +1,7 @@
-// Huang's stochastic eval (Cycles' estimator: R's Simpson sum, and TT, TRT and TRRT+ at each residual Simpson
-// node with the visible normals drawn from its LCG) as float SIMD lanes over the nodes (docs/simd.md). The caller
-// draws every node's numbers first, in Cycles' order, so the lanes keep the estimator. Private to bsdf_core.
+// Huang in float SIMD lanes (docs/simd.md). The stochastic eval (Cycles' estimator: R's Simpson sum, and TT, TRT
+// and TRRT+ at each residual Simpson node with the visible normals drawn from its LCG) as lanes over the nodes: the
+// caller draws every node's numbers first, in Cycles' order, so the lanes keep the estimator. The deterministic
+// eval's TRT rule and TT cubature as lanes over the points of one node. Private to bsdf_core.
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-// Huang's stochastic eval lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
+// Huang's lanes built for avx512 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
 #define HAIRBSDF_BATCH_NS avx512
 #include "huang_lanes_kernel.h"
 

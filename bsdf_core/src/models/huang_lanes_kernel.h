@@ -1,8 +1,9 @@
-// Huang's stochastic eval in float lanes over the Simpson nodes (docs/simd.md), included once per
-// instruction set by huang_lanes_<isa>.cpp inside its own namespace HAIRBSDF_BATCH_NS. Each lane is one
-// node and follows HuangHair's double path (r_integrand; add_residual_node: entry_state, tt_exit,
-// trt_from_entry, trt_internal in models/huang_paths.cpp) step by step in float; where the double path returns early, a
-// lane mask is cleared instead, and a lane adds its values only where its mask is set.
+// Huang in float lanes (docs/simd.md), included once per instruction set by huang_lanes_<isa>.cpp inside its own
+// namespace HAIRBSDF_BATCH_NS: the stochastic eval with one Simpson node per lane (run, run_r), and the
+// deterministic eval's TRT rule and TT cubature with one point of a node per lane (run_trt, run_tt). Each lane
+// follows HuangHair's double path (r_integrand; entry_state, tt_exit, trt_internal, trt_mis_point in
+// models/huang_paths.cpp) step by step in float; where the double path returns early, a lane mask is cleared
+// instead, and a lane adds its values only where its mask is set.
 #pragma once
 
 #include <xsimd/xsimd.hpp>

@@ -1,4 +1,4 @@
-// Huang's stochastic eval lanes built for sse2 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
+// Huang's lanes built for sse2 (compile flags in bsdf_core/CMakeLists.txt; chosen in huang_lanes.cpp).
 #define HAIRBSDF_BATCH_NS sse2
 #include "huang_lanes_kernel.h"
 
