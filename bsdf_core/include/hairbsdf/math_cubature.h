@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace hairbsdf::adaptive {
@@ -83,7 +85,16 @@ struct Box {
     int problem = 0;
 };
 
-// Integrand interface: `values` of problem p at point x (dimension dim(p)), written into out[0..n).
+// Whether Problems has eval_points(p, xs, n, fs): the n points of one box at once (else eval, point by point).
+template <class P, class = void>
+struct HasEvalPoints : std::false_type {};
+template <class P>
+struct HasEvalPoints<P, std::void_t<decltype(std::declval<const P&>().eval_points(
+                            0, static_cast<const std::array<double, kMaxDim>*>(nullptr), size_t(0),
+                            static_cast<std::array<double, kMaxValues>*>(nullptr)))>> : std::true_type {};
+
+// Integrand interface: `values` of problem p at point x (dimension dim(p)), written into out[0..n);
+// optionally eval_points, the same for a box's points together (HasEvalPoints).
 // `norm` turns a vector of values into the scalar whose error is controlled.
 template <class Problems>
 class Integrator {
@@ -137,13 +148,20 @@ private:
         double volume = 1;
         for (int i = 0; i < d; ++i) volume *= 2.0 * b.half[i];
         std::array<double, kMaxValues> i7{}, i5{};
-        fvals_.resize(r.points.size());
+        const size_t n = r.points.size();
+        fvals_.resize(n);
+        xs_.assign(n, std::array<double, kMaxDim>{});
+        fs_.assign(n, std::array<double, kMaxValues>{});
         const int nv = problems_.values(b.problem);
-        for (size_t k = 0; k < r.points.size(); ++k) {
-            std::array<double, kMaxDim> x{};
-            for (int i = 0; i < d; ++i) x[i] = b.center[i] + b.half[i] * r.points[k][i];
-            std::array<double, kMaxValues> f{};
-            problems_.eval(b.problem, x, f);
+        for (size_t k = 0; k < n; ++k)
+            for (int i = 0; i < d; ++i) xs_[k][i] = b.center[i] + b.half[i] * r.points[k][i];
+        if constexpr (HasEvalPoints<Problems>::value) {
+            problems_.eval_points(b.problem, xs_.data(), n, fs_.data());
+        } else {
+            for (size_t k = 0; k < n; ++k) problems_.eval(b.problem, xs_[k], fs_[k]);
+        }
+        for (size_t k = 0; k < n; ++k) {
+            const std::array<double, kMaxValues>& f = fs_[k];
             fvals_[k] = problems_.norm(b.problem, f);
             for (int j = 0; j < nv; ++j) {
                 i7[j] += r.w7[k] * f[j];
@@ -185,6 +203,8 @@ private:
     Problems& problems_;
     std::vector<Box> heap_;
     std::vector<double> fvals_;
+    std::vector<std::array<double, kMaxDim>> xs_;
+    std::vector<std::array<double, kMaxValues>> fs_;
     std::array<double, kMaxValues> totals_{};
     double error_sum_ = 0;
     long evaluations_ = 0;

@@ -54,12 +54,134 @@ struct HuangHair::Residual {
         m.residual_point(sp, O, gamma, u1a, kTwoPi * u1b, u2a, kTwoPi * u2b, q.kind, w, final_scale, trrt_scale, g);
         for (int j = 0; j < 9; ++j) f[size_t(j)] = g[size_t(j)];
     }
+    // A box's points together: TT at a fixed gamma on the float lanes (huang_tt_lanes) when `lane` is set,
+    // else point by point.
+    const HuangLanePoint* lane = nullptr;
+    void eval_points(int p, const std::array<double, adaptive::kMaxDim>* xs, size_t n,
+                     std::array<double, adaptive::kMaxValues>* fs) const {
+        const Problem& q = problems[size_t(p)];
+        constexpr size_t kMaxPoints = 64;
+        if (!lane || q.kind != 0 || q.gamma_free || n > kMaxPoints) {
+            for (size_t k = 0; k < n; ++k) eval(p, xs[k], fs[k]);
+            return;
+        }
+        float u1a[kMaxPoints], u1b[kMaxPoints];
+        double v[3 * kMaxPoints];
+        for (size_t k = 0; k < n; ++k) {
+            u1a[k] = float(xs[k][0]);
+            u1b[k] = float(xs[k][1]);
+        }
+        huang_tt_lanes(m.lanes_, *lane, {n, u1a, u1b, float(q.gamma), float(std::sin(q.gamma)), float(std::cos(q.gamma))}, v);
+        for (size_t k = 0; k < n; ++k) {
+            // residual_point's weight: the node's, 2 u1a (the disk's radius linear in u), TT's factor and scale.
+            const double w = q.weight * 2.0 * xs[k][0] * m.factors_[1] * final_scale;
+            fs[k].fill(0.0);
+            for (size_t j = 0; j < 3; ++j) fs[k][j] = w * v[3 * k + j];
+        }
+    }
 };
 
 
 // --- eval ---------------------------------------------------------------------------------------
 
+namespace {
+// TT's cubature runs on the float lanes from this tolerance up. Float rounding puts a floor of about 1e-6 to
+// 1e-5 of TT under the boxes' error estimates (the Genz-Malik rules' difference), which held tighter targets
+// (measured: tolerance 1e-5 spent a 2e6-point budget where double converged in 2e4) from converging.
+constexpr double kTtLanesMinTolerance = 1e-3;
+}  // namespace
+
+// R's lobe value from its integral over h (Simpson sum or quadrature; wh = normalize(I + O)).
+double HuangHair::r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const {
+    return factors_[0] * 0.25 * ggx::fresnel(dot(sp.I, wh), eta_) * integral * sp.norm;
+}
+
+namespace {
+// The shading point and O for the float lanes (huang_lanes.h), with the eval's scale factors.
+HuangLanePoint lane_point(const HuangHair::ShadingPoint& sp, Vec3 O, Vec3 wh, double tt_scale, double trt_scale,
+                          double trrt_scale) {
+    HuangLanePoint p{};
+    const double i[3] = {sp.I.x, sp.I.y, sp.I.z}, o[3] = {O.x, O.y, O.z}, h[3] = {wh.x, wh.y, wh.z};
+    for (int k = 0; k < 3; ++k) {
+        p.I[k] = float(i[k]);
+        p.O[k] = float(o[k]);
+        p.wh[k] = float(h[k]);
+    }
+    p.gamma_base = float(sp.gamma_base);
+    p.sin_phi_i = float(sp.sin_phi_i);
+    p.cos_phi_i = float(sp.cos_phi_i);
+    p.tt_scale = float(tt_scale);
+    p.trt_scale = float(trt_scale);
+    p.trrt_scale = float(trrt_scale);
+    p.tt = tt_scale > 0.0;
+    p.trt = trt_scale > 0.0;
+    return p;
+}
+
+// The unshifted Sobol' points [from, to) of dimensions 0-3, one array per dimension (the TRT lanes' input).
+struct SobolColumns {
+    std::vector<uint32_t> x[4];
+    const uint32_t* columns[4];
+    SobolColumns(uint32_t from, uint32_t to) {
+        const Sobol& so = sobol();
+        for (int d = 0; d < 4; ++d) {
+            x[d].resize(to - from);
+            for (uint32_t i = from; i < to; ++i) x[d][i - from] = so.point(i, d);
+            columns[d] = x[d].data();
+        }
+    }
+};
+}  // namespace
+
+void HuangHair::trt_node_points(const ShadingPoint& sp, Vec3 O, const Node& n, const uint32_t (&sh)[4],
+                                uint32_t from, uint32_t to, const uint32_t* const* columns, double trt_scale,
+                                double trrt_scale, double acc[6]) const {
+    if (columns) {
+        const HuangLanePoint p = lane_point(sp, O, Vec3{0, 0, 1}, 0.0, 1.0, 1.0);
+        HuangTrtPoints pts{};
+        pts.count = to - from;
+        for (int d = 0; d < 4; ++d) {
+            pts.sobol[d] = columns[d];
+            pts.shift[d] = sh[d];
+        }
+        pts.gamma = float(n.h);
+        pts.sin_gamma = float(std::sin(n.h));
+        pts.cos_gamma = float(std::cos(n.h));
+        pts.weight = float(n.weight);
+        pts.trrt_shell = trrt_shell_;
+        double sums[6] = {};
+        huang_trt_lanes(lanes_, p, pts, sums);
+        for (int j = 0; j < 3; ++j) {
+            acc[j] += trt_scale * sums[j];
+            acc[3 + j] += trrt_scale * sums[3 + j];
+        }
+        return;
+    }
+    const Sobol& so = sobol();
+    for (uint32_t i = from; i < to; ++i) {
+        const double u0 = double(so.point(i, 0) ^ sh[0]) * 0x1p-32;
+        const double u1 = double(so.point(i, 1) ^ sh[1]) * 0x1p-32;
+        const double u2 = double(so.point(i, 2) ^ sh[2]) * 0x1p-32;
+        const double u3 = double(so.point(i, 3) ^ sh[3]) * 0x1p-32;
+        RGB trt, trrt;
+        trt_mis_point(sp, O, n.h, u0, kTwoPi * u1, u2, u3, 2.0 * u0 * n.weight, trt, trrt);
+        trt = trt_scale * trt;
+        trrt = trrt_scale * trrt;
+        if (isfinite(trt)) acc[0] += trt.r, acc[1] += trt.g, acc[2] += trt.b;
+        if (isfinite(trrt)) acc[3] += trrt.r, acc[4] += trrt.g, acc[5] += trrt.b;
+    }
+}
+
 std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations) const {
+    return eval_local_impl(sp, O, evaluations, true);
+}
+
+std::array<RGB, kLobeCount> HuangHair::eval_local_double(const ShadingPoint& sp, Vec3 O, long* evaluations) const {
+    return eval_local_impl(sp, O, evaluations, false);
+}
+
+std::array<RGB, kLobeCount> HuangHair::eval_local_impl(const ShadingPoint& sp, Vec3 O, long* evaluations,
+                                                       bool lanes) const {
     std::array<RGB, kLobeCount> lobes{};
     if (evaluations) *evaluations = 0;
     if (!sp.valid) return lobes;
@@ -98,7 +220,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
             integral = adaptive_gk([&](double g) { return r_integrand_gamma(sp, O, wh, g); }, breaks,
                                    0.1 * params_.tolerance, 4000) / sp.r;
         }
-        r_value = factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm;
+        r_value = r_lobe(sp, wh, integral);
         lobes[0] = RGB(r_value);
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
@@ -147,6 +269,8 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
     // priority queue over all nodes, to the relative tolerance of the total.
     if (factors_[1] > 0.0 && !nodes.empty()) {
         Residual res{*this, sp, O, trrt_scale, final_scale, {}, 0.0};
+        const HuangLanePoint lane = lane_point(sp, O, wh, 1.0, 0.0, 0.0);
+        if (lanes && params_.tolerance >= kTtLanesMinTolerance) res.lane = &lane;
         adaptive::Integrator<Residual> integ(res);
         const std::array<double, adaptive::kMaxDim> lo{}, hi{1, 1, 1, 1, 1};
         // Each node starts as 3 x 3 boxes: the 17-point rule on the whole disk can miss the exit
@@ -180,10 +304,10 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
     if (factors_[2] > 0.0 && params_.trt_points == 0) {
         if (!nodes.empty())
             trt_by_tolerance(sp, O, nodes, trrt_node_factor, std::fabs(r_value) + std::fabs(luminance(lobes[1])),
-                             final_scale, trrt_scale, lobes, count);
+                             final_scale, trrt_scale, lanes, lobes, count);
     } else if (factors_[2] > 0.0) {
         const uint32_t npts = uint32_t(std::max(params_.trt_points, kMinFixedTrtPoints));
-        const Sobol& so = sobol();
+        const SobolColumns columns(0, lanes ? npts : 0);
         double acc[6] = {0, 0, 0, 0, 0, 0};
         uint32_t seed = 0x2545F491u;
         for (size_t kn = 0; kn < nodes.size(); ++kn) {
@@ -191,19 +315,10 @@ std::array<RGB, kLobeCount> HuangHair::eval_local(const ShadingPoint& sp, Vec3 O
             const double trrt_factor = kn < trrt_node_factor.size() ? trrt_node_factor[kn] : 1.0;
             uint32_t shift[4];
             for (uint32_t& sh : shift) sh = seed = lookup3_hash_uint2(seed, 0x9E3779B9u);
-            const double w = n.weight / double(npts);
-            for (uint32_t i = 0; i < npts; ++i) {
-                const double u0 = double(so.point(i, 0) ^ shift[0]) * 0x1p-32;
-                const double u1 = double(so.point(i, 1) ^ shift[1]) * 0x1p-32;
-                const double u2 = double(so.point(i, 2) ^ shift[2]) * 0x1p-32;
-                const double u3 = double(so.point(i, 3) ^ shift[3]) * 0x1p-32;
-                RGB trt, trrt;
-                trt_mis_point(sp, O, n.h, u0, kTwoPi * u1, u2, u3, 2.0 * u0 * w, trt, trrt);
-                trt = (factors_[2] * final_scale) * trt;
-                trrt = (trrt_factor * trrt_scale) * trrt;
-                acc[0] += trt.r, acc[1] += trt.g, acc[2] += trt.b;
-                if (isfinite(trrt)) acc[3] += trrt.r, acc[4] += trrt.g, acc[5] += trrt.b;
-            }
+            // An end node moved 1e-9 inside (trrt_factor 0.5) stays in double: float would lose the move.
+            const bool on_lanes = lanes && trrt_factor == 1.0;
+            trt_node_points(sp, O, {n.h, n.weight / double(npts)}, shift, 0, npts, on_lanes ? columns.columns : nullptr,
+                            factors_[2] * final_scale, trrt_factor * trrt_scale, acc);
             count += npts;
         }
         lobes[2] = RGB(acc[0], acc[1], acc[2]);
@@ -237,8 +352,8 @@ constexpr double kTrtMinimum = 20.0;  // at least kTrtMinimum / tolerance TRT po
 
 void HuangHair::trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
                                  const std::vector<double>& trrt_node_factor, double known_value, double final_scale,
-                                 double trrt_scale, std::array<RGB, kLobeCount>& lobes, long& count) const {
-    const Sobol& so = sobol();
+                                 double trrt_scale, bool lanes, std::array<RGB, kLobeCount>& lobes,
+                                 long& count) const {
     const size_t node_count = nodes.size();
     std::vector<std::array<uint32_t, 4>> shifts(node_count * kTrtReplicates);
     uint32_t seed = 0x1B873593u;  // not the fixed-point rule's shifts: the two stay independent
@@ -248,24 +363,16 @@ void HuangHair::trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vect
     std::array<std::array<double, 6>, kTrtReplicates> sums{};
     uint32_t points = 0;  // per node and replicate so far
     auto add = [&](uint32_t from, uint32_t to) {
+        const SobolColumns columns(from, lanes ? to : from);  // the points of this round, shared by every node
         for (size_t kn = 0; kn < node_count; ++kn) {
-            const Node& n = nodes[kn];
             const double trrt_factor = kn < trrt_node_factor.size() ? trrt_node_factor[kn] : 1.0;
+            // An end node moved 1e-9 inside (trrt_factor 0.5) stays in double: float would lose the move.
+            const bool on_lanes = lanes && trrt_factor == 1.0;
             for (int r = 0; r < kTrtReplicates; ++r) {
-                const auto& sh = shifts[kn * kTrtReplicates + size_t(r)];
-                auto& acc = sums[size_t(r)];
-                for (uint32_t i = from; i < to; ++i) {
-                    const double u0 = double(so.point(i, 0) ^ sh[0]) * 0x1p-32;
-                    const double u1 = double(so.point(i, 1) ^ sh[1]) * 0x1p-32;
-                    const double u2 = double(so.point(i, 2) ^ sh[2]) * 0x1p-32;
-                    const double u3 = double(so.point(i, 3) ^ sh[3]) * 0x1p-32;
-                    RGB trt, trrt;
-                    trt_mis_point(sp, O, n.h, u0, kTwoPi * u1, u2, u3, 2.0 * u0 * n.weight, trt, trrt);
-                    trt = (factors_[2] * final_scale) * trt;
-                    trrt = (trrt_factor * trrt_scale) * trrt;
-                    if (isfinite(trt)) acc[0] += trt.r, acc[1] += trt.g, acc[2] += trt.b;
-                    if (isfinite(trrt)) acc[3] += trrt.r, acc[4] += trrt.g, acc[5] += trrt.b;
-                }
+                const auto& shift = shifts[kn * kTrtReplicates + size_t(r)];
+                const uint32_t sh[4] = {shift[0], shift[1], shift[2], shift[3]};
+                trt_node_points(sp, O, nodes[kn], sh, from, to, on_lanes ? columns.columns : nullptr,
+                                factors_[2] * final_scale, trrt_factor * trrt_scale, sums[size_t(r)].data());
             }
         }
         count += long(to - from) * long(node_count) * kTrtReplicates;
@@ -377,28 +484,14 @@ void HuangHair::eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::v
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
     const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
     const bool trt = factors_[2] > 0.0;
-    HuangLanePoint p{};
-    const double i[3] = {I.x, I.y, I.z}, o[3] = {O.x, O.y, O.z}, h[3] = {wh.x, wh.y, wh.z};
-    for (int k = 0; k < 3; ++k) {
-        p.I[k] = float(i[k]);
-        p.O[k] = float(o[k]);
-        p.wh[k] = float(h[k]);
-    }
-    p.gamma_base = float(sp.gamma_base);
-    p.sin_phi_i = float(sp.sin_phi_i);
-    p.cos_phi_i = float(sp.cos_phi_i);
-    p.tt_scale = float(factors_[1] * final_scale);
-    p.trt_scale = float(factors_[2] * final_scale);
-    p.trrt_scale = float(trrt_scale);
-    p.tt = factors_[1] > 0.0;
-    p.trt = trt;
+    const HuangLanePoint p = lane_point(sp, O, wh, factors_[1] * final_scale, factors_[2] * final_scale, trrt_scale);
     if (factors_[0] > 0.0) {
         for (size_t k = 0; k < r_nodes.size(); ++k) {
             column[0][k] = float(r_nodes[k].h);
             column[1][k] = float(r_nodes[k].weight);
         }
         const double integral = huang_r_lanes(lanes_, p, {r_nodes.size(), column[0], column[1], {}, {}, {}, {}});
-        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+        lobes[0] = RGB(r_lobe(sp, wh, integral));
     }
     if (!(factors_[1] > 0.0) && !trt) return;
     for (size_t k = 0; k < nodes.size(); ++k) {
@@ -452,7 +545,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic_impl(const Shading
     if (factors_[0] > 0.0) {
         double integral = 0.0;
         for (const Node& n : r_nodes) integral += n.weight * r_integrand(sp, O, wh, n.h);
-        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+        lobes[0] = RGB(r_lobe(sp, wh, integral));
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
     add_residual_nodes(sp, O, nodes, rng, lobes);
@@ -473,7 +566,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoin
         if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
         double integral = 0.0;
         for (const Node& n : have_nodes ? sp.r_nodes : computed) integral += n.weight * r_integrand(sp, O, wh, n.h);
-        lobes[0] = RGB(factors_[0] * 0.25 * ggx::fresnel(dot(I, wh), eta_) * integral * sp.norm);
+        lobes[0] = RGB(r_lobe(sp, wh, integral));
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
     if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);

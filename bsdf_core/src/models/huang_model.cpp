@@ -56,6 +56,8 @@ void HuangHair::fill_lane_constants() {
     l.sigma_a[0] = float(params_.sigma_a.r);
     l.sigma_a[1] = float(params_.sigma_a.g);
     l.sigma_a[2] = float(params_.sigma_a.b);
+    l.shell_lo = float(trrt_shell_lo_);
+    l.shell_hi = float(trrt_shell_hi_);
     l.circular = b_ == 1.0;
     const bool v5 = params_.glass_albedo_table == GlassAlbedoTable::Cycles5;
     l.sqrt_mu = v5;

@@ -116,6 +116,7 @@ struct HuangLaneConstants {
     static constexpr int kMaxRow = 32;  // the larger table's side (Cycles 5.x)
     float alpha, alpha2, sin_tilt, cos_tilt, b, e2, eta, inv_eta;
     float sigma_a[3];
+    float shell_lo, shell_hi;  // TRRT+'s shell: trrt_shell_lo_, trrt_shell_hi_
     bool circular;   // b == 1
     bool sqrt_mu;    // the table's axis is sqrt(mu) (Cycles 5.x)
     int row_size;    // 16 or 32
@@ -188,7 +189,11 @@ public:
     std::array<double, 2> angular_scales() const { return {std::max(0.5 * alpha_, 0.01), std::max(0.5 * alpha_, 0.01)}; }
 
     // Per-lobe values in the local frame (exposed for tests): the expected value of Cycles' eval.
+    // Its TRT and TRRT+ points run as float SIMD lanes (docs/simd.md).
     std::array<RGB, kLobeCount> eval_local(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
+    // The same eval (same points, shifts and stopping rule) with TRT and TRRT+ in double, one point at a time:
+    // the reference the lanes are tested against.
+    std::array<RGB, kLobeCount> eval_local_double(const ShadingPoint& sp, Vec3 O, long* evaluations = nullptr) const;
     // Cycles' stochastic eval, one random visible normal per Simpson node (for tests and the
     // noise measurements): `rng_state` is Cycles' LCG state, advanced as Cycles does.
     // Its Simpson nodes (R's and the residual's) run as float SIMD lanes, as Cycles computes in float
@@ -332,9 +337,17 @@ private:
     ShellFrame trrt_shell_frame(const EntryState& e) const;
     Vec3 trrt_shell_sample(const ShellFrame& f, double u2, double u3) const;
     double trrt_shell_density(const ShellFrame& f, Vec3 h) const;
+    std::array<RGB, kLobeCount> eval_local_impl(const ShadingPoint& sp, Vec3 O, long* evaluations, bool lanes) const;
+    double r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
                           const std::vector<double>& trrt_node_factor, double known_value, double final_scale,
-                          double trrt_scale, std::array<RGB, kLobeCount>& lobes, long& count) const;
+                          double trrt_scale, bool lanes, std::array<RGB, kLobeCount>& lobes, long& count) const;
+    // TRT and TRRT+ of trt_mis_point over the Sobol' points [from, to) of node n (gamma, weight) with the
+    // digital shifts sh, times trt_scale and trrt_scale, added to acc[0..5]; on the float lanes when columns
+    // (the unshifted points [from, to), one array per dimension 0-3) is given, else in double.
+    void trt_node_points(const ShadingPoint& sp, Vec3 O, const Node& n, const uint32_t (&sh)[4], uint32_t from,
+                         uint32_t to, const uint32_t* const* columns, double trt_scale, double trrt_scale,
+                         double acc[6]) const;
     void trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double u2, double u3,
                        double weight, RGB& trt, RGB& trrt) const;
     double r_integrand(const ShadingPoint& sp, Vec3 O, Vec3 wh, double h) const;
