@@ -556,42 +556,32 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoin
                                                                  double u_node, uint32_t& rng) const {
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
-    const Vec3 I = sp.I;
-    const double cto = cos_theta(O);
-    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
-    std::vector<Node> computed;
+    if (tan_tilt_ * (O.y / cos_theta(O)) < -1.0) return lobes;
     const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
-    if (factors_[0] > 0.0) {
-        const Vec3 wh = normalize(I + O);
-        if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
-        double integral = 0.0;
-        for (const Node& n : have_nodes ? sp.r_nodes : computed) integral += n.weight * r_integrand(sp, O, wh, n.h);
-        lobes[0] = RGB(r_lobe(sp, wh, integral));
+    std::vector<Node> r_computed, computed;
+    if (!have_nodes) {
+        if (factors_[0] > 0.0) r_computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
+        if (factors_[1] > 0.0 || factors_[2] > 0.0) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);
     }
-    if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
-    if (!have_nodes) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);
+    const std::vector<Node>& r_nodes = have_nodes ? sp.r_nodes : r_computed;
     const std::vector<Node>& nodes = have_nodes ? sp.residual_nodes : computed;
-    double total = 0.0;
-    for (const Node& n : nodes) total += n.weight;
-    count = std::max<size_t>(count, 1);
-    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
-    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
-    std::array<double, 9> acc{};
-    // Systematic selection: positions (u_node + j) / count of the cumulative Simpson weight.
-    size_t pick = 0;
-    double below = nodes[0].weight;
-    for (size_t j = 0; j < count; ++j) {
-        const double target = (u_node + double(j)) / double(count) * total;
-        while (pick + 1 < nodes.size() && below <= target) below += nodes[++pick].weight;
-        const double gamma = h_to_gamma(sp, nodes[pick].h);
-        const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
-        // weight / (count x probability): each position picks node k with probability weight_k / total.
-        const double w = total / double(count) * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
-        add_residual_node(sp, O, gamma, sin_gamma, cos_gamma, w, final_scale, trrt_scale, rng, acc);
+    // Systematic selection: positions (u_node + j) / count of the cumulative Simpson weight; each
+    // position picks node k with probability weight_k / total, so it weighs total / count.
+    std::vector<Node> picked;
+    if (!nodes.empty()) {
+        double total = 0.0;
+        for (const Node& n : nodes) total += n.weight;
+        count = std::max<size_t>(count, 1);
+        picked.reserve(count);
+        size_t pick = 0;
+        double below = nodes[0].weight;
+        for (size_t j = 0; j < count; ++j) {
+            const double target = (u_node + double(j)) / double(count) * total;
+            while (pick + 1 < nodes.size() && below <= target) below += nodes[++pick].weight;
+            picked.push_back({nodes[pick].h, total / double(count)});
+        }
     }
-    lobes[1] = RGB(acc[0], acc[1], acc[2]);
-    lobes[2] = RGB(acc[3], acc[4], acc[5]);
-    lobes[3] = RGB(acc[6], acc[7], acc[8]);
+    eval_lanes(sp, O, normalize(sp.I + O), r_nodes, picked, rng, lobes);
     return lobes;
 }
 
