@@ -654,6 +654,32 @@ TEST(HuangHair, StochasticEvalRowsUnchanged) {
     }
 }
 
+namespace {
+
+// A parameter set of the lanes tests: the model's inputs that the lanes compute with.
+struct LanesCase {
+    double aspect, roughness, eta, offset;
+    RGB sigma;
+    GlassAlbedoTable table;
+    double tt_factor, trt_factor;
+};
+
+HuangHairParams lanes_case_params(const LanesCase& cs) {
+    HuangHairParams p;
+    p.sigma_a = cs.sigma;
+    p.roughness = cs.roughness;
+    p.aspect_ratio = cs.aspect;
+    p.eta = cs.eta;
+    p.offset = cs.offset;
+    p.glass_albedo_table = cs.table;
+    p.tt_factor = cs.tt_factor;
+    p.trt_factor = cs.trt_factor;
+    p.mixture_detail = HuangHairParams::MixtureDetail::None;
+    return p;
+}
+
+}  // namespace
+
 // The engine's eval (float lanes over the Simpson nodes) against the double path one node at a time, on
 // random rows over the parameters the lanes branch on (circular and elliptic fibres, both E_glass
 // tables, absorbing or clear, IOR, tilt, lobe factors 0), on every instruction set the CPU has. Each row
@@ -665,13 +691,7 @@ TEST(HuangHair, StochasticEvalRowsUnchanged) {
 // close. With a tilt, TRRT+ flips on 3-5 % of the rows: its end nodes sit on the tilt-limited visibility
 // edge, where rounding decides (docs/huang.md §4), and the set's TRRT+ sums differ by up to 0.9 %.
 TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
-    struct Case {
-        double aspect, roughness, eta, offset;
-        RGB sigma;
-        GlassAlbedoTable table;
-        double tt_factor, trt_factor;
-    };
-    const Case cases[] = {
+    const LanesCase cases[] = {
         {1.0, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0, 1.0},
         {0.8, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0, 1.0},
         {0.5, 0.15, 1.3, 0.0, RGB(0.0), GlassAlbedoTable::Cycles5, 1.0, 1.0},
@@ -684,18 +704,9 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
     for (const char* isa : isas) {
         if (std::string(simd_isa_name(set_simd_isa(isa))) != isa) continue;  // not on this CPU
         for (size_t ci = 0; ci < std::size(cases); ++ci) {
-            const Case& cs = cases[ci];
-            HuangHairParams p;
-            p.sigma_a = cs.sigma;
-            p.roughness = cs.roughness;
-            p.aspect_ratio = cs.aspect;
-            p.eta = cs.eta;
-            p.offset = cs.offset;
-            p.glass_albedo_table = cs.table;
-            p.tt_factor = cs.tt_factor;
-            p.trt_factor = cs.trt_factor;
+            const LanesCase& cs = cases[ci];
+            HuangHairParams p = lanes_case_params(cs);
             p.sampler = HuangSampler::Cycles;
-            p.mixture_detail = HuangHairParams::MixtureDetail::None;
             const HuangHair m(p);
             std::mt19937_64 gen(7 + ci);
             std::normal_distribution<double> g;
@@ -767,34 +778,20 @@ TEST(HuangHair, StochasticLanesMatchTheDoublePath) {
 // Measured (2026-11-27, 40 rows a case, five cases, AVX-512, AVX2, SSE2): median <= 2.2e-6, 90th percentile
 // <= 1.1e-5, worst row 8.2e-4 (TRRT+ with a -3 deg tilt), sums over a set <= 2.5e-5.
 TEST(HuangHair, DeterministicLanesMatchTheDoublePath) {
-    struct Case {
-        double aspect, roughness, eta, offset;
-        RGB sigma;
-        GlassAlbedoTable table;
-        double trt_factor;
-    };
-    const Case cases[] = {
-        {1.0, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0},
-        {0.8, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0},
-        {0.5, 0.15, 1.3, 0.0, RGB(0.0), GlassAlbedoTable::Cycles5, 1.0},
-        {0.3, 0.6, 1.8, -3.0 * kPi / 180.0, RGB(2.0, 3.0, 0.0), GlassAlbedoTable::Cycles4, 0.5},
-        {1.0, 0.1, 1.55, 0.0, RGB(0.0), GlassAlbedoTable::Cycles5, 1.0},
+    const LanesCase cases[] = {
+        {1.0, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0, 1.0},
+        {0.8, 0.3, 1.55, 2.0 * kPi / 180.0, RGB(0.2, 0.5, 1.0), GlassAlbedoTable::Cycles4, 1.0, 1.0},
+        {0.5, 0.15, 1.3, 0.0, RGB(0.0), GlassAlbedoTable::Cycles5, 1.0, 1.0},
+        {0.3, 0.6, 1.8, -3.0 * kPi / 180.0, RGB(2.0, 3.0, 0.0), GlassAlbedoTable::Cycles4, 1.0, 0.5},
+        {1.0, 0.1, 1.55, 0.0, RGB(0.0), GlassAlbedoTable::Cycles5, 1.0, 1.0},
     };
     const char* const isas[] = {"avx512", "avx2", "sse2"};
     const std::string best = simd_isa_name(simd_isa());
     for (size_t ci = 0; ci < std::size(cases); ++ci) {
-        const Case& cs = cases[ci];
-        HuangHairParams p;
-        p.sigma_a = cs.sigma;
-        p.roughness = cs.roughness;
-        p.aspect_ratio = cs.aspect;
-        p.eta = cs.eta;
-        p.offset = cs.offset;
-        p.glass_albedo_table = cs.table;
-        p.trt_factor = cs.trt_factor;
+        const LanesCase& cs = cases[ci];
+        HuangHairParams p = lanes_case_params(cs);
         p.trt_points = 256;
         p.tolerance = 1e-1;  // TT's cubature: cheap, and the same on both paths
-        p.mixture_detail = HuangHairParams::MixtureDetail::None;
         const HuangHair m(p);
         std::mt19937_64 gen(11 + ci);
         std::normal_distribution<double> g;
