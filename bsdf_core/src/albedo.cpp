@@ -38,40 +38,32 @@ std::array<double, 2> closure_scales(const ClosureSum& bsdf) {
 
 bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, double tolerance, long max_samples,
                            RGB& albedo) {
-    const HuangHairParams& p = model.params();
-    if (p.quadrature != HuangQuadrature::Cycles || p.mixture_detail == HuangHairParams::MixtureDetail::None)
-        return false;
+    if (model.params().quadrature != HuangQuadrature::Cycles) return false;
     albedo = RGB(0.0);
     const HuangHair::ShadingPoint sp = model.prepare(ctx);
     if (sp.transparent || !sp.valid) return true;
+    const HuangHair::AlbedoNodes nodes = model.albedo_nodes(sp);
+    // Randomized quasi-Monte Carlo: 4 copies of one Sobol' set (its 5 dimensions: the nodes and the
+    // normals), each with its own digital shifts; the lobes' directions from hashed numbers.
     constexpr int kReplicates = 4;
-    constexpr size_t kNodeStride = 1;
+    constexpr int kSobolDimensions = 5;
     const Sobol& so = sobol();
-    uint32_t shift[kReplicates][4];  // direction (3) and residual node (1)
+    uint32_t shift[kReplicates][kSobolDimensions];
     uint32_t seed = 0x6C8E9CF5u;
     for (auto& row : shift)
         for (uint32_t& sh : row) sh = seed = lookup3_hash_uint2(seed, 0x9E3779B9u);
-    // Residual nodes per direction: node count / kNodeStride, chosen systematically by Simpson weight.
-    // Measured (docs/huang.md §6) at strides 1, 4 and 16: 1 was the cheapest for the same error.
-    const size_t subset = (sp.residual_nodes.size() + kNodeStride - 1) / kNodeStride;
     std::array<RGB, kReplicates> sums{};
     double lum_sum = 0.0, lum_squares = 0.0;  // over all samples: the plain Monte Carlo error
     uint32_t points = 0;  // per replicate
+    std::array<double, HuangHair::kAlbedoNumbers> u;
     auto add = [&](uint32_t from, uint32_t to) {
         for (int r = 0; r < kReplicates; ++r) {
             for (uint32_t i = from; i < to; ++i) {
-                const std::array<double, 3> u{double(so.point(i, 0) ^ shift[r][0]) * 0x1p-32,
-                                              double(so.point(i, 1) ^ shift[r][1]) * 0x1p-32,
-                                              double(so.point(i, 2) ^ shift[r][2]) * 0x1p-32};
-                Vec3 O;
-                if (model.sample_direction(sp, u, O) < 0) continue;
-                const double pdf = model.pdf_local(sp, O);
-                if (!(pdf > 0.0)) continue;
-                uint32_t rng = lookup3_hash_uint2(i, uint32_t(r) + 0x85EBCA6Bu);
-                const double u_node = double(so.point(i, 3) ^ shift[r][3]) * 0x1p-32;
-                const auto lobes = model.eval_cycles_node_subset(sp, O, subset, u_node, rng);
-                RGB f = lobes[0] + lobes[1] + lobes[2] + lobes[3];
-                f = (1.0 / pdf) * f;
+                for (int d = 0; d < kSobolDimensions; ++d) u[size_t(d)] = double(so.point(i, d) ^ shift[r][d]) * 0x1p-32;
+                uint32_t key = lookup3_hash_uint2(i, uint32_t(r) + 0x85EBCA6Bu);
+                for (size_t d = kSobolDimensions; d < u.size(); ++d) u[d] = double(key = lookup3_hash_uint2(key, uint32_t(d))) * 0x1p-32;
+                const auto lobes = model.albedo_sample(sp, nodes, u);
+                const RGB f = lobes[0] + lobes[1] + lobes[2] + lobes[3];
                 if (!isfinite(f)) continue;
                 sums[size_t(r)] += f;
                 lum_sum += luminance(f);
@@ -86,8 +78,8 @@ bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, do
         double mean = 0.0, var = 0.0, lum[kReplicates];
         for (int r = 0; r < kReplicates; ++r) mean += (lum[r] = luminance(sums[size_t(r)]) / points) / kReplicates;
         for (double l : lum) var += (l - mean) * (l - mean);
-        // The copies' spread (3 degrees of freedom) misses rare large weights of this heavy-tailed
-        // estimator and stopped early (1-4 % low at alpha 0.1); the per-sample variance does not.
+        // The copies' spread (3 degrees of freedom) can miss rare large values; the per-sample variance
+        // (an upper bound for the quasi-Monte Carlo error) does not.
         const double n = double(points) * kReplicates;
         const double sample_variance = std::max(lum_squares / n - sqr(lum_sum / n), 0.0) * n / (n - 1.0);
         const double standard_error = std::max(std::sqrt(var / ((kReplicates - 1) * kReplicates)),

@@ -9,20 +9,16 @@ namespace hairbsdf {
 struct QuadratureOptions {
     double panels_per_scale = 1.0;  // panels per narrowest lobe width, 6 Gauss-Legendre nodes each
     long max_nodes = 4'000'000;     // cap on theta x phi nodes
-    // Huang closures (accuracy "cycles", with a mixture sampler): > 0 replaces their quadrature
-    // by the mean of Cycles' stochastic eval / the mixture pdf over mixture-sampled directions, to
-    // this standard error relative to the albedo (huang_albedo_estimate); < 0: each closure's own
-    // tolerance; 0 keeps the quadrature.
+    // Huang closures (accuracy "cycles"): > 0 replaces their quadrature by huang_albedo_estimate to this
+    // standard error relative to the albedo; < 0: each closure's own tolerance; 0 keeps the quadrature.
     double huang_tolerance = 0.0;
 };
 
-// Huang's directional albedo as the expectation of the sampled weight: Cycles' stochastic eval
-// (whose expectation is the deterministic eval) over the mixture's density at mixture-sampled
-// directions, the residual nodes chosen systematically by Simpson weight (HuangHair::eval_cycles_node_subset);
-// randomized quasi-Monte Carlo, doubled until the standard error of the luminance (the larger of the
-// shifted copies' spread and the per-sample error) is below 0.5 x tolerance x the estimate (at most
-// max_samples). Returns false where it does not apply
-// (accuracy "converged" or no mixture): then use the quadrature.
+// Huang's directional albedo by Cycles' stochastic eval integrated along each path's own exit
+// (HuangHair::albedo_sample; its expectation is the integral of the deterministic eval); randomized
+// quasi-Monte Carlo, doubled until the standard error of the luminance (the larger of the shifted copies'
+// spread and the per-sample error) is below 0.5 x tolerance x the estimate (at most max_samples). Returns
+// false where it does not apply (accuracy "converged"): then use the quadrature.
 bool huang_albedo_estimate(const HuangHair& model, const ShadingContext& ctx, double tolerance, long max_samples,
                            RGB& albedo);
 

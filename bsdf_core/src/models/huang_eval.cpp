@@ -91,6 +91,9 @@ namespace {
 constexpr double kTtLanesMinTolerance = 1e-3;
 }  // namespace
 
+// Below this O's angle to the fibre, every tilted mesonormal faces away from O (dot(O, mesonormal) < 0).
+bool HuangHair::tilt_hides(Vec3 O) const { return tan_tilt_ * (O.y / cos_theta(O)) < -1.0; }
+
 // R's lobe value from its integral over h (Simpson sum or quadrature; wh = normalize(I + O)).
 double HuangHair::r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const {
     return factors_[0] * 0.25 * ggx::fresnel(dot(sp.I, wh), eta_) * integral * sp.norm;
@@ -187,7 +190,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_local_impl(const ShadingPoint& sp, V
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
     const double cto = cos_theta(O);
-    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;  // dot(O, mesonormal) < 0 everywhere
+    if (tilt_hides(O)) return lobes;
     const Vec3 wh = normalize(I + O);
 
     // R lobe: a 1D integral, Cycles' Simpson nodes or adaptive Gauss-Kronrod in gamma.
@@ -527,8 +530,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic_impl(const Shading
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
-    const double cto = cos_theta(O);
-    if (tan_tilt_ * (O.y / cto) < -1.0) return lobes;
+    if (tilt_hides(O)) return lobes;
     const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
     std::vector<Node> r_computed, computed;
     if (!have_nodes) {
@@ -549,39 +551,6 @@ std::array<RGB, kLobeCount> HuangHair::eval_cycles_stochastic_impl(const Shading
     }
     if (!(factors_[1] > 0.0) && !(factors_[2] > 0.0)) return lobes;
     add_residual_nodes(sp, O, nodes, rng, lobes);
-    return lobes;
-}
-
-std::array<RGB, kLobeCount> HuangHair::eval_cycles_node_subset(const ShadingPoint& sp, Vec3 O, size_t count,
-                                                                 double u_node, uint32_t& rng) const {
-    std::array<RGB, kLobeCount> lobes{};
-    if (!sp.valid) return lobes;
-    if (tan_tilt_ * (O.y / cos_theta(O)) < -1.0) return lobes;
-    const bool have_nodes = !sp.r_nodes.empty() && !sp.residual_nodes.empty();
-    std::vector<Node> r_computed, computed;
-    if (!have_nodes) {
-        if (factors_[0] > 0.0) r_computed = simpson_nodes(sp.h_lo, sp.h_hi, kRStep);
-        if (factors_[1] > 0.0 || factors_[2] > 0.0) computed = simpson_nodes(sp.h_lo, sp.h_hi, kResidualStep);
-    }
-    const std::vector<Node>& r_nodes = have_nodes ? sp.r_nodes : r_computed;
-    const std::vector<Node>& nodes = have_nodes ? sp.residual_nodes : computed;
-    // Systematic selection: positions (u_node + j) / count of the cumulative Simpson weight; each
-    // position picks node k with probability weight_k / total, so it weighs total / count.
-    std::vector<Node> picked;
-    if (!nodes.empty()) {
-        double total = 0.0;
-        for (const Node& n : nodes) total += n.weight;
-        count = std::max<size_t>(count, 1);
-        picked.reserve(count);
-        size_t pick = 0;
-        double below = nodes[0].weight;
-        for (size_t j = 0; j < count; ++j) {
-            const double target = (u_node + double(j)) / double(count) * total;
-            while (pick + 1 < nodes.size() && below <= target) below += nodes[++pick].weight;
-            picked.push_back({nodes[pick].h, total / double(count)});
-        }
-    }
-    eval_lanes(sp, O, normalize(sp.I + O), r_nodes, picked, rng, lobes);
     return lobes;
 }
 

@@ -79,6 +79,15 @@ RGB HuangHair::tt_exit(const EntryState& e, Vec3 O) const {
     return isfinite(v) ? v : RGB();
 }
 
+Vec3 HuangHair::trt_exit_mesonormal(const EntryState& e, Vec3 wtr, double* sin_gamma, double* cos_gamma) const {
+    const double phi_tr_b = b_ == 1.0 ? dir_phi(wtr) : std::atan2(b_ * wtr.x, wtr.z);
+    const double gmtr = e.gamma - 2.0 * (e.phi_t_b - phi_tr_b) + kPi;
+    const double s = std::sin(gmtr), c = std::cos(gmtr);
+    if (sin_gamma) *sin_gamma = s;
+    if (cos_gamma) *cos_gamma = c;
+    return mesonormal_sc(-sin_tilt_, cos_tilt_, s, c);
+}
+
 // The internal reflection at the second interface with microfacet normal wh2 and the exit to O:
 // TRT (returned) and the TRRT+ series (trrt; 0 where Cycles does not add it).
 RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out, bool trrt_only) const {
@@ -97,11 +106,8 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     if (!visible(e.mwt, mwtr, e.wmt, wh2) || !visible(e.mwt, mwtr, e.wmt_, wh2)) return {};
     trrt = series;
     if (trrt_only) return {};
-    const double phi_tr = b_ == 1.0 ? dir_phi(wtr) : 0.0;
-    const double phi_tr_b = b_ == 1.0 ? phi_tr : std::atan2(b_ * wtr.x, wtr.z);
-    const double gmtr = e.gamma - 2.0 * (e.phi_t_b - phi_tr_b) + kPi;
-    const double sin_gmtr = std::sin(gmtr), cos_gmtr = std::cos(gmtr);
-    const Vec3 wmtr = mesonormal_sc(-sin_tilt_, cos_tilt_, sin_gmtr, cos_gmtr);
+    double sin_gmtr, cos_gmtr;
+    const Vec3 wmtr = trt_exit_mesonormal(e, wtr, &sin_gmtr, &cos_gmtr);
     const Vec3 wmtr_ = mesonormal_sc(0.0, 1.0, sin_gmtr, cos_gmtr);
     const Vec3 wh3u = wtr + inv_eta_ * O;
     const double len3 = length(wh3u);
@@ -117,7 +123,7 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     const double t3 = (1.0 - ggx::fresnel(cos_hi3, inv_eta_)) * energy_scale_leaving(cos_mi3);
     double path_tr;
     if (b_ == 1.0) {
-        path_tr = 2.0 * std::fabs(std::cos(phi_tr - e.gmt));
+        path_tr = 2.0 * std::fabs(std::cos(dir_phi(wtr) - e.gmt));
     } else {
         const double gx = sin_gmtr - e.sin_gmt, gz = b_ * (cos_gmtr - e.cos_gmt);
         path_tr = std::sqrt(gx * gx + gz * gz);
@@ -209,6 +215,13 @@ double HuangHair::trrt_shell_density(const ShellFrame& f, Vec3 h) const {
     return azimuth / (trrt_shell_hi_ - trrt_shell_lo_);
 }
 
+double HuangHair::trrt_visible_share(const ShellFrame& f, const Component& visible_normals, Vec3 h) const {
+    const double pc = trrt_shell_density(f, h);
+    if (!(pc > 0.0)) return 1.0;
+    const double pa = vndf_density(visible_normals, h, alpha2_);
+    return pa / (pa + pc);
+}
+
 // TRT with two strategies for the internal direction, combined by the balance heuristic: the
 // internal-reflection visible normals (what Cycles samples: density qa of wtr) and refraction of O
 // into the fibre through visible normals around the mesonormal of the specular exit point
@@ -234,8 +247,7 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
     };
     // Proposal for the exit: the mesonormal where the specular internal reflection leaves.
     const Vec3 wtr0 = -1.0 * ggx::reflect(e.wt, e.wmt);
-    const double phi_tr0_b = b_ == 1.0 ? dir_phi(wtr0) : std::atan2(b_ * wtr0.x, wtr0.z);
-    const Vec3 out_normal = -1.0 * mesonormal(-tilt_, e.gamma - 2.0 * (e.phi_t_b - phi_tr0_b) + kPi);
+    const Vec3 out_normal = -1.0 * trt_exit_mesonormal(e, wtr0);
     Component cb;
     cb.v = O;
     cb.m = out_normal;
@@ -259,12 +271,7 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
     // the internal mesonormal (pa is then not a density) or there is no shell.
     const bool shell = trrt_shell_ && cos_vm > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
     const ShellFrame frame = shell ? trrt_shell_frame(e) : ShellFrame{};
-    auto trrt_weight = [&](Vec3 h) {  // pa / (pa + pc)
-        const double pc = trrt_shell_density(frame, h);
-        if (!(pc > 0.0)) return 1.0;
-        const double pa = vndf_density(ca, h, alpha2_);
-        return pa / (pa + pc);
-    };
+    auto trrt_weight = [&](Vec3 h) { return trrt_visible_share(frame, ca, h); };
     // Strategy A: Cycles' internal visible normal.
     {
         const Vec3 wh2 = vndf_sample(ca.v, ca.m, ca.s, ca.t, alpha_, std::sqrt(u2), kTwoPi * u3);

@@ -7,19 +7,42 @@ namespace hairbsdf {
 
 // --- sampling mixture ---------------------------------------------------------------------------
 
+HuangHair::Component HuangHair::component(Vec3 v, Vec3 m, double probability) const {
+    Component c;
+    c.v = v;
+    c.m = m;
+    make_orthonormals(m, c.s, c.t);
+    const double vm = dot(v, m);
+    c.inv_norm = 1.0 / (vm * (1.0 + ggx::lambda(alpha2_, vm)));
+    c.probability = probability;
+    return c;
+}
+
+// O = refraction of v out of the fibre through h, h ~ visible normals of v around c.m.
+bool HuangHair::exit_sample(const Component& c, double r, double angle, Vec3& O) const {
+    const Vec3 h = vndf_sample(c.v, c.m, c.s, c.t, alpha_, r, angle);
+    double cos_t = 0.0;
+    if (!(ggx::fresnel(dot(c.v, h), inv_eta_, &cos_t) < 1.0) || !(dot(c.v, h) > 0.0)) return false;
+    O = ggx::refract(c.v, h, cos_t, eta_);
+    return true;
+}
+
+// h = normalize(eta v + O), Jacobian |O.h| / (eta v.h + O.h)^2.
+double HuangHair::exit_density(const Component& c, Vec3 O) const {
+    const Vec3 hu = eta_ * c.v + O;
+    const double len = length(hu);
+    if (!(len > 0.0)) return 0.0;
+    const Vec3 h = (1.0 / len) * hu;
+    const double vh = dot(c.v, h), oh = dot(O, h);
+    if (!(vh > 0.0) || !(oh < 0.0)) return 0.0;
+    const double denom = eta_ * vh + oh;
+    return vndf_density(c, h, alpha2_) * std::fabs(oh) / (denom * denom);
+}
+
 void HuangHair::build_sampler(ShadingPoint& sp) const {
     const Vec3 I = sp.I;
     const double lo = sp.h_lo, hi = sp.h_hi, range = hi - lo;
-    auto make = [&](Vec3 v, Vec3 m, double p) {
-        Component c;
-        c.v = v;
-        c.m = m;
-        make_orthonormals(m, c.s, c.t);
-        const double vm = dot(v, m);
-        c.inv_norm = 1.0 / (vm * (1.0 + ggx::lambda(alpha2_, vm)));
-        c.probability = p;
-        return c;
-    };
+    auto make = [&](Vec3 v, Vec3 m, double p) { return component(v, m, p); };
     // Component counts: h positions per lobe and entry / internal-reflection points per h.
     const bool coarse = params_.mixture_detail == HuangHairParams::MixtureDetail::Coarse;
     const double max_r = coarse ? 12.0 : 48.0, max_tt = coarse ? 4.0 : 16.0, max_trt = coarse ? 2.0 : 8.0;
@@ -183,18 +206,10 @@ double HuangHair::pdf_local(const ShadingPoint& sp, Vec3 O) const {
             }
         }
     }
-    // TT / TRT: refraction out of the fibre, h = normalize(eta v + O), Jacobian |O.h| / (eta v.h + O.h)^2.
+    // TT / TRT: refraction out of the fibre.
     for (size_t k = 0; k < sp.exits.size(); ++k) {
         const Component& c = sp.exits[k];
-        const double lobe_p = sp.lobe_probability[k < sp.tt_count ? 1 : 2];
-        const Vec3 hu = eta_ * c.v + O;
-        const double len = length(hu);
-        if (!(len > 0.0)) continue;
-        const Vec3 h = (1.0 / len) * hu;
-        const double vh = dot(c.v, h), oh = dot(O, h);
-        if (!(vh > 0.0) || !(oh < 0.0)) continue;
-        const double denom = eta_ * vh + oh;
-        p += lobe_p * c.probability * vndf_density(c, h, alpha2_) * std::fabs(oh) / (denom * denom);
+        p += sp.lobe_probability[k < sp.tt_count ? 1 : 2] * c.probability * exit_density(c, O);
     }
     // TRRT+: Chiang's longitudinal lobe with v = 4 alpha around -theta_I, uniform in phi.
     if (sp.lobe_probability[3] > 0.0)
@@ -236,11 +251,7 @@ int HuangHair::sample_direction(const ShadingPoint& sp, const std::array<double,
     } else if (lobe == 1 || lobe == 2) {
         const Component* c = lobe == 1 ? pick(sp.exits.data(), sp.tt_count)
                                        : pick(sp.exits.data() + sp.tt_count, sp.exits.size() - sp.tt_count);
-        if (!c) return none;
-        const Vec3 h = vndf_sample(c->v, c->m, c->s, c->t, alpha_, r, ang);
-        double cos_t = 0.0;
-        if (!(ggx::fresnel(dot(c->v, h), inv_eta_, &cos_t) < 1.0) || !(dot(c->v, h) > 0.0)) return none;
-        O = ggx::refract(c->v, h, cos_t, eta_);
+        if (!c || !exit_sample(*c, r, ang, O)) return none;
     } else if (lobe == 3) {
         const double v = 4.0 * alpha_;
         const double st = sample_longitudinal(v, std::exp(-2.0 / v), u[0], u[1], I.y, cos_theta(I));

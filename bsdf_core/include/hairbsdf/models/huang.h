@@ -202,14 +202,27 @@ public:
     // The same estimator (same draws, nodes and weights) in double precision, one node at a time: the
     // reference the lanes are tested against.
     std::array<RGB, kLobeCount> eval_cycles_stochastic_double(const ShadingPoint& sp, Vec3 O, uint32_t& rng_state) const;
-    // Cycles' stochastic eval over a subset of its residual nodes: R by its Simpson sum, the residual
-    // at `count` nodes chosen systematically by their Simpson weight (positions (u_node + j) / count
-    // of the cumulative weight), each divided by its expected count. Over u_node and rng_state its
-    // expectation is eval_cycles_stochastic's, at a cost set by count (the albedo estimator).
-    std::array<RGB, kLobeCount> eval_cycles_node_subset(const ShadingPoint& sp, Vec3 O, size_t count, double u_node,
-                                                        uint32_t& rng_state) const;
     // The mixture density in the local frame.
     double pdf_local(const ShadingPoint& sp, Vec3 O) const;
+
+    // The directional albedo (the integral of eval over directions) by Cycles' stochastic eval with each
+    // path's own exit: per sample, a residual node and an R node picked by |weight| (u[0]), the node's
+    // random normals as eval_cycles_stochastic draws them (u[1..4]), and per lobe one direction from that
+    // path's exit (R: reflection through the visible normals of I; TT, TRT: refraction out through the
+    // exit's visible normals; TRRT+: its longitudinal lobe; each with a uniform part), value / density.
+    // Its expectation is the albedo of eval_cycles_stochastic, hence of eval (docs/huang.md §6).
+    struct AlbedoNode {
+        double gamma, sin_gamma, cos_gamma;
+        double weight;      // Simpson weight x d gamma / dh
+        double cumulative;  // running sum of |weight| up to and including this node
+    };
+    struct AlbedoNodes {
+        std::vector<AlbedoNode> r, residual;
+    };
+    AlbedoNodes albedo_nodes(const ShadingPoint& sp) const;
+    static constexpr size_t kAlbedoNumbers = 18;
+    std::array<RGB, kLobeCount> albedo_sample(const ShadingPoint& sp, const AlbedoNodes& nodes,
+                                              const std::array<double, kAlbedoNumbers>& u) const;
     Vec3 to_local(const ShadingPoint& sp, Vec3 w) const { return {dot(w, sp.x), dot(w, sp.y), dot(w, sp.z)}; }
     Vec3 to_world(const ShadingPoint& sp, Vec3 w) const { return w.x * sp.x + w.y * sp.y + w.z * sp.z; }
 
@@ -337,6 +350,9 @@ private:
     ShellFrame trrt_shell_frame(const EntryState& e) const;
     Vec3 trrt_shell_sample(const ShellFrame& f, double u2, double u3) const;
     double trrt_shell_density(const ShellFrame& f, Vec3 h) const;
+    // The balance heuristic's weight of Cycles' internal visible normals (density pa of `visible_normals`)
+    // against the shell (pc) at the normal h: pa / (pa + pc), 1 outside the shell.
+    double trrt_visible_share(const ShellFrame& f, const Component& visible_normals, Vec3 h) const;
     std::array<RGB, kLobeCount> eval_local_impl(const ShadingPoint& sp, Vec3 O, long* evaluations, bool lanes) const;
     double r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
@@ -354,6 +370,16 @@ private:
     double r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const;
     RGB absorption(double path, double cos_theta) const;
     void build_sampler(ShadingPoint& sp) const;
+    // A sampling component: visible normals of direction v around the unit normal m.
+    Component component(Vec3 v, Vec3 m, double probability) const;
+    // Refraction out of the fibre through a visible normal of component c (disk point r, angle; the mixture's
+    // TT and TRT exits): false where none leaves (total internal reflection). Its density (solid angle) at O.
+    bool exit_sample(const Component& c, double r, double angle, Vec3& O) const;
+    double exit_density(const Component& c, Vec3 O) const;
+    // The eval is 0 for directions the tilted mesonormals turn away from everywhere.
+    bool tilt_hides(Vec3 O) const;
+    // TRT's exit mesonormal for the internally reflected direction wtr of entry state e (sin and cos of its gamma).
+    Vec3 trt_exit_mesonormal(const EntryState& e, Vec3 wtr, double* sin_gamma = nullptr, double* cos_gamma = nullptr) const;
     void fill_lane_constants();
     void set_frame(const ShadingContext& ctx, ShadingPoint& sp) const;  // frame, I, r, transparent
     BsdfSample sample_cycles(const ShadingPoint& sp, const std::array<double, 3>& u) const;

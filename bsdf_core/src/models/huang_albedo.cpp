@@ -1,0 +1,178 @@
+// Huang hair: the directional albedo's estimator (docs/huang.md §6). The albedo is the integral over O of
+// eval, whose value is the expectation of Cycles' stochastic eval: a sum over Simpson nodes of paths with
+// random visible normals. Integrating each node's path over O with O drawn from that path's own exit
+// (given its normals, the exit is one microfacet lobe) leaves only the variation between paths, so the
+// estimate needs few samples at any roughness.
+#include "huang_internal.h"
+
+#include <algorithm>
+
+namespace hairbsdf {
+
+HuangHair::AlbedoNodes HuangHair::albedo_nodes(const ShadingPoint& sp) const {
+    AlbedoNodes out;
+    auto fill = [&](const std::vector<Node>& nodes, std::vector<AlbedoNode>& into) {
+        double cumulative = 0.0;
+        for (const Node& n : nodes) {
+            const double gamma = h_to_gamma(sp, n.h);
+            const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
+            const double w = n.weight * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
+            if (!(w != 0.0) || !std::isfinite(w)) continue;
+            cumulative += std::fabs(w);
+            into.push_back({gamma, sin_gamma, cos_gamma, w, cumulative});
+        }
+    };
+    if (factors_[0] > 0.0) fill(sp.r_nodes, out.r);
+    if (factors_[1] > 0.0 || factors_[2] > 0.0) fill(sp.residual_nodes, out.residual);
+    return out;
+}
+
+namespace {
+// Node k with probability |weight_k| / total from u; returns the estimator's factor weight_k / probability_k.
+const HuangHair::AlbedoNode* pick_node(const std::vector<HuangHair::AlbedoNode>& nodes, double u, double& factor) {
+    if (nodes.empty()) return nullptr;
+    const double total = nodes.back().cumulative;
+    const auto it = std::upper_bound(nodes.begin(), nodes.end(), u * total,
+                                     [](double x, const HuangHair::AlbedoNode& n) { return x < n.cumulative; });
+    const HuangHair::AlbedoNode& n = it == nodes.end() ? nodes.back() : *it;
+    factor = n.weight < 0.0 ? -total : total;
+    return &n;
+}
+
+constexpr double kUniformDensity = 1.0 / (4.0 * kPi);
+
+Vec3 uniform_direction(double a, double b) {
+    const double y = 1.0 - 2.0 * a, ct = cos_from_sin(y), phi = kTwoPi * b;
+    return {std::sin(phi) * ct, y, std::cos(phi) * ct};
+}
+}  // namespace
+
+// Numbers: u[0] the nodes; u[1..2] the entry normal and u[3..4] the internal one (eval_cycles_stochastic's
+// (a, b) and (c, d)); then per lobe (choice of the uniform part, two or three for the direction): TT u[5..7],
+// TRT u[8..10], TRRT+ u[11..14], R u[15..17].
+std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, const AlbedoNodes& nodes,
+                                                     const std::array<double, kAlbedoNumbers>& u) const {
+    std::array<RGB, kLobeCount> lobes{};
+    if (!sp.valid || sp.transparent) return lobes;
+    const Vec3 I = sp.I;
+    // A direction from the lobe's sampler with probability 1 - kUniformProbability (when there is one), else
+    // uniform; returns its density, 0 where none was drawn or the eval is 0 there.
+    auto direction = [&](const double* v, const auto& lobe_sample, const auto& lobe_density, bool has_lobe,
+                         Vec3& O) {
+        const bool uniform = !has_lobe || v[0] < kUniformProbability;
+        if (uniform)
+            O = uniform_direction(v[1], v[2]);
+        else if (!lobe_sample(v + 1, O))
+            return 0.0;
+        if (tilt_hides(O)) return 0.0;
+        if (!has_lobe) return kUniformDensity;
+        return (1.0 - kUniformProbability) * lobe_density(O) + kUniformProbability * kUniformDensity;
+    };
+
+    // R: reflection through the visible normals of I around the node's tilted mesonormal.
+    double factor = 0.0;
+    if (const AlbedoNode* n = pick_node(nodes.r, u[0], factor)) {
+        const Vec3 wm = mesonormal_sc(sin_tilt_, cos_tilt_, n->sin_gamma, n->cos_gamma);
+        const bool has_lobe = dot(I, wm) > 1e-6;
+        const Component c = has_lobe ? component(I, wm, 1.0) : Component{};
+        Vec3 O;
+        const double density = direction(
+            &u[15],
+            [&](const double* v, Vec3& out) {
+                const Vec3 h = vndf_sample(c.v, c.m, c.s, c.t, alpha_, std::sqrt(v[0]), kTwoPi * v[1]);
+                out = (2.0 * dot(I, h)) * h - I;
+                return true;
+            },
+            [&](Vec3 o) {
+                const Vec3 sum = I + o;
+                const double len = length(sum);
+                if (!(len > 0.0)) return 0.0;
+                const Vec3 h = (1.0 / len) * sum;
+                const double ih = dot(I, h);
+                return ih > 0.0 ? vndf_density(c, h, alpha2_) / (4.0 * ih) : 0.0;
+            },
+            has_lobe, O);
+        if (density > 0.0 && length(I + O) > 0.0) {
+            const Vec3 wh = normalize(I + O);
+            const double value = r_lobe(sp, wh, factor * r_integrand_sc(sp, O, wh, n->sin_gamma, n->cos_gamma));
+            if (std::isfinite(value)) lobes[0] = RGB(value / density);
+        }
+    }
+
+    const AlbedoNode* n = pick_node(nodes.residual, u[0], factor);
+    if (!n) return lobes;
+    EntryState e;
+    if (!entry_state(sp, n->gamma, n->sin_gamma, n->cos_gamma, std::sqrt(u[1]), kTwoPi * u[2], e)) return lobes;
+    const double final_scale = sp.norm * inv_eta_ * inv_eta_;
+    auto exit_direction = [&](const double* v, const Component& c, bool has_lobe, Vec3& O) {
+        return direction(
+            v, [&](const double* w, Vec3& out) { return exit_sample(c, std::sqrt(w[0]), kTwoPi * w[1], out); },
+            [&](Vec3 o) { return exit_density(c, o); }, has_lobe, O);
+    };
+    // TT: refraction out through the visible normals of -wt around the exit mesonormal.
+    if (factors_[1] > 0.0) {
+        const bool has_lobe = e.cos_mi2 > 1e-6;
+        const Component c = has_lobe ? component(e.mwt, e.wmt, 1.0) : Component{};
+        Vec3 O;
+        const double density = exit_direction(&u[5], c, has_lobe, O);
+        if (density > 0.0) {
+            const RGB v = (factor * factors_[1] * final_scale / density) * tt_exit(e, O);
+            if (isfinite(v)) lobes[1] = v;
+        }
+    }
+    if (!(factors_[2] > 0.0)) return lobes;
+    // The internal visible normal as eval_cycles_stochastic draws it.
+    Vec3 s2, t2;
+    make_orthonormals(e.wmt, s2, t2);
+    const Vec3 wh2 = vndf_sample(e.mwt, e.wmt, s2, t2, alpha_, std::sqrt(u[3]), kTwoPi * u[4]);
+    // TRT: refraction out through the visible normals of the internally reflected direction around its exit's
+    // mesonormal.
+    {
+        const Vec3 wtr = -1.0 * ggx::reflect(e.wt, wh2);
+        const Vec3 wmtr = trt_exit_mesonormal(e, wtr);
+        const bool has_lobe = dot(wtr, wmtr) > 1e-6;
+        const Component c = has_lobe ? component(wtr, wmtr, 1.0) : Component{};
+        Vec3 O;
+        const double density = exit_direction(&u[8], c, has_lobe, O);
+        if (density > 0.0) {
+            RGB trrt;
+            const RGB v = (factor * factors_[2] * final_scale / density) * trt_internal(e, wh2, O, trrt);
+            if (isfinite(v)) lobes[2] = v;
+        }
+    }
+    // TRRT+: O from its longitudinal lobe; the series (which depends on O only through total internal
+    // reflection at the exit) over the internal normal with TRRT+'s shell (trt_mis_point's two strategies).
+    {
+        const double cos_i = cos_theta(I), v_trrt = 4.0 * alpha_;
+        Vec3 O;
+        const double density = direction(
+            &u[11],
+            [&](const double* w, Vec3& out) {
+                const double st = sample_longitudinal(v_trrt, std::exp(-2.0 / v_trrt), w[0], w[1], I.y, cos_i);
+                const double ct = cos_from_sin(st), phi = kTwoPi * w[2];
+                out = normalize(Vec3{std::sin(phi) * ct, st, std::cos(phi) * ct});
+                return true;
+            },
+            [&](Vec3 o) { return trrt_sampler_.eval(o.y, cos_theta(o), I.y, cos_i) * kInvTwoPi; }, true, O);
+        if (density > 0.0) {
+            const double trrt_scale = trrt_m_.eval(I.y, cos_i, O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+            const bool shell = trrt_shell_ && e.cos_mi2 > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
+            RGB series;
+            trt_internal(e, wh2, O, series, nullptr, true);
+            if (shell) {
+                const Component ca = component(e.mwt, e.wmt, 1.0);
+                const ShellFrame frame = trrt_shell_frame(e);
+                series = trrt_visible_share(frame, ca, wh2) * series;
+                const Vec3 h = trrt_shell_sample(frame, u[3], u[4]);
+                RGB shell_series;
+                trt_internal(e, h, O, shell_series, nullptr, true);
+                series += trrt_visible_share(frame, ca, h) * shell_series;
+            }
+            const RGB v = (factor * trrt_scale / density) * series;
+            if (isfinite(v)) lobes[3] = v;
+        }
+    }
+    return lobes;
+}
+
+}  // namespace hairbsdf
