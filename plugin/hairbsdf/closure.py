@@ -198,10 +198,10 @@ class Closure:
                tolerance=None, huang_quadrature: bool = False) -> np.ndarray:
         """Directional albedo, the integral of eval over all wi, by deterministic
         composite Gauss-Legendre quadrature sized from the narrowest lobe, (N, 3).
-        Huang closures (accuracy "cycles") instead average Cycles' stochastic eval over the
-        mixture pdf at mixture-sampled directions (the sampled weight, unbiased for the eval's
-        integral) until its standard error is below half of `tolerance` (default: the closure's)
-        times the albedo, at most max_nodes samples (docs/huang.md §6); huang_quadrature=True
+        Huang closures (accuracy "cycles") instead integrate Cycles' stochastic eval along each
+        sampled path's own exit (unbiased for the eval's integral) until its standard error is
+        below half of `tolerance` (default: the closure's) times the albedo, at most max_nodes
+        samples (docs/huang.md §6); huang_quadrature=True
         keeps the quadrature for them too (slow: minutes a row)."""
         wo, h = self._rows(wo=check.directions("wo", wo), h=check.offsets("h", h))
         panels = check.real("panels_per_scale", panels_per_scale)

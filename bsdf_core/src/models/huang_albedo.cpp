@@ -9,34 +9,58 @@
 
 namespace hairbsdf {
 
+// Nodes are picked with probability 0.8 x (the node's share of a pilot estimate) + 0.2 / count. The pilot: the
+// node's value by albedo_node at 8 fixed points (entry normals on a ring of the disk, the exits through
+// their centres). Not by |weight| alone: d gamma / dh makes the end nodes heavy (up to 20x at h = +-0.999)
+// where grazing paths carry little (and often leave by total internal reflection).
 HuangHair::AlbedoNodes HuangHair::albedo_nodes(const ShadingPoint& sp) const {
     AlbedoNodes out;
-    auto fill = [&](const std::vector<Node>& nodes, std::vector<AlbedoNode>& into) {
-        double cumulative = 0.0;
+    auto fill = [&](const std::vector<Node>& nodes, bool residual, std::vector<AlbedoNode>& into) {
+        std::vector<double> weight, share;
+        constexpr int kPilot = 8;
         for (const Node& n : nodes) {
             const double gamma = h_to_gamma(sp, n.h);
             const double sin_gamma = std::sin(gamma), cos_gamma = std::cos(gamma);
             const double w = n.weight * dgamma_dh_sc(sp.sin_phi_i, sp.cos_phi_i, sin_gamma, cos_gamma);
             if (!(w != 0.0) || !std::isfinite(w)) continue;
-            cumulative += std::fabs(w);
-            into.push_back({gamma, sin_gamma, cos_gamma, w, cumulative});
+            const AlbedoNode node{gamma, sin_gamma, cos_gamma, w, 0.0};
+            double pilot = 0.0;
+            for (int k = 0; k < kPilot; ++k) {
+                std::array<double, kAlbedoNumbers> u;
+                u.fill(0.5);  // the lobes' own samplers (0.5 > kUniformProbability)
+                u[1] = u[3] = 0.5;                                  // the normals' disk radius sqrt(0.5)
+                u[2] = u[4] = (k + 0.5) / kPilot;                   // around the ring
+                u[6] = u[9] = u[12] = u[16] = 0.0;                  // the exits through the centre
+                std::array<RGB, kLobeCount> lobes{};
+                albedo_node(sp, node, residual, u, lobes);
+                for (const RGB& v : lobes) pilot += std::fabs(luminance(v));
+            }
+            into.push_back(node);
+            weight.push_back(w);
+            share.push_back(std::isfinite(pilot) ? pilot : 0.0);
+        }
+        double total = 0.0;
+        for (double x : share) total += x;
+        const double count = double(into.size());
+        double cumulative = 0.0;
+        for (size_t k = 0; k < into.size(); ++k) {
+            const double probability = total > 0.0 ? 0.8 * share[k] / total + 0.2 / count : 1.0 / count;
+            into[k].factor = weight[k] / probability;
+            into[k].cumulative = (cumulative += probability);
         }
     };
-    if (factors_[0] > 0.0) fill(sp.r_nodes, out.r);
-    if (factors_[1] > 0.0 || factors_[2] > 0.0) fill(sp.residual_nodes, out.residual);
+    if (factors_[0] > 0.0) fill(sp.r_nodes, false, out.r);
+    if (factors_[1] > 0.0 || factors_[2] > 0.0) fill(sp.residual_nodes, true, out.residual);
     return out;
 }
 
 namespace {
-// Node k with probability |weight_k| / total from u; returns the estimator's factor weight_k / probability_k.
-const HuangHair::AlbedoNode* pick_node(const std::vector<HuangHair::AlbedoNode>& nodes, double u, double& factor) {
+// Node k with its probability from u; the estimator's factor is the node's.
+const HuangHair::AlbedoNode* pick_node(const std::vector<HuangHair::AlbedoNode>& nodes, double u) {
     if (nodes.empty()) return nullptr;
-    const double total = nodes.back().cumulative;
-    const auto it = std::upper_bound(nodes.begin(), nodes.end(), u * total,
+    const auto it = std::upper_bound(nodes.begin(), nodes.end(), u,
                                      [](double x, const HuangHair::AlbedoNode& n) { return x < n.cumulative; });
-    const HuangHair::AlbedoNode& n = it == nodes.end() ? nodes.back() : *it;
-    factor = n.weight < 0.0 ? -total : total;
-    return &n;
+    return it == nodes.end() ? &nodes.back() : &*it;
 }
 
 constexpr double kUniformDensity = 1.0 / (4.0 * kPi);
@@ -54,7 +78,16 @@ std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, con
                                                      const std::array<double, kAlbedoNumbers>& u) const {
     std::array<RGB, kLobeCount> lobes{};
     if (!sp.valid || sp.transparent) return lobes;
+    if (const AlbedoNode* n = pick_node(nodes.r, u[0])) albedo_node(sp, *n, false, u, lobes);
+    if (const AlbedoNode* n = pick_node(nodes.residual, u[0])) albedo_node(sp, *n, true, u, lobes);
+    return lobes;
+}
+
+// One node's part of albedo_sample: R's (residual false: lobes[0]) or the residual's (lobes[1..3]).
+void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool residual,
+                            const std::array<double, kAlbedoNumbers>& u, std::array<RGB, kLobeCount>& lobes) const {
     const Vec3 I = sp.I;
+    const AlbedoNode* n = &node;
     // A direction from the lobe's sampler with probability 1 - kUniformProbability (when there is one), else
     // uniform; returns its density, 0 where none was drawn or the eval is 0 there.
     auto direction = [&](const double* v, const auto& lobe_sample, const auto& lobe_density, bool has_lobe,
@@ -70,8 +103,7 @@ std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, con
     };
 
     // R: reflection through the visible normals of I around the node's tilted mesonormal.
-    double factor = 0.0;
-    if (const AlbedoNode* n = pick_node(nodes.r, u[0], factor)) {
+    if (!residual) {
         const Vec3 wm = mesonormal_sc(sin_tilt_, cos_tilt_, n->sin_gamma, n->cos_gamma);
         const bool has_lobe = dot(I, wm) > 1e-6;
         const Component c = has_lobe ? component(I, wm, 1.0) : Component{};
@@ -94,15 +126,15 @@ std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, con
             has_lobe, O);
         if (density > 0.0 && length(I + O) > 0.0) {
             const Vec3 wh = normalize(I + O);
-            const double value = r_lobe(sp, wh, factor * r_integrand_sc(sp, O, wh, n->sin_gamma, n->cos_gamma));
+            const double value = r_lobe(sp, wh, n->factor * r_integrand_sc(sp, O, wh, n->sin_gamma, n->cos_gamma));
             if (std::isfinite(value)) lobes[0] = RGB(value / density);
         }
+        return;
     }
 
-    const AlbedoNode* n = pick_node(nodes.residual, u[0], factor);
-    if (!n) return lobes;
+    const double factor = n->factor;
     EntryState e;
-    if (!entry_state(sp, n->gamma, n->sin_gamma, n->cos_gamma, std::sqrt(u[1]), kTwoPi * u[2], e)) return lobes;
+    if (!entry_state(sp, n->gamma, n->sin_gamma, n->cos_gamma, std::sqrt(u[1]), kTwoPi * u[2], e)) return;
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
     auto exit_direction = [&](const double* v, const Component& c, bool has_lobe, Vec3& O) {
         return direction(
@@ -120,7 +152,7 @@ std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, con
             if (isfinite(v)) lobes[1] = v;
         }
     }
-    if (!(factors_[2] > 0.0)) return lobes;
+    if (!(factors_[2] > 0.0)) return;
     // The internal visible normal as eval_cycles_stochastic draws it.
     Vec3 s2, t2;
     make_orthonormals(e.wmt, s2, t2);
@@ -172,7 +204,6 @@ std::array<RGB, kLobeCount> HuangHair::albedo_sample(const ShadingPoint& sp, con
             if (isfinite(v)) lobes[3] = v;
         }
     }
-    return lobes;
 }
 
 }  // namespace hairbsdf

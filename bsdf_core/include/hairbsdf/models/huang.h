@@ -213,8 +213,8 @@ public:
     // Its expectation is the albedo of eval_cycles_stochastic, hence of eval (docs/huang.md §6).
     struct AlbedoNode {
         double gamma, sin_gamma, cos_gamma;
-        double weight;      // Simpson weight x d gamma / dh
-        double cumulative;  // running sum of |weight| up to and including this node
+        double factor;      // the node's weight (Simpson weight x d gamma / dh) / its probability
+        double cumulative;  // running sum of the nodes' probabilities up to and including this one
     };
     struct AlbedoNodes {
         std::vector<AlbedoNode> r, residual;
@@ -370,6 +370,8 @@ private:
     double r_integrand_gamma(const ShadingPoint& sp, Vec3 O, Vec3 wh, double gamma) const;
     RGB absorption(double path, double cos_theta) const;
     void build_sampler(ShadingPoint& sp) const;
+    void albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool residual,
+                     const std::array<double, kAlbedoNumbers>& u, std::array<RGB, kLobeCount>& lobes) const;
     // A sampling component: visible normals of direction v around the unit normal m.
     Component component(Vec3 v, Vec3 m, double probability) const;
     // Refraction out of the fibre through a visible normal of component c (disk point r, angle; the mixture's
