@@ -11,6 +11,19 @@ namespace hairbsdf {
 
 // --- residual (docs/cycles.md §5.4): the TT integrand for the adaptive cubature -----------------
 
+namespace {
+// The entry visible-normal disk's radius at the cubature coordinate s in [0, 1]: r = 1 - (1 - s)^3, and the
+// disk's area weight 2 r dr/ds. At small roughness TT's exit lobe can live in a thin rim of the disk (grazing
+// entry microfacets: 1 - r ~ 1e-5 to 1e-4 at alpha 0.02), where a radius linear in s left it between the
+// boxes' points; the cube widens that rim to s within ~0.02-0.05 of 1 (docs/huang.md §4).
+inline double entry_disk_radius(double s, double& area_weight) {
+    const double t = 1.0 - s;
+    const double r = 1.0 - t * t * t;
+    area_weight = 6.0 * r * t * t;
+    return r;
+}
+}  // namespace
+
 struct HuangHair::Residual {
     const HuangHair& m;
     const ShadingPoint& sp;
@@ -41,9 +54,10 @@ struct HuangHair::Residual {
         const Problem& q = problems[size_t(p)];
         int k = 0;
         const double gamma = q.gamma_free ? x[size_t(k++)] : q.gamma;
-        // Disk points with a radius linear in u (weight 2u): smooth at the disk centre.
-        const double u1a = x[size_t(k)], u1b = x[size_t(k + 1)];
-        double w = q.weight * 2.0 * u1a;
+        // The entry disk's radius by entry_disk_radius; the internal disk's linear in u (weight 2u).
+        double disk_weight = 0.0;
+        const double u1a = entry_disk_radius(x[size_t(k)], disk_weight), u1b = x[size_t(k + 1)];
+        double w = q.weight * disk_weight;
         double u2a = 0.0, u2b = 0.0;
         if (q.kind == 1) {
             u2a = x[size_t(k + 2)];
@@ -66,15 +80,15 @@ struct HuangHair::Residual {
             return;
         }
         float u1a[kMaxPoints], u1b[kMaxPoints];
-        double v[3 * kMaxPoints];
+        double v[3 * kMaxPoints], disk_weight[kMaxPoints];
         for (size_t k = 0; k < n; ++k) {
-            u1a[k] = float(xs[k][0]);
+            u1a[k] = float(entry_disk_radius(xs[k][0], disk_weight[k]));
             u1b[k] = float(xs[k][1]);
         }
         huang_tt_lanes(m.lanes_, *lane, {n, u1a, u1b, float(q.gamma), float(std::sin(q.gamma)), float(std::cos(q.gamma))}, v);
         for (size_t k = 0; k < n; ++k) {
-            // residual_point's weight: the node's, 2 u1a (the disk's radius linear in u), TT's factor and scale.
-            const double w = q.weight * 2.0 * xs[k][0] * m.factors_[1] * final_scale;
+            // residual_point's weight: the node's, the entry disk's area weight (entry_disk_radius), TT's factor and scale.
+            const double w = q.weight * disk_weight[k] * m.factors_[1] * final_scale;
             fs[k].fill(0.0);
             for (size_t j = 0; j < 3; ++j) fs[k][j] = w * v[3 * k + j];
         }
