@@ -150,22 +150,30 @@ private:
         std::array<double, kMaxValues> i7{}, i5{};
         const size_t n = r.points.size();
         fvals_.resize(n);
-        xs_.assign(n, std::array<double, kMaxDim>{});
-        fs_.assign(n, std::array<double, kMaxValues>{});
         const int nv = problems_.values(b.problem);
-        for (size_t k = 0; k < n; ++k)
-            for (int i = 0; i < d; ++i) xs_[k][i] = b.center[i] + b.half[i] * r.points[k][i];
-        if constexpr (HasEvalPoints<Problems>::value) {
-            problems_.eval_points(b.problem, xs_.data(), n, fs_.data());
-        } else {
-            for (size_t k = 0; k < n; ++k) problems_.eval(b.problem, xs_[k], fs_[k]);
-        }
-        for (size_t k = 0; k < n; ++k) {
-            const std::array<double, kMaxValues>& f = fs_[k];
+        const auto point = [&](size_t k) {
+            std::array<double, kMaxDim> x{};
+            for (int i = 0; i < d; ++i) x[i] = b.center[i] + b.half[i] * r.points[k][i];
+            return x;
+        };
+        const auto add_value = [&](size_t k, const std::array<double, kMaxValues>& f) {
             fvals_[k] = problems_.norm(b.problem, f);
             for (int j = 0; j < nv; ++j) {
                 i7[j] += r.w7[k] * f[j];
                 i5[j] += r.w5[k] * f[j];
+            }
+        };
+        if constexpr (HasEvalPoints<Problems>::value) {  // the box's points together, through xs_ and fs_
+            xs_.resize(n);
+            fs_.assign(n, std::array<double, kMaxValues>{});
+            for (size_t k = 0; k < n; ++k) xs_[k] = point(k);
+            problems_.eval_points(b.problem, xs_.data(), n, fs_.data());
+            for (size_t k = 0; k < n; ++k) add_value(k, fs_[k]);
+        } else {  // point by point, without the buffers
+            for (size_t k = 0; k < n; ++k) {
+                std::array<double, kMaxValues> f{};
+                problems_.eval(b.problem, point(k), f);
+                add_value(k, f);
             }
         }
         evaluations_ += long(r.points.size());
@@ -203,7 +211,7 @@ private:
     Problems& problems_;
     std::vector<Box> heap_;
     std::vector<double> fvals_;
-    std::vector<std::array<double, kMaxDim>> xs_;
+    std::vector<std::array<double, kMaxDim>> xs_;     // a box's points and values, for eval_points only
     std::vector<std::array<double, kMaxValues>> fs_;
     std::array<double, kMaxValues> totals_{};
     double error_sum_ = 0;

@@ -57,16 +57,24 @@ struct HuangHair::Residual {
         // The entry disk's radius by entry_disk_radius; the internal disk's linear in u (weight 2u).
         double disk_weight = 0.0;
         const double u1a = entry_disk_radius(x[size_t(k)], disk_weight), u1b = x[size_t(k + 1)];
-        double w = q.weight * disk_weight;
-        double u2a = 0.0, u2b = 0.0;
-        if (q.kind == 1) {
-            u2a = x[size_t(k + 2)];
-            u2b = x[size_t(k + 3)];
-            w *= 2.0 * u2a;
+        f.fill(0.0);
+        if (q.kind == 0) {
+            EntryState e;
+            if (!m.entry_state(sp, gamma, u1a, kTwoPi * u1b, e)) return;
+            const RGB v = tt_point_weight(q, disk_weight) * m.tt_exit(e, O);
+            f[0] = v.r, f[1] = v.g, f[2] = v.b;
+            return;
         }
+        const double u2a = x[size_t(k + 2)], u2b = x[size_t(k + 3)];
+        const double w = (q.weight * disk_weight) * (2.0 * u2a);
         std::array<double, 9> g;
-        m.residual_point(sp, O, gamma, u1a, kTwoPi * u1b, u2a, kTwoPi * u2b, q.kind, w, final_scale, trrt_scale, g);
+        m.trt_point(sp, O, gamma, u1a, kTwoPi * u1b, u2a, kTwoPi * u2b, w, final_scale, trrt_scale, g);
         for (int j = 0; j < 9; ++j) f[size_t(j)] = g[size_t(j)];
+    }
+    // A TT point's weight: the node's, the entry disk's area weight (entry_disk_radius), TT's factor and scale
+    // (a Residual exists only where TT's factor is > 0).
+    double tt_point_weight(const Problem& q, double area_weight) const {
+        return q.weight * area_weight * m.factors_[1] * final_scale;
     }
     // A box's points together: TT at a fixed gamma on the float lanes (huang_tt_lanes) when `lane` is set,
     // else point by point.
@@ -87,8 +95,7 @@ struct HuangHair::Residual {
         }
         huang_tt_lanes(m.lanes_, *lane, {n, u1a, u1b, float(q.gamma), float(std::sin(q.gamma)), float(std::cos(q.gamma))}, v);
         for (size_t k = 0; k < n; ++k) {
-            // residual_point's weight: the node's, the entry disk's area weight (entry_disk_radius), TT's factor and scale.
-            const double w = q.weight * disk_weight[k] * m.factors_[1] * final_scale;
+            const double w = tt_point_weight(q, disk_weight[k]);
             fs[k].fill(0.0);
             for (size_t j = 0; j < 3; ++j) fs[k][j] = w * v[3 * k + j];
         }

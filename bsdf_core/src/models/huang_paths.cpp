@@ -138,18 +138,12 @@ RGB HuangHair::trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Ve
     return isfinite(v) ? v : RGB();
 }
 
-void HuangHair::residual_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
-                               double angle2, int kind, double weight, double final_scale, double trrt_scale,
-                               std::array<double, 9>& f) const {
+void HuangHair::trt_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
+                          double angle2, double weight, double final_scale, double trrt_scale,
+                          std::array<double, 9>& f) const {
     f.fill(0.0);
     EntryState e;
     if (!entry_state(sp, gamma, r1, angle1, e)) return;
-    if (kind == 0) {
-        if (!(factors_[1] > 0.0)) return;
-        const RGB v = (weight * factors_[1] * final_scale) * tt_exit(e, O);
-        f[0] = v.r, f[1] = v.g, f[2] = v.b;
-        return;
-    }
     if (!(factors_[2] > 0.0)) return;
     trt_from_entry(e, O, r2, angle2, weight, final_scale, trrt_scale, f);
 }

@@ -299,12 +299,12 @@ private:
     double arc_length_sc(double sin_gamma) const { return e2_ == 0.0 ? 1.0 : std::sqrt(1.0 - e2_ * sqr(sin_gamma)); }
     double r_integrand_sc(const ShadingPoint& sp, Vec3 O, Vec3 wh, double sin_gamma, double cos_gamma) const;
     struct Residual;  // integrand of the adaptive residual integration
-    // TT (kind 0) or TRT and TRRT+ (kind 1) at mesonormal parameter gamma for the entry visible
-    // normal at disk point (r1, angle1) and the internal one at (r2, angle2), times `weight`;
-    // writes final eval units into f: TT rgb, TRT rgb, TRRT+ rgb.
-    void residual_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
-                        double angle2, int kind, double weight, double final_scale, double trrt_scale,
-                        std::array<double, 9>& f) const;
+    // TRT and TRRT+ at mesonormal parameter gamma for the entry visible normal at disk point (r1, angle1)
+    // and the internal one at (r2, angle2), times `weight`; writes final eval units into f: TT rgb (zero),
+    // TRT rgb, TRRT+ rgb. (TT's points: Residual::eval.)
+    void trt_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double r2,
+                   double angle2, double weight, double final_scale, double trrt_scale,
+                   std::array<double, 9>& f) const;
     // One residual node of Cycles' stochastic eval: TT and (TRT, TRRT+) at mesonormal gamma, their
     // disk points drawn from rng in Cycles' order, times `weight`, added to acc.
     void add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, double sin_gamma, double cos_gamma,
