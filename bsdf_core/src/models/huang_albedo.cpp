@@ -154,9 +154,7 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
     }
     if (!(factors_[2] > 0.0)) return;
     // The internal visible normal as eval_cycles_stochastic draws it.
-    Vec3 s2, t2;
-    make_orthonormals(e.wmt, s2, t2);
-    const Vec3 wh2 = vndf_sample(e.mwt, e.wmt, s2, t2, alpha_, std::sqrt(u[3]), kTwoPi * u[4]);
+    const Vec3 wh2 = internal_normal(e, std::sqrt(u[3]), kTwoPi * u[4]);
     // TRT: refraction out through the visible normals of the internally reflected direction around its exit's
     // mesonormal.
     {
@@ -187,7 +185,7 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
             },
             [&](Vec3 o) { return trrt_sampler_.eval(o.y, cos_theta(o), I.y, cos_i) * kInvTwoPi; }, true, O);
         if (density > 0.0) {
-            const double trrt_scale = trrt_m_.eval(I.y, cos_i, O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+            const double trrt_scale = trrt_scale_at(sp, O);
             const bool shell = trrt_shell_ && e.cos_mi2 > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
             RGB series;
             trt_internal(e, wh2, O, series, nullptr, true);

@@ -115,6 +115,11 @@ constexpr double kTtLanesMinTolerance = 1e-3;
 // Below this O's angle to the fibre, every tilted mesonormal faces away from O (dot(O, mesonormal) < 0).
 bool HuangHair::tilt_hides(Vec3 O) const { return tan_tilt_ * (O.y / cos_theta(O)) < -1.0; }
 
+// TRRT+'s factor at O: Cycles' longitudinal M (v = 4 alpha), 1 / 2 pi in azimuth, 2 / pi, the point's norm.
+double HuangHair::trrt_scale_at(const ShadingPoint& sp, Vec3 O) const {
+    return trrt_m_.eval(sp.I.y, cos_theta(sp.I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+}
+
 // R's lobe value from its integral over h (Simpson sum or quadrature; wh = normalize(I + O)).
 double HuangHair::r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const {
     return factors_[0] * 0.25 * ggx::fresnel(dot(sp.I, wh), eta_) * integral * sp.norm;
@@ -210,7 +215,6 @@ std::array<RGB, kLobeCount> HuangHair::eval_local_impl(const ShadingPoint& sp, V
     if (evaluations) *evaluations = 0;
     if (!sp.valid) return lobes;
     const Vec3 I = sp.I;
-    const double cto = cos_theta(O);
     if (tilt_hides(O)) return lobes;
     const Vec3 wh = normalize(I + O);
 
@@ -286,7 +290,7 @@ std::array<RGB, kLobeCount> HuangHair::eval_local_impl(const ShadingPoint& sp, V
             for (int q = 0; q < 3; ++q) nodes.push_back({g_lo + width * (k + 0.5 + 0.5 * x3[q]), 0.5 * width * w3[q] / sp.r});
     }
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
-    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cto) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    const double trrt_scale = trrt_scale_at(sp, O);
     long count = 0;
 
     // TT: a 2D integral over the entry visible normal per node, adaptive cubature with one
@@ -478,9 +482,8 @@ void HuangHair::add_residual_node(const ShadingPoint& sp, Vec3 O, double gamma, 
 
 void HuangHair::add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes, uint32_t& rng,
                                    std::array<RGB, kLobeCount>& lobes) const {
-    const Vec3 I = sp.I;
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
-    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    const double trrt_scale = trrt_scale_at(sp, O);
     std::array<double, 9> acc{};
     for (const Node& n : nodes) {
         const double gamma = h_to_gamma(sp, n.h);
@@ -497,7 +500,6 @@ void HuangHair::add_residual_nodes(const ShadingPoint& sp, Vec3 O, const std::ve
 // add_residual_node's order (src/models/huang_lanes_kernel.h). wh is normalize(I + O) (R only).
 void HuangHair::eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::vector<Node>& r_nodes,
                            const std::vector<Node>& nodes, uint32_t& rng, std::array<RGB, kLobeCount>& lobes) const {
-    const Vec3 I = sp.I;
     const size_t count = std::max(r_nodes.size(), nodes.size());
     constexpr size_t kOnStack = 64;  // Cycles' node counts at roughness >= 0.03 fit
     float on_stack[6][kOnStack];
@@ -506,7 +508,7 @@ void HuangHair::eval_lanes(const ShadingPoint& sp, Vec3 O, Vec3 wh, const std::v
     if (count > kOnStack) on_heap.resize(6 * count);
     for (size_t a = 0; a < 6; ++a) column[a] = count > kOnStack ? on_heap.data() + a * count : on_stack[a];
     const double final_scale = sp.norm * inv_eta_ * inv_eta_;
-    const double trrt_scale = trrt_m_.eval(I.y, cos_theta(I), O.y, cos_theta(O)) * kInvTwoPi * (2.0 / kPi) * sp.norm;
+    const double trrt_scale = trrt_scale_at(sp, O);
     const bool trt = factors_[2] > 0.0;
     const HuangLanePoint p = lane_point(sp, O, wh, factors_[1] * final_scale, factors_[2] * final_scale, trrt_scale);
     if (factors_[0] > 0.0) {

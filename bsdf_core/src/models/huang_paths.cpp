@@ -148,11 +148,16 @@ void HuangHair::trt_point(const ShadingPoint& sp, Vec3 O, double gamma, double r
     trt_from_entry(e, O, r2, angle2, weight, final_scale, trrt_scale, f);
 }
 
+// Cycles' internal visible normal: of -wt around the internal mesonormal, disk point (r, angle).
+Vec3 HuangHair::internal_normal(const EntryState& e, double r, double angle) const {
+    Vec3 s, t;
+    make_orthonormals(e.wmt, s, t);
+    return vndf_sample(e.mwt, e.wmt, s, t, alpha_, r, angle);
+}
+
 void HuangHair::trt_from_entry(const EntryState& e, Vec3 O, double r2, double angle2, double weight,
                                double final_scale, double trrt_scale, std::array<double, 9>& f) const {
-    Vec3 s2, t2v;
-    make_orthonormals(e.wmt, s2, t2v);
-    const Vec3 wh2 = vndf_sample(e.mwt, e.wmt, s2, t2v, alpha_, r2, angle2);
+    const Vec3 wh2 = internal_normal(e, r2, angle2);
     RGB trrt;
     const RGB v = (weight * factors_[2] * final_scale) * trt_internal(e, wh2, O, trrt);
     const RGB t = (weight * trrt_scale) * trrt;

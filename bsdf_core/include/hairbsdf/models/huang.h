@@ -337,6 +337,10 @@ private:
     void trt_from_entry(const EntryState& e, Vec3 O, double r2, double angle2, double weight, double final_scale,
                         double trrt_scale, std::array<double, 9>& f) const;
     RGB tt_exit(const EntryState& e, Vec3 O) const;
+    // Cycles' internal visible normal (of -wt around the internal mesonormal) at disk point (r, angle).
+    Vec3 internal_normal(const EntryState& e, double r, double angle) const;
+    // TRRT+'s factor at O (Cycles' longitudinal M, 1 / 2 pi, 2 / pi, the point's norm).
+    double trrt_scale_at(const ShadingPoint& sp, Vec3 O) const;
     // trrt_only: return after the TRRT+ series is known (TRT left 0).
     RGB trt_internal(const EntryState& e, Vec3 wh2, Vec3 O, RGB& trrt, Vec3* wtr_out = nullptr,
                      bool trrt_only = false) const;
