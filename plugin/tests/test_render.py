@@ -59,7 +59,7 @@ def _unit(v):
 # --------------------------------------------------------------------------------------
 # (a) the key check: pixels across one strand = strength x eval(wo, wi, h(pixel centre))
 
-@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
+@pytest.mark.parametrize("shape,intersector", [("THICK", "EMBREE"), ("THICK", "SWEEP"), ("RIBBONS", "EMBREE")])
 @pytest.mark.parametrize("wo,wi,inputs", [
     ((0.3, 0.5, 0.8), (-0.2, -0.7, 0.4), {"melanin": 0.8}),
     ((-0.1, 0.2, 1.0), (0.5, 0.3, 0.6), {"parametrization": "COLOR", "color": (0.5, 0.3, 0.2), "roughness": 0.15,
@@ -68,16 +68,17 @@ def _unit(v):
                                           "random_roughness": 0.5}),
 ])
 @pytest.mark.parametrize("pixel_filter", [("BLACKMAN_HARRIS", 1e-4), ("BLACKMAN_HARRIS", 0.01)], ids=["bh1e-4", "bh0.01"])
-def test_strand_pixels_equal_bsdf_eval(shape, wo, wi, inputs, pixel_filter):
+def test_strand_pixels_equal_bsdf_eval(shape, intersector, wo, wi, inputs, pixel_filter):
     """At 1 spp the 0.01 px filter (Blender's minimum) gives the pixel-centre value: sample 0 of every pixel
-    sits at the pixel centre, as in Cycles (integrate_camera_sample)."""
+    sits at the pixel centre, as in Cycles (integrate_camera_sample). Both THICK intersectors put the hit, and
+    so h, where Embree's round curve is."""
     wo, wi = _unit(wo), _unit(wi)
     height, across = 160, 120  # 120 pixels across the strand diameter
     pixel = 2 * R / across
     camera, yc = _ortho_camera(wo, height * pixel, (4, height))
     strength = 2.5
     scene = {"version": 1, "curves": _straight_strand(), "curve_shape": shape, "curve_subdivisions": 2,
-             "materials": [_hair_material(**dict(inputs))], "camera": camera,
+             "curve_intersector": intersector, "materials": [_hair_material(**dict(inputs))], "camera": camera,
              "lights": [{"type": "SUN", "direction": tuple(wi), "strength": (strength,) * 3, "angle": 0.0}],
              "world": {"color": (0, 0, 0)},
              "integrator": _integrator(filter_type=pixel_filter[0], filter_width=pixel_filter[1])}
@@ -438,13 +439,18 @@ def test_structural_errors_name_the_key(mutate, error, match):
         render(scene)
 
 
-@pytest.mark.parametrize("shape", ["THICK", "RIBBONS"])
-def test_curves_in_object_space(shape):
+@pytest.mark.parametrize("shape,intersector,silhouette_tolerance", [
+    ("THICK", "SWEEP", 0.005), ("THICK", "EMBREE", 0.04), ("RIBBONS", "EMBREE", 0.005)])
+def test_curves_in_object_space(shape, intersector, silhouette_tolerance):
     """curve_object: a uniform object transform renders the same strand as its world-space
     copy with the radius scaled (what Cycles' applied transform gives); a scale across the
-    strand widens its silhouette by that factor, one along it changes nothing."""
+    strand widens its silhouette by that factor, one along it changes nothing. Embree 3.13's own
+    round curves, scaled in an instance, cover some 3 % more pixels around the strand's ends on a
+    CPU without AVX-512 (73 of 2 459 here; none with AVX-512); our SWEEP test of the same surface
+    gives the world-space silhouette to the pixel on both."""
     camera, _ = _ortho_camera(_unit((0.0, 0.0, 1.0)), 0.6, (256, 256))
-    base = {"version": 1, "curve_shape": shape, "curve_subdivisions": 2, "materials": [_hair_material()],
+    base = {"version": 1, "curve_shape": shape, "curve_subdivisions": 2, "curve_intersector": intersector,
+            "materials": [_hair_material()],
             "camera": camera, "lights": [{"type": "SUN", "direction": (0.3, 0.2, 1.0), "strength": (2, 2, 2)}],
             "world": {"color": (0, 0, 0)}, "integrator": _integrator(samples=1)}
 
@@ -464,8 +470,15 @@ def test_curves_in_object_space(shape):
         return out["combined"]
 
     uniform, applied = image((1.5, 1.5, 1.5), 0.4), image((1.5, 1.5, 1.5), 0.4, object_space=False)
-    differ = np.any(np.abs(uniform - applied) > 2e-5, axis=-1)  # float rounding flips a few edge pixels (1 spp-like: centred samples)
-    assert differ.mean() < 0.005 and uniform.sum() == pytest.approx(applied.sum(), rel=0.02)
+    # Float rounding flips a few pixels (1 spp-like: centred samples): an edge, or a path inside the strand
+    # that goes another way (more of them where Embree runs 8-wide, AVX2). The silhouettes agree and the
+    # flipped paths where both cover the pixel average out (their differences are not of one sign).
+    differ = np.any(np.abs(uniform - applied) > 2e-5, axis=-1)
+    assert differ.mean() < 0.005
+    assert uniform[..., 3].sum() == pytest.approx(applied[..., 3].sum(), rel=silhouette_tolerance)
+    both = (uniform[..., 3] > 0) & (applied[..., 3] > 0)
+    difference = (uniform - applied)[both][:, :3].astype(np.float64).sum(axis=-1)
+    assert abs(difference.sum()) <= 4 * np.sqrt((difference ** 2).sum()) + 1e-6 * float(applied.sum())
     area = image((1, 1, 1))[..., 3].sum()
     assert image((1, 3, 1))[..., 3].sum() == pytest.approx(3 * area, rel=0.05)  # across the strand (+x)
     assert image((3, 1, 1))[..., 3].sum() == pytest.approx(3 * area, rel=0.05)  # along: 3x longer, as wide

@@ -3,6 +3,8 @@
 
 #include <embree3/rtcore.h>
 
+#include "hairbsdf/render/curve_sweep.h"
+
 #include <algorithm>
 #include <cfloat>
 #include <cstring>
@@ -21,7 +23,19 @@ struct QueryContext {
     // A stream of rays with their own skips (the wavefront): indexed by the ray's id; null: the above.
     const SkipPrim* skips = nullptr;
     const int* light_triangles = nullptr;
+    // The nearest hit accepted so far, by ray id (a single ray has id 0), starting at the ray's
+    // tfar: the Sweep filter needs it, since Embree hands a filter the candidate's proxy
+    // distance in tfar, not the distance of the hit it would replace.
+    float* nearest = nullptr;
+    // The proxy piece (global index + 1) whose last candidate the Sweep filter rejected, by ray
+    // id: Embree offers a round linear proxy's entry and exit separately.
+    uint32_t* rejected_piece = nullptr;
 };
+
+// Every accepted hit lowers the ray's `nearest`.
+void note_accepted(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
+    ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
+}
 
 // The primitive ray `i` of a filter call skips, and the light triangle it aims at.
 SkipPrim ray_skip(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
@@ -67,8 +81,72 @@ void curve_filter(const RTCFilterFunctionNArguments* args) {
             const float d = RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
                             RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
                             RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
-            if (d > 0.0f) args->valid[i] = 0;  // back face
+            if (d > 0.0f) {
+                args->valid[i] = 0;  // back face
+                continue;
+            }
         }
+        note_accepted(ctx, args, i);
+    }
+}
+
+// A Sweep geometry's user data: its segments' curves and keys (Geometry's arrays) and where
+// its segments start; proxy piece p is piece p % k of segment first_segment + p / k.
+struct SweepGeometry {
+    const std::array<float, 4>* control_points;
+    const uint32_t* segment_first;
+    const int32_t* segment_curve;
+    const uint8_t* segment_ends;  // bit 0: the curve's first segment; bit 1: its last
+    uint32_t first_segment;
+};
+
+// Round Catmull-Rom curves by their proxies: each candidate proxy hit is replaced by the
+// tube's own hit (render/curve_sweep.h), or rejected. The filter writes the tube's distance
+// into tfar (Embree then culls by it), the segment's u and the surface normal into the hit.
+template <bool kCullBackFaces>
+void sweep_filter(const RTCFilterFunctionNArguments* args) {
+    const auto* ctx = reinterpret_cast<const QueryContext*>(args->context);
+    const auto* geometry = static_cast<const SweepGeometry*>(args->geometryUserPtr);
+    constexpr int k = curve_proxy_pieces;
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] == 0) continue;
+        const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+        const uint32_t segment = geometry->first_segment + prim / k;
+        const int piece = int(prim % k);
+        const SkipPrim skip = ray_skip(ctx, args, i);
+        if (skip.kind == PrimKind::Curve && geometry->segment_curve[segment] == skip.id) {
+            args->valid[i] = 0;
+            continue;
+        }
+        const uint32_t global_piece = geometry->first_segment * k + prim + 1;
+        uint32_t& rejected = ctx->rejected_piece[RTCRayN_id(args->ray, args->N, i)];
+        if (rejected == global_piece) {
+            args->valid[i] = 0;
+            continue;
+        }
+        const uint8_t ends = geometry->segment_ends[segment];
+        const SweepPiece sweep{&geometry->control_points[geometry->segment_first[segment]], double(piece) / k,
+                               double(piece + 1) / k, (ends & 1) != 0, (ends & 2) != 0};
+        RTCRayN* ray = args->ray;
+        const unsigned n = args->N;
+        const Vec3 org{RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i), RTCRayN_org_z(ray, n, i)};
+        const Vec3 dir{RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i), RTCRayN_dir_z(ray, n, i)};
+        const float nearest = ctx->nearest[RTCRayN_id(ray, n, i)];
+        const SweepHit hit = intersect_sweep(sweep, org, dir, RTCRayN_tfar(ray, n, i),
+                                             (piece + RTCHitN_u(args->hit, n, i)) / k, RTCRayN_tnear(ray, n, i),
+                                             nearest);
+        const float t = float(hit.t);
+        if (!hit.hit || !(t <= nearest) || (kCullBackFaces && !hit.front)) {
+            if (!hit.hit) rejected = global_piece;
+            args->valid[i] = 0;
+            continue;
+        }
+        RTCRayN_tfar(ray, n, i) = t;
+        RTCHitN_u(args->hit, n, i) = float(hit.u);
+        RTCHitN_Ng_x(args->hit, n, i) = float(hit.normal.x);
+        RTCHitN_Ng_y(args->hit, n, i) = float(hit.normal.y);
+        RTCHitN_Ng_z(args->hit, n, i) = float(hit.normal.z);
+        note_accepted(ctx, args, i);
     }
 }
 
@@ -80,7 +158,9 @@ void triangle_filter(const RTCFilterFunctionNArguments* args) {
         const SkipPrim skip = ray_skip(ctx, args, i);
         if ((skip.kind == PrimKind::Triangle && prim == skip.id) || prim == ray_light_triangle(ctx, args, i)) {
             args->valid[i] = 0;
+            continue;
         }
+        note_accepted(ctx, args, i);
     }
 }
 
@@ -112,6 +192,16 @@ struct Geometry::Impl {
     std::vector<uint32_t> first_segment_by_geom;
     MemoryCounter memory;
     size_t own_bytes = 0;
+    // The Sweep intersector (CurveIntersector::Sweep, THICK curves): per segment whether it
+    // starts or ends its curve; the proxies' vertices (radii widened), index buffer and flags
+    // (no neighbours: every proxy is a whole cone between two spheres); one user-data record
+    // per Embree geometry (reserved up front: Embree keeps pointers to them).
+    bool sweep = false;
+    std::vector<uint8_t> segment_ends;
+    std::vector<std::array<float, 4>> proxy_vertices;
+    std::vector<uint32_t> proxy_first;
+    std::vector<uint8_t> proxy_flags;
+    std::vector<SweepGeometry> sweep_geometries;
 };
 
 static void check_device(RTCDevice device, const char* what) {
@@ -184,6 +274,8 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             for (const auto& m : cd.object_transforms) object_spaces_.emplace_back(m);
         }
         if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
+        im.sweep = scene.curve_shape == CurveShape::Thick && scene.curve_intersector == CurveIntersector::Sweep;
+        if (im.sweep) build_sweep_proxies(im);
         const bool linear = scene.curve_shape == CurveShape::ThickLinear;
         const bool round = linear || scene.curve_shape == CurveShape::Thick;
         const bool cull = round && scene.cull_curve_back_faces;
@@ -193,7 +285,27 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         // same index buffer serves. Segments of one curve stay consecutive there, so Embree joins
         // them, and those of different curves never do.
         const size_t vertex_skip = linear ? 1 : 0;
+        im.sweep_geometries.reserve(n_spaces);
+        auto sweep_geometry = [&](size_t first, size_t count) {
+            constexpr size_t k = curve_proxy_pieces;
+            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, im.proxy_vertices.data(), 0,
+                                       sizeof(float) * 4, im.proxy_vertices.size());
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, im.proxy_first.data() + first * k, 0,
+                                       sizeof(uint32_t), count * k);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_FLAGS, 0, RTC_FORMAT_UCHAR, im.proxy_flags.data() + first * k,
+                                       0, sizeof(uint8_t), count * k);
+            im.sweep_geometries.push_back({control_points_.data(), segment_first_.data(), segment_curve_.data(),
+                                           im.segment_ends.data(), uint32_t(first)});
+            rtcSetGeometryUserData(g, &im.sweep_geometries.back());
+            rtcSetGeometryIntersectFilterFunction(g, cull ? sweep_filter<true> : sweep_filter<false>);
+            rtcSetGeometryOccludedFilterFunction(g, cull ? sweep_filter<true> : sweep_filter<false>);
+            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+            rtcCommitGeometry(g);
+            return g;
+        };
         auto curve_geometry = [&](size_t first, size_t count) {
+            if (im.sweep) return sweep_geometry(first, count);
             RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
                                                       : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
                                                               : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
@@ -267,7 +379,9 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
     check_device(im.device, "scene build");
     im.own_bytes = control_points_.capacity() * sizeof(control_points_[0]) + normals_.capacity() * sizeof(normals_[0]) +
                    segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
-                   curve_object_.capacity() * sizeof(int32_t);
+                   curve_object_.capacity() * sizeof(int32_t) + im.segment_ends.capacity() +
+                   im.proxy_vertices.capacity() * sizeof(im.proxy_vertices[0]) +
+                   im.proxy_first.capacity() * sizeof(uint32_t) + im.proxy_flags.capacity();
 }
 
 Geometry::~Geometry() {
@@ -282,6 +396,59 @@ size_t Geometry::peak_memory_bytes() const {
     return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
 }
 
+namespace {
+// How much a proxy's radii grow so that it holds its piece of the sweep: the chord bound,
+// and r s^2 / 2 for the slope s = dr / dx of its radius (a sphere of the sweep bulges past a
+// cone through the circles by up to that much).
+double proxy_widening(const std::array<float, 4>* cp, double u_begin, double u_end) {
+    const CurvePoint a = catmull_rom(cp, u_begin), b = catmull_rom(cp, u_end);
+    const double run = length(b.p - a.p), rise = std::fabs(b.r - a.r);
+    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
+    return sweep_chord_distance_bound(cp, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
+}
+}  // namespace
+
+// A Sweep geometry's primitives are its proxy pieces (their hits already carry the segment's u).
+uint32_t Geometry::segment_of_prim(uint32_t prim) const {
+    return impl_->sweep ? prim / uint32_t(curve_proxy_pieces) : prim;
+}
+
+void Geometry::build_sweep_proxies(Impl& im) {
+    constexpr int k = curve_proxy_pieces;
+    const size_t n_segments = segment_first_.size();
+    im.segment_ends.assign(n_segments, 0);
+    for (size_t s = 0; s < n_segments; ++s) {
+        if (s == 0 || segment_curve_[s - 1] != segment_curve_[s] || segment_first_[s - 1] + 1 != segment_first_[s])
+            im.segment_ends[s] |= 1;
+        if (s + 1 == n_segments || segment_curve_[s + 1] != segment_curve_[s] ||
+            segment_first_[s] + 1 != segment_first_[s + 1])
+            im.segment_ends[s] |= 2;
+    }
+    // Per curve one run of vertices: the centre line at u = j / k of each segment, then its
+    // end; a vertex's radius is widened by the larger chord bound of the pieces beside it,
+    // plus a little for float rounding, so each proxy holds its piece of the sweep.
+    im.proxy_vertices.clear();
+    im.proxy_vertices.reserve(n_segments * k + n_segments / 4 + 2);
+    im.proxy_first.resize(n_segments * k);
+    im.proxy_flags.assign(n_segments * k, 0);
+    double previous_bound = 0;
+    for (size_t s = 0; s < n_segments; ++s) {
+        const auto* cp = &control_points_[segment_first_[s]];
+        for (int j = 0; j <= k; ++j) {
+            if (j == k && (im.segment_ends[s] & 2) == 0) break;  // the next segment's j = 0
+            const double u = double(j) / k;
+            const double bound_after = j < k ? proxy_widening(cp, u, double(j + 1) / k) : 0.0;
+            const double bound_before = (j == 0 && (im.segment_ends[s] & 1)) ? 0.0 : previous_bound;
+            const CurvePoint c = catmull_rom(cp, u);
+            const double scale = std::fabs(c.p.x) + std::fabs(c.p.y) + std::fabs(c.p.z) + std::fabs(c.r);
+            const double widened = c.r + std::max(bound_before, bound_after) + 1e-3 * std::fabs(c.r) + 1e-6 * scale;
+            if (j < k) im.proxy_first[s * k + size_t(j)] = uint32_t(im.proxy_vertices.size());
+            im.proxy_vertices.push_back({float(c.p.x), float(c.p.y), float(c.p.z), float(widened)});
+            previous_bound = bound_after;
+        }
+    }
+}
+
 Hit Geometry::to_hit(const RTCRayHit& rh) const {
     Hit hit;
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
@@ -291,12 +458,12 @@ Hit Geometry::to_hit(const RTCRayHit& rh) const {
     hit.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
     if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {  // a curve in its object's space
         hit.kind = PrimKind::Curve;
-        hit.segment = int(impl_->first_segment_by_geom[rh.hit.instID[0]] + rh.hit.primID);
+        hit.segment = int(impl_->first_segment_by_geom[rh.hit.instID[0]] + segment_of_prim(rh.hit.primID));
         hit.prim = segment_curve_[size_t(hit.segment)];
     } else if (rh.hit.geomID == impl_->curve_geom) {
         hit.kind = PrimKind::Curve;
-        hit.segment = int(rh.hit.primID);
-        hit.prim = segment_curve_[rh.hit.primID];
+        hit.segment = int(segment_of_prim(rh.hit.primID));
+        hit.prim = segment_curve_[size_t(hit.segment)];
     } else {
         hit.kind = PrimKind::Triangle;
         hit.prim = int(rh.hit.primID);
@@ -311,6 +478,10 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     ctx.skip = skip;
     RTCRayHit rh;
     setup_ray(ray, rh.ray);
+    float nearest = rh.ray.tfar;
+    uint32_t rejected_piece = 0;
+    ctx.nearest = &nearest;
+    ctx.rejected_piece = &rejected_piece;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
@@ -332,9 +503,16 @@ void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hit
     if (!skips) ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     ctx.skips = skips;
     thread_local std::vector<RTCRayHit> stream;  // grows to the longest stream, then is reused
+    thread_local std::vector<float> nearest;
+    thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
+    nearest.resize(count);
+    rejected_piece.assign(count, 0);
+    ctx.nearest = nearest.data();
+    ctx.rejected_piece = rejected_piece.data();
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);
+        nearest[i] = stream[i].ray.tfar;
         stream[i].ray.id = unsigned(i);
         stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -354,9 +532,16 @@ void Geometry::occluded_stream(const Ray* rays, const SkipPrim* skips, const int
     ctx.skips = skips;
     ctx.light_triangles = light_triangles;
     thread_local std::vector<RTCRay> stream;
+    thread_local std::vector<float> nearest;
+    thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
+    nearest.resize(count);
+    rejected_piece.assign(count, 0);
+    ctx.nearest = nearest.data();
+    ctx.rejected_piece = rejected_piece.data();
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i]);
+        nearest[i] = stream[i].tfar;
         stream[i].id = unsigned(i);
     }
     rtcOccluded1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRay));
@@ -371,6 +556,10 @@ bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const
     ctx.light_triangle = light_triangle;
     RTCRay r;
     setup_ray(ray, r);
+    float nearest = r.tfar;
+    uint32_t rejected_piece = 0;
+    ctx.nearest = &nearest;
+    ctx.rejected_piece = &rejected_piece;
     rtcOccluded1(impl_->scene, &ctx.rtc, &r);
     return r.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }

@@ -11,7 +11,8 @@
 // tessellation rate 2^subdivisions + 1 as Cycles passes it; THICK_LINEAR (Blender 5.x's
 // Linear 3D Curves) = Embree's round linear curves through the keys, whose neighbour flags
 // Embree derives from the index buffer as in Cycles' build. A ray leaving a primitive
-// skips it: all of a curve, or one triangle.
+// skips it: all of a curve, or one triangle. THICK with SceneDesc::curve_intersector = Sweep:
+// the same surface, found by our own test over Embree's round linear proxies (curve_sweep.h).
 #pragma once
 
 #include <atomic>
@@ -127,6 +128,8 @@ private:
     void build(const SceneDesc& scene, std::vector<std::array<float, 4>>* release_points);
     Hit to_hit(const RTCRayHit& rh) const;  // Embree's answer to one ray as our Hit
     struct Impl;
+    void build_sweep_proxies(Impl& im);
+    uint32_t segment_of_prim(uint32_t prim) const;
     std::unique_ptr<Impl> impl_;
     CurveShape shape_ = CurveShape::Thick;
     bool has_curves_ = false, has_triangles_ = false;

@@ -18,6 +18,10 @@ namespace hairbsdf::render {
 // Thick: round Catmull-Rom sweeps; ThickLinear: Blender 5.x's Linear 3D Curves (cones with spheres
 // at the keys, Embree's round linear curves).
 enum class CurveShape { Ribbons, Thick, ThickLinear };
+// How THICK curves are intersected: Embree 3's round Catmull-Rom curves, or Embree's BVH over
+// round linear proxies with hairbsdf's exact test of the same surface (render/curve_sweep.h;
+// experimental: slower than Embree's today, docs/benchmarks.md "Engine VII").
+enum class CurveIntersector { Embree, Sweep };
 
 // All strands, concatenated. Curve c owns points [offsets[c], offsets[c+1]).
 struct CurveData {
@@ -246,6 +250,7 @@ struct SceneDesc {
     CurveData curves;
     CurveShape curve_shape = CurveShape::Thick;
     int curve_subdivisions = 2;
+    CurveIntersector curve_intersector = CurveIntersector::Embree;
     // Cull back faces of THICK curves. Off in Cycles: Blender's Embree build flag
     // BACKFACE_CULLING_CURVES only affects round *linear* curves, not Catmull-Rom sweeps
     // (checked against Cycles 4.5 renders; docs/scene_desc.md).
