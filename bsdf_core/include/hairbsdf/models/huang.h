@@ -382,6 +382,15 @@ private:
     // TT and TRT exits): false where none leaves (total internal reflection). Its density (solid angle) at O.
     bool exit_sample(const Component& c, double r, double angle, Vec3& O) const;
     double exit_density(const Component& c, Vec3 O) const;
+    // Reflection of c.v about a visible normal of component c (disk point r, angle; the mixture's R lobe and the
+    // albedo's), not normalised. Its density (solid angle) over `count` components, each by its probability,
+    // times `probability`.
+    Vec3 reflection_sample(const Component& c, double r, double angle) const;
+    double reflection_density(Vec3 I, Vec3 O, const Component* components, size_t count, double probability) const;
+    // TRRT+'s direction: Chiang's longitudinal lobe (v = 4 alpha around -theta_I) from (u0, u1), azimuth
+    // 2 pi u_phi; not normalised. Its density (solid angle) times `probability`.
+    Vec3 trrt_direction(Vec3 I, double u0, double u1, double u_phi) const;
+    double trrt_density(Vec3 I, Vec3 O, double probability) const;
     // The eval is 0 for directions the tilted mesonormals turn away from everywhere.
     bool tilt_hides(Vec3 O) const;
     // TRT's exit mesonormal for the internally reflected direction wtr of entry state e (sin and cos of its gamma).
