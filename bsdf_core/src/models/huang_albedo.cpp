@@ -155,7 +155,7 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
         }
     }
     // TRRT+: O from its longitudinal lobe; the series (which depends on O only through total internal
-    // reflection at the exit) over the internal normal with TRRT+'s shell (trt_mis_point's two strategies).
+    // reflection at the exit) over the internal normal with TRRT+'s shell (trrt_two_strategies).
     {
         Vec3 O;
         const double density = direction(
@@ -166,20 +166,10 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
             },
             [&](Vec3 o) { return trrt_density(I, o, 1.0); }, true, O);
         if (density > 0.0) {
-            const double trrt_scale = trrt_scale_at(sp, O);
-            const bool shell = trrt_shell_ && e.cos_mi2 > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
             RGB series;
             trt_internal(e, wh2, O, series, nullptr, true);
-            if (shell) {
-                const Component ca = component(e.mwt, e.wmt, 1.0);
-                const ShellFrame frame = trrt_shell_frame(e);
-                series = trrt_visible_share(frame, ca, wh2) * series;
-                const Vec3 h = trrt_shell_sample(frame, u[3], u[4]);
-                RGB shell_series;
-                trt_internal(e, h, O, shell_series, nullptr, true);
-                series += trrt_visible_share(frame, ca, h) * shell_series;
-            }
-            const RGB v = (factor * trrt_scale / density) * series;
+            series = trrt_two_strategies(e, component(e.mwt, e.wmt, 1.0), wh2, series, O, u[3], u[4], 1.0);
+            const RGB v = (factor * trrt_scale_at(sp, O) / density) * series;
             if (isfinite(v)) lobes[3] = v;
         }
     }

@@ -18,6 +18,7 @@ inline double sin_theta(Vec3 w) { return w.y; }
 inline double cos_theta(Vec3 w) { return safe_sqrt(w.x * w.x + w.z * w.z); }
 inline double dir_phi(Vec3 w) { return std::atan2(w.x, w.z); }
 inline double luminance3(const double* v) { return luminance(RGB{v[0], v[1], v[2]}); }
+inline bool is_zero(RGB c) { return c.r == 0.0 && c.g == 0.0 && c.b == 0.0; }
 
 // A direction uniform on the sphere from (a, b) in [0,1]^2: y = 1 - 2a, azimuth 2 pi b. Its density
 // (solid angle) times `probability`.

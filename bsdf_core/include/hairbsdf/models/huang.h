@@ -357,6 +357,11 @@ private:
     // The balance heuristic's weight of Cycles' internal visible normals (density pa of `visible_normals`)
     // against the shell (pc) at the normal h: pa / (pa + pc), 1 outside the shell.
     double trrt_visible_share(const ShellFrame& f, const Component& visible_normals, Vec3 h) const;
+    // TRRT+'s series over the internal normal by two strategies and the balance heuristic: Cycles' visible normal
+    // wh2 (of `visible_normals`; the caller's trt_internal gave its series) and the shell's normal from (u2, u3);
+    // times weight. Without a shell (off, -wt not seeing the internal mesonormal, no band) weight x series.
+    RGB trrt_two_strategies(const EntryState& e, const Component& visible_normals, Vec3 wh2, RGB series, Vec3 O,
+                            double u2, double u3, double weight) const;
     std::array<RGB, kLobeCount> eval_local_impl(const ShadingPoint& sp, Vec3 O, long* evaluations, bool lanes) const;
     double r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
