@@ -62,13 +62,6 @@ const HuangHair::AlbedoNode* pick_node(const std::vector<HuangHair::AlbedoNode>&
                                      [](double x, const HuangHair::AlbedoNode& n) { return x < n.cumulative; });
     return it == nodes.end() ? &nodes.back() : &*it;
 }
-
-constexpr double kUniformDensity = 1.0 / (4.0 * kPi);
-
-Vec3 uniform_direction(double a, double b) {
-    const double y = 1.0 - 2.0 * a, ct = cos_from_sin(y), phi = kTwoPi * b;
-    return {std::sin(phi) * ct, y, std::cos(phi) * ct};
-}
 }  // namespace
 
 // Numbers: u[0] the nodes; u[1..2] the entry normal and u[3..4] the internal one (eval_cycles_stochastic's
@@ -94,12 +87,12 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
                          Vec3& O) {
         const bool uniform = !has_lobe || v[0] < kUniformProbability;
         if (uniform)
-            O = uniform_direction(v[1], v[2]);
+            O = uniform_sphere_direction(v[1], v[2]);
         else if (!lobe_sample(v + 1, O))
             return 0.0;
         if (tilt_hides(O)) return 0.0;
-        if (!has_lobe) return kUniformDensity;
-        return (1.0 - kUniformProbability) * lobe_density(O) + kUniformProbability * kUniformDensity;
+        if (!has_lobe) return uniform_sphere_density(1.0);
+        return (1.0 - kUniformProbability) * lobe_density(O) + uniform_sphere_density(kUniformProbability);
     };
 
     // R: reflection through the visible normals of I around the node's tilted mesonormal.
@@ -111,19 +104,10 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
         const double density = direction(
             &u[15],
             [&](const double* v, Vec3& out) {
-                const Vec3 h = vndf_sample(c.v, c.m, c.s, c.t, alpha_, std::sqrt(v[0]), kTwoPi * v[1]);
-                out = (2.0 * dot(I, h)) * h - I;
+                out = reflection_sample(c, std::sqrt(v[0]), kTwoPi * v[1]);
                 return true;
             },
-            [&](Vec3 o) {
-                const Vec3 sum = I + o;
-                const double len = length(sum);
-                if (!(len > 0.0)) return 0.0;
-                const Vec3 h = (1.0 / len) * sum;
-                const double ih = dot(I, h);
-                return ih > 0.0 ? vndf_density(c, h, alpha2_) / (4.0 * ih) : 0.0;
-            },
-            has_lobe, O);
+            [&](Vec3 o) { return reflection_density(I, o, &c, 1, 1.0); }, has_lobe, O);
         if (density > 0.0 && length(I + O) > 0.0) {
             const Vec3 wh = normalize(I + O);
             const double value = r_lobe(sp, wh, n->factor * r_integrand_sc(sp, O, wh, n->sin_gamma, n->cos_gamma));
@@ -171,34 +155,21 @@ void HuangHair::albedo_node(const ShadingPoint& sp, const AlbedoNode& node, bool
         }
     }
     // TRRT+: O from its longitudinal lobe; the series (which depends on O only through total internal
-    // reflection at the exit) over the internal normal with TRRT+'s shell (trt_mis_point's two strategies).
+    // reflection at the exit) over the internal normal with TRRT+'s shell (trrt_two_strategies).
     {
-        const double cos_i = cos_theta(I), v_trrt = 4.0 * alpha_;
         Vec3 O;
         const double density = direction(
             &u[11],
             [&](const double* w, Vec3& out) {
-                const double st = sample_longitudinal(v_trrt, std::exp(-2.0 / v_trrt), w[0], w[1], I.y, cos_i);
-                const double ct = cos_from_sin(st), phi = kTwoPi * w[2];
-                out = normalize(Vec3{std::sin(phi) * ct, st, std::cos(phi) * ct});
+                out = normalize(trrt_direction(I, w[0], w[1], w[2]));
                 return true;
             },
-            [&](Vec3 o) { return trrt_sampler_.eval(o.y, cos_theta(o), I.y, cos_i) * kInvTwoPi; }, true, O);
+            [&](Vec3 o) { return trrt_density(I, o, 1.0); }, true, O);
         if (density > 0.0) {
-            const double trrt_scale = trrt_scale_at(sp, O);
-            const bool shell = trrt_shell_ && e.cos_mi2 > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
             RGB series;
             trt_internal(e, wh2, O, series, nullptr, true);
-            if (shell) {
-                const Component ca = component(e.mwt, e.wmt, 1.0);
-                const ShellFrame frame = trrt_shell_frame(e);
-                series = trrt_visible_share(frame, ca, wh2) * series;
-                const Vec3 h = trrt_shell_sample(frame, u[3], u[4]);
-                RGB shell_series;
-                trt_internal(e, h, O, shell_series, nullptr, true);
-                series += trrt_visible_share(frame, ca, h) * shell_series;
-            }
-            const RGB v = (factor * trrt_scale / density) * series;
+            series = trrt_two_strategies(e, component(e.mwt, e.wmt, 1.0), wh2, series, O, u[3], u[4], 1.0);
+            const RGB v = (factor * trrt_scale_at(sp, O) / density) * series;
             if (isfinite(v)) lobes[3] = v;
         }
     }

@@ -1,5 +1,5 @@
 // Helpers shared by the Huang model's source files (huang_model, huang_paths, huang_eval,
-// huang_sample): constants of Cycles' rules and the visible-normal pieces. Private to bsdf_core.
+// huang_sample, huang_albedo): constants of Cycles' rules and the visible-normal pieces. Private to bsdf_core.
 #pragma once
 
 #include "hairbsdf/models/huang.h"
@@ -18,6 +18,15 @@ inline double sin_theta(Vec3 w) { return w.y; }
 inline double cos_theta(Vec3 w) { return safe_sqrt(w.x * w.x + w.z * w.z); }
 inline double dir_phi(Vec3 w) { return std::atan2(w.x, w.z); }
 inline double luminance3(const double* v) { return luminance(RGB{v[0], v[1], v[2]}); }
+inline bool is_zero(RGB c) { return c.r == 0.0 && c.g == 0.0 && c.b == 0.0; }
+
+// A direction uniform on the sphere from (a, b) in [0,1]^2: y = 1 - 2a, azimuth 2 pi b. Its density
+// (solid angle) times `probability`.
+inline Vec3 uniform_sphere_direction(double a, double b) {
+    const double y = 1.0 - 2.0 * a, ct = cos_from_sin(y), phi = kTwoPi * b;
+    return {std::sin(phi) * ct, y, std::cos(phi) * ct};
+}
+inline double uniform_sphere_density(double probability) { return probability / (4.0 * kPi); }
 
 inline bool visible(Vec3 v, Vec3 m, Vec3 h) { return dot(v, h) > 0.0 && dot(v, m) > 0.0; }
 inline bool visible(Vec3 a, Vec3 b, Vec3 m, Vec3 h) { return visible(a, m, h) && visible(b, m, h); }

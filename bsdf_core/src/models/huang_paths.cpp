@@ -221,11 +221,27 @@ double HuangHair::trrt_visible_share(const ShellFrame& f, const Component& visib
     return pa / (pa + pc);
 }
 
+RGB HuangHair::trrt_two_strategies(const EntryState& e, const Component& visible_normals, Vec3 wh2, RGB series,
+                                   Vec3 O, double u2, double u3, double weight) const {
+    RGB sum = weight * series;
+    // Off where -wt does not see the internal mesonormal: the visible normals' density is then not one.
+    const bool shell = trrt_shell_ && e.cos_mi2 > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
+    if (!shell) return sum;
+    const ShellFrame frame = trrt_shell_frame(e);
+    if (!is_zero(series)) sum = trrt_visible_share(frame, visible_normals, wh2) * sum;
+    const Vec3 h = trrt_shell_sample(frame, u2, u3);
+    RGB shell_series;
+    trt_internal(e, h, O, shell_series, nullptr, true);
+    if (!is_zero(shell_series)) sum += (weight * trrt_visible_share(frame, visible_normals, h)) * shell_series;
+    return sum;
+}
+
 // TRT with two strategies for the internal direction, combined by the balance heuristic: the
 // internal-reflection visible normals (what Cycles samples: density qa of wtr) and refraction of O
 // into the fibre through visible normals around the mesonormal of the specular exit point
 // (density qb). One point (u2, u3) feeds both; the TRT integrand g qa / (qa + qb) has no exit
-// peak left. TRRT+ uses the first strategy only. Returns TRT and TRRT+ sums (times weight).
+// peak left. TRRT+: the first strategy and the shell (trrt_two_strategies). Returns TRT and TRRT+ sums
+// (times weight).
 void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, double r1, double angle1, double u2,
                               double u3, double weight, RGB& trt_out, RGB& trrt_out) const {
     trt_out = RGB();
@@ -265,31 +281,17 @@ void HuangHair::trt_mis_point(const ShadingPoint& sp, Vec3 O, double gamma, doub
         const double d = oh + eta_ * th;
         return vndf_density(cb, h, alpha2_) * eta_ * eta_ * std::fabs(th) / (d * d);
     };
-    // TRRT+ with two strategies for the internal normal h, by the balance heuristic: Cycles' visible
-    // normals (density pa) and the shell proposal (pc, trrt_shell_sample); off where -wt does not see
-    // the internal mesonormal (pa is then not a density) or there is no shell.
-    const bool shell = trrt_shell_ && cos_vm > 0.0 && trrt_shell_hi_ > trrt_shell_lo_;
-    const ShellFrame frame = shell ? trrt_shell_frame(e) : ShellFrame{};
-    auto trrt_weight = [&](Vec3 h) { return trrt_visible_share(frame, ca, h); };
-    // Strategy A: Cycles' internal visible normal.
+    // Strategy A: Cycles' internal visible normal; TRRT+ with its shell.
     {
         const Vec3 wh2 = vndf_sample(ca.v, ca.m, ca.s, ca.t, alpha_, std::sqrt(u2), kTwoPi * u3);
         RGB trrt;
         Vec3 wtr;
         const RGB g = trt_internal(e, wh2, O, trrt, &wtr);
-        trrt_out = weight * trrt;
-        if (shell && (trrt.r != 0.0 || trrt.g != 0.0 || trrt.b != 0.0)) trrt_out = trrt_weight(wh2) * trrt_out;
-        if (g.r != 0.0 || g.g != 0.0 || g.b != 0.0) {
+        trrt_out = trrt_two_strategies(e, ca, wh2, trrt, O, u2, u3, weight);
+        if (!is_zero(g)) {
             const double a = qa(wtr), b = qb(wtr);
             if (a > 0.0) trt_out += (weight * a / (a + b)) * g;
         }
-    }
-    // Strategy C (TRRT+ only): the shell proposal.
-    if (shell) {
-        const Vec3 h = trrt_shell_sample(frame, u2, u3);
-        RGB trrt;
-        trt_internal(e, h, O, trrt, nullptr, true);
-        if (trrt.r != 0.0 || trrt.g != 0.0 || trrt.b != 0.0) trrt_out += (weight * trrt_weight(h)) * trrt;
     }
     // Strategy B: refraction of O into the fibre.
     if (use_b) {

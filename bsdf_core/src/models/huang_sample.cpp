@@ -39,6 +39,36 @@ double HuangHair::exit_density(const Component& c, Vec3 O) const {
     return vndf_density(c, h, alpha2_) * std::fabs(oh) / (denom * denom);
 }
 
+Vec3 HuangHair::reflection_sample(const Component& c, double r, double angle) const {
+    const Vec3 h = vndf_sample(c.v, c.m, c.s, c.t, alpha_, r, angle);
+    return (2.0 * dot(c.v, h)) * h - c.v;
+}
+
+// h = normalize(I + O), Jacobian 1 / (4 I.h).
+double HuangHair::reflection_density(Vec3 I, Vec3 O, const Component* components, size_t count,
+                                     double probability) const {
+    const Vec3 sum = I + O;
+    const double len = length(sum);
+    if (!(len > 0.0)) return 0.0;
+    const Vec3 h = (1.0 / len) * sum;
+    const double ih = dot(I, h);
+    if (!(ih > 0.0)) return 0.0;
+    double q = 0.0;
+    for (size_t k = 0; k < count; ++k) q += components[k].probability * vndf_density(components[k], h, alpha2_);
+    return probability * q / (4.0 * ih);
+}
+
+Vec3 HuangHair::trrt_direction(Vec3 I, double u0, double u1, double u_phi) const {
+    const double v = 4.0 * alpha_;
+    const double st = sample_longitudinal(v, std::exp(-2.0 / v), u0, u1, I.y, cos_theta(I));
+    const double ct = cos_from_sin(st), phi = kTwoPi * u_phi;
+    return {std::sin(phi) * ct, st, std::cos(phi) * ct};
+}
+
+double HuangHair::trrt_density(Vec3 I, Vec3 O, double probability) const {
+    return probability * trrt_sampler_.eval(O.y, cos_theta(O), I.y, cos_theta(I)) * kInvTwoPi;
+}
+
 void HuangHair::build_sampler(ShadingPoint& sp) const {
     const Vec3 I = sp.I;
     const double lo = sp.h_lo, hi = sp.h_hi, range = hi - lo;
@@ -191,29 +221,17 @@ void HuangHair::build_sampler(ShadingPoint& sp) const {
 double HuangHair::pdf_local(const ShadingPoint& sp, Vec3 O) const {
     if (!sp.valid) return 0.0;
     const Vec3 I = sp.I;
-    double p = sp.lobe_probability[4] / (4.0 * kPi);
-    // R: O = reflect of I about h, h = normalize(I + O); Jacobian 1 / (4 I.h).
-    if (sp.lobe_probability[0] > 0.0) {
-        const Vec3 sum = I + O;
-        const double len = length(sum);
-        if (len > 0.0) {
-            const Vec3 h = (1.0 / len) * sum;
-            const double ih = dot(I, h);
-            if (ih > 0.0) {
-                double q = 0.0;
-                for (const Component& c : sp.reflection) q += c.probability * vndf_density(c, h, alpha2_);
-                p += sp.lobe_probability[0] * q / (4.0 * ih);
-            }
-        }
-    }
+    double p = uniform_sphere_density(sp.lobe_probability[4]);
+    // R: O = reflect of I about h.
+    if (sp.lobe_probability[0] > 0.0)
+        p += reflection_density(I, O, sp.reflection.data(), sp.reflection.size(), sp.lobe_probability[0]);
     // TT / TRT: refraction out of the fibre.
     for (size_t k = 0; k < sp.exits.size(); ++k) {
         const Component& c = sp.exits[k];
         p += sp.lobe_probability[k < sp.tt_count ? 1 : 2] * c.probability * exit_density(c, O);
     }
     // TRRT+: Chiang's longitudinal lobe with v = 4 alpha around -theta_I, uniform in phi.
-    if (sp.lobe_probability[3] > 0.0)
-        p += sp.lobe_probability[3] * trrt_sampler_.eval(O.y, cos_theta(O), I.y, cos_theta(I)) * kInvTwoPi;
+    if (sp.lobe_probability[3] > 0.0) p += trrt_density(I, O, sp.lobe_probability[3]);
     return std::isfinite(p) ? p : 0.0;
 }
 
@@ -241,27 +259,19 @@ int HuangHair::sample_direction(const ShadingPoint& sp, const std::array<double,
         }
         return &cs[n - 1];
     };
-    const Vec3 I = sp.I;
     const double r = std::sqrt(u[0]), ang = kTwoPi * u[1];
     if (lobe == 0) {
         const Component* c = pick(sp.reflection.data(), sp.reflection.size());
         if (!c) return none;
-        const Vec3 h = vndf_sample(c->v, c->m, c->s, c->t, alpha_, r, ang);
-        O = (2.0 * dot(I, h)) * h - I;
+        O = reflection_sample(*c, r, ang);
     } else if (lobe == 1 || lobe == 2) {
         const Component* c = lobe == 1 ? pick(sp.exits.data(), sp.tt_count)
                                        : pick(sp.exits.data() + sp.tt_count, sp.exits.size() - sp.tt_count);
         if (!c || !exit_sample(*c, r, ang, O)) return none;
     } else if (lobe == 3) {
-        const double v = 4.0 * alpha_;
-        const double st = sample_longitudinal(v, std::exp(-2.0 / v), u[0], u[1], I.y, cos_theta(I));
-        const double ct = cos_from_sin(st);
-        const double phi = kTwoPi * ul;
-        O = {std::sin(phi) * ct, st, std::cos(phi) * ct};
+        O = trrt_direction(sp.I, u[0], u[1], ul);
     } else {
-        const double y = 1.0 - 2.0 * u[0];
-        const double ct = cos_from_sin(y);
-        O = {std::sin(ang) * ct, y, std::cos(ang) * ct};
+        O = uniform_sphere_direction(u[0], u[1]);
     }
     O = normalize(O);
     if (!isfinite(O) || !(length(O) > 0.5)) return none;

@@ -357,6 +357,11 @@ private:
     // The balance heuristic's weight of Cycles' internal visible normals (density pa of `visible_normals`)
     // against the shell (pc) at the normal h: pa / (pa + pc), 1 outside the shell.
     double trrt_visible_share(const ShellFrame& f, const Component& visible_normals, Vec3 h) const;
+    // TRRT+'s series over the internal normal by two strategies and the balance heuristic: Cycles' visible normal
+    // wh2 (of `visible_normals`; the caller's trt_internal gave its series) and the shell's normal from (u2, u3);
+    // times weight. Without a shell (off, -wt not seeing the internal mesonormal, no band) weight x series.
+    RGB trrt_two_strategies(const EntryState& e, const Component& visible_normals, Vec3 wh2, RGB series, Vec3 O,
+                            double u2, double u3, double weight) const;
     std::array<RGB, kLobeCount> eval_local_impl(const ShadingPoint& sp, Vec3 O, long* evaluations, bool lanes) const;
     double r_lobe(const ShadingPoint& sp, Vec3 wh, double integral) const;
     void trt_by_tolerance(const ShadingPoint& sp, Vec3 O, const std::vector<Node>& nodes,
@@ -382,6 +387,15 @@ private:
     // TT and TRT exits): false where none leaves (total internal reflection). Its density (solid angle) at O.
     bool exit_sample(const Component& c, double r, double angle, Vec3& O) const;
     double exit_density(const Component& c, Vec3 O) const;
+    // Reflection of c.v about a visible normal of component c (disk point r, angle; the mixture's R lobe and the
+    // albedo's), not normalised. Its density (solid angle) over `count` components, each by its probability,
+    // times `probability`.
+    Vec3 reflection_sample(const Component& c, double r, double angle) const;
+    double reflection_density(Vec3 I, Vec3 O, const Component* components, size_t count, double probability) const;
+    // TRRT+'s direction: Chiang's longitudinal lobe (v = 4 alpha around -theta_I) from (u0, u1), azimuth
+    // 2 pi u_phi; not normalised. Its density (solid angle) times `probability`.
+    Vec3 trrt_direction(Vec3 I, double u0, double u1, double u_phi) const;
+    double trrt_density(Vec3 I, Vec3 O, double probability) const;
     // The eval is 0 for directions the tilted mesonormals turn away from everywhere.
     bool tilt_hides(Vec3 O) const;
     // TRT's exit mesonormal for the internally reflected direction wtr of entry state e (sin and cos of its gamma).
