@@ -136,9 +136,13 @@ except SystemExit as _e:
 except BaseException:
     traceback.print_exc()
     _rc = 1
-sys.stdout.flush()
-sys.stderr.flush()
-os._exit(_rc)
+try:  # ends at once and removes Blender's session temporary folder
+    from hairbsdf.compare.blender_job import exit_blender_process
+except Exception:  # hairbsdf not importable here (a test of that case)
+    exit_blender_process = os._exit
+    sys.stdout.flush()
+    sys.stderr.flush()
+exit_blender_process(_rc)
 '''
 
 

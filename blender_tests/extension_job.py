@@ -78,9 +78,8 @@ def main():
         out["render"] = blender_job.do_render(job)
     with open(SPEC["out"], "w") as f:
         json.dump(out, f, indent=1, default=str)
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(0)  # the bpy module can hang at exit with classes registered
+    from hairbsdf.compare.blender_job import exit_blender_process
+    exit_blender_process(0)
 
 
 main()

@@ -54,7 +54,8 @@ def main():
         out[key] = hashlib.sha256(px.tobytes()).hexdigest()[:16]
     out["hairbsdf_file"] = hairbsdf.__file__
     print("@@" + json.dumps(out), flush=True)
-    os._exit(0)  # the bpy module can hang at exit with classes registered
+    from hairbsdf.compare.blender_job import exit_blender_process
+    exit_blender_process(0)
 
 
 if __name__ == "__main__":

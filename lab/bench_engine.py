@@ -90,8 +90,8 @@ def _inside(part):
         import engine_memory
         res = engine_memory.measure(n_side=1000, keys=16, render=True)
     sys.stdout.write(TAG + json.dumps(res) + "\n")
-    sys.stdout.flush()
-    os._exit(0)
+    from hairbsdf.compare.blender_job import exit_blender_process
+    exit_blender_process(0)
 
 
 # ----------------------------------------------------------------------------- driver

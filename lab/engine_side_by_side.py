@@ -81,8 +81,8 @@ def _blender_part(argv):
     with open(os.path.join(a.out, f"part_{a.part}.json"), "w") as f:
         json.dump(out, f, indent=1)
     del fg
-    sys.stdout.flush()
-    os._exit(0)
+    from hairbsdf.compare.blender_job import exit_blender_process
+    exit_blender_process(0)
 
 
 # ----------------------------------------------------------------------------- driver

@@ -78,7 +78,7 @@ def main():
             with open(out_json, "w") as f:
                 json.dump(means, f)
     print(f"wrote {out_json}")
-    os._exit(0)  # bpy can hang at exit with classes registered (as in blender_job)
+    bj.exit_blender_process(0)
 
 
 if __name__ == "__main__":

@@ -48,6 +48,19 @@ def _versions():
                 is_module=not bool(bpy.app.binary_path), python=sys.version.split()[0])
 
 
+def exit_blender_process(status=0):
+    """Ends a Blender process at once (the bpy module can hang at exit with classes registered, and
+    Blender itself exits too), first removing Blender's session temporary folder (bpy.app.tempdir,
+    a fresh blender_XXXXXX per process), which only a normal exit would remove."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    session_temp = bpy.app.tempdir
+    if session_temp and os.path.basename(os.path.normpath(session_temp)).startswith("blender_"):
+        import shutil
+        shutil.rmtree(session_temp, ignore_errors=True)
+    os._exit(status)
+
+
 def _scene_lib(scenes_dir):
     if scenes_dir not in sys.path:
         sys.path.insert(0, scenes_dir)
@@ -300,10 +313,7 @@ def main():
         traceback.print_exc()
         _write_json(out, dict(ok=False, status="ERROR", error="%s: %s" % (type(exc).__name__, exc),
                               traceback=traceback.format_exc(), versions=_versions()))
-    sys.stdout.flush()
-    sys.stderr.flush()
-    # The bpy module can hang at exit with classes registered; Blender itself exits too.
-    os._exit(0)
+    exit_blender_process(0)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ import numpy as np
 
 # The harness's own job script, beside this one (its folder is on sys.path when run as a script).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_job import _scene_lib as _scene_lib_in, _write_json  # noqa: E402
+from blender_job import _scene_lib as _scene_lib_in, _write_json, exit_blender_process  # noqa: E402
 
 RANDOM_ATTRIBUTE = "hairbsdf_random"
 
@@ -246,8 +246,7 @@ def main():
     except Exception as exc:
         result.update(ok=False, error="%s: %s" % (type(exc).__name__, exc), traceback=traceback.format_exc())
     _write_json(job["result"], result)
-    sys.stdout.flush()
-    os._exit(0)
+    exit_blender_process(0)
 
 
 if __name__ == "__main__":

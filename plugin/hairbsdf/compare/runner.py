@@ -24,6 +24,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from importlib import resources
 from pathlib import Path
@@ -357,19 +358,27 @@ def run_job(target, job, job_path, log_path, timeout, env=None):
     with open(job_path, "w") as f:
         json.dump(job, f, indent=1)
     t0 = time.time()
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(target.command(job_path), stdout=log, stderr=subprocess.STDOUT,
-                                cwd=os.path.dirname(job_path), env=env, start_new_session=True)
-        try:
-            rc = proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
+    # Blender's session temporary folder (blender_XXXXXX) goes into a folder of this job's own,
+    # removed afterwards: blender_job.exit_blender_process removes it on a normal end, this also
+    # after a crash or a timeout.
+    job_temp = tempfile.mkdtemp(prefix="hairbsdf_job_")
+    env = dict(os.environ if env is None else env, TMPDIR=job_temp)
+    try:
+        with open(log_path, "w") as log:
+            proc = subprocess.Popen(target.command(job_path), stdout=log, stderr=subprocess.STDOUT,
+                                    cwd=os.path.dirname(job_path), env=env, start_new_session=True)
             try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:  # pragma: no cover
-                pass
-            proc.wait()
-            return dict(ok=False, status="TIMEOUT", error="no result after %d s (killed)" % timeout, rc=None,
-                        wall_seconds=time.time() - t0)
+                rc = proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                try:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                except ProcessLookupError:  # pragma: no cover
+                    pass
+                proc.wait()
+                return dict(ok=False, status="TIMEOUT", error="no result after %d s (killed)" % timeout, rc=None,
+                            wall_seconds=time.time() - t0)
+    finally:
+        shutil.rmtree(job_temp, ignore_errors=True)
     wall = time.time() - t0
     if os.path.exists(out_json):
         with open(out_json) as f:
