@@ -25,16 +25,17 @@ struct QueryContext {
     const int* light_triangles = nullptr;
     // The nearest hit accepted so far, by ray id (a single ray has id 0), starting at the ray's
     // tfar: the Sweep filter needs it, since Embree hands a filter the candidate's proxy
-    // distance in tfar, not the distance of the hit it would replace.
+    // distance in tfar, not the distance of the hit it would replace. Both arrays are set up
+    // only in a scene with Sweep curves; null otherwise.
     float* nearest = nullptr;
     // The proxy piece (global index + 1) whose last candidate the Sweep filter rejected, by ray
     // id: Embree offers a round linear proxy's entry and exit separately.
     uint32_t* rejected_piece = nullptr;
 };
 
-// Every accepted hit lowers the ray's `nearest`.
+// Every accepted hit lowers the ray's `nearest` (kept only in a scene with Sweep curves).
 void note_accepted(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
-    ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
+    if (ctx->nearest) ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
 }
 
 // The primitive ray `i` of a filter call skips, and the light triangle it aims at.
@@ -480,8 +481,10 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     setup_ray(ray, rh.ray);
     float nearest = rh.ray.tfar;
     uint32_t rejected_piece = 0;
-    ctx.nearest = &nearest;
-    ctx.rejected_piece = &rejected_piece;
+    if (impl_->sweep) {
+        ctx.nearest = &nearest;
+        ctx.rejected_piece = &rejected_piece;
+    }
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
@@ -506,13 +509,16 @@ void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hit
     thread_local std::vector<float> nearest;
     thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
-    nearest.resize(count);
-    rejected_piece.assign(count, 0);
-    ctx.nearest = nearest.data();
-    ctx.rejected_piece = rejected_piece.data();
+    const bool sweep = impl_->sweep;
+    if (sweep) {
+        nearest.resize(count);
+        rejected_piece.assign(count, 0);
+        ctx.nearest = nearest.data();
+        ctx.rejected_piece = rejected_piece.data();
+    }
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);
-        nearest[i] = stream[i].ray.tfar;
+        if (sweep) nearest[i] = stream[i].ray.tfar;
         stream[i].ray.id = unsigned(i);
         stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -535,13 +541,16 @@ void Geometry::occluded_stream(const Ray* rays, const SkipPrim* skips, const int
     thread_local std::vector<float> nearest;
     thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
-    nearest.resize(count);
-    rejected_piece.assign(count, 0);
-    ctx.nearest = nearest.data();
-    ctx.rejected_piece = rejected_piece.data();
+    const bool sweep = impl_->sweep;
+    if (sweep) {
+        nearest.resize(count);
+        rejected_piece.assign(count, 0);
+        ctx.nearest = nearest.data();
+        ctx.rejected_piece = rejected_piece.data();
+    }
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i]);
-        nearest[i] = stream[i].tfar;
+        if (sweep) nearest[i] = stream[i].tfar;
         stream[i].id = unsigned(i);
     }
     rtcOccluded1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRay));
@@ -558,8 +567,10 @@ bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const
     setup_ray(ray, r);
     float nearest = r.tfar;
     uint32_t rejected_piece = 0;
-    ctx.nearest = &nearest;
-    ctx.rejected_piece = &rejected_piece;
+    if (impl_->sweep) {
+        ctx.nearest = &nearest;
+        ctx.rejected_piece = &rejected_piece;
+    }
     rtcOccluded1(impl_->scene, &ctx.rtc, &r);
     return r.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }
