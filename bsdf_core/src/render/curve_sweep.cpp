@@ -184,10 +184,14 @@ SweepHit bracketed_entry(const Cubic& cp, Vec3 org, Vec3 dir, double outside, do
 
 double catmull_rom_radius(const Cubic& cp, double u) { return centre_line(cp, u).r; }
 
-double chord_distance_bound(const Cubic& cp, double u_begin, double u_end) {
-    const CentreLine a = centre_line(cp, u_begin), b = centre_line(cp, u_end);
+// The chord bound of a piece from its centre line at its ends a = c(u_begin), b = c(u_end).
+double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_begin, double u_end) {
     const double du2 = (u_end - u_begin) * (u_end - u_begin);
     return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
+}
+
+double chord_distance_bound(const Cubic& cp, double u_begin, double u_end) {
+    return chord_distance_bound(centre_line(cp, u_begin), centre_line(cp, u_end), u_begin, u_end);
 }
 
 }  // namespace
@@ -356,8 +360,12 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     return {};
 }
 
-double sweep_chord_distance_bound(const std::array<float, 4>* control_points, double u_begin, double u_end) {
-    return chord_distance_bound(Cubic(control_points), u_begin, u_end);
+double sweep_proxy_widening(const std::array<float, 4>* control_points, double u_begin, double u_end) {
+    const Cubic cp(control_points);
+    const CentreLine a = centre_line(cp, u_begin), b = centre_line(cp, u_end);
+    const double run = length(b.c - a.c), rise = std::fabs(b.r - a.r);
+    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
+    return chord_distance_bound(a, b, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
 }
 
 }  // namespace hairbsdf::render

@@ -397,18 +397,6 @@ size_t Geometry::peak_memory_bytes() const {
     return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
 }
 
-namespace {
-// How much a proxy's radii grow so that it holds its piece of the sweep: the chord bound,
-// and r s^2 / 2 for the slope s = dr / dx of its radius (a sphere of the sweep bulges past a
-// cone through the circles by up to that much).
-double proxy_widening(const std::array<float, 4>* cp, double u_begin, double u_end) {
-    const CurvePoint a = catmull_rom(cp, u_begin), b = catmull_rom(cp, u_end);
-    const double run = length(b.p - a.p), rise = std::fabs(b.r - a.r);
-    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
-    return sweep_chord_distance_bound(cp, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
-}
-}  // namespace
-
 // A Sweep geometry's primitives are its proxy pieces (their hits already carry the segment's u).
 uint32_t Geometry::segment_of_prim(uint32_t prim) const {
     return impl_->sweep ? prim / uint32_t(curve_proxy_pieces) : prim;
@@ -438,7 +426,7 @@ void Geometry::build_sweep_proxies(Impl& im) {
         for (int j = 0; j <= k; ++j) {
             if (j == k && (im.segment_ends[s] & 2) == 0) break;  // the next segment's j = 0
             const double u = double(j) / k;
-            const double bound_after = j < k ? proxy_widening(cp, u, double(j + 1) / k) : 0.0;
+            const double bound_after = j < k ? sweep_proxy_widening(cp, u, double(j + 1) / k) : 0.0;
             const double bound_before = (j == 0 && (im.segment_ends[s] & 1)) ? 0.0 : previous_bound;
             const CurvePoint c = catmull_rom(cp, u);
             const double scale = std::fabs(c.p.x) + std::fabs(c.p.y) + std::fabs(c.p.z) + std::fabs(c.r);
