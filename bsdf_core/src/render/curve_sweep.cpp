@@ -190,10 +190,6 @@ double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_b
     return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
 }
 
-double chord_distance_bound(const Cubic& cp, double u_begin, double u_end) {
-    return chord_distance_bound(centre_line(cp, u_begin), centre_line(cp, u_end), u_begin, u_end);
-}
-
 }  // namespace
 
 SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start, double t_min,
@@ -258,10 +254,13 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
             }
         }
     }
+    // The centre line at the piece's ends and its chord bound, for the test below and the
+    // bounding sphere of the careful search.
+    const CentreLine end_lo = centre_line(cp, lo), end_hi = centre_line(cp, hi);
+    const double chord_bound = chord_distance_bound(end_lo, end_hi, lo, hi);
     // A piece within a quarter radius of its chord: |p - c(u)| - r(u) has one minimum in u, and
     // along a ray that misses, g has one minimum.
-    nearly_straight =
-        chord_distance_bound(cp, lo, hi) < 0.25 * std::min(catmull_rom_radius(cp, lo), catmull_rom_radius(cp, hi));
+    nearly_straight = chord_bound < 0.25 * std::min(end_lo.r, end_hi.r);
     // A nearly straight piece and a ray outside it: Newton's method for the ray's nearest approach
     // to the tube (where G stops falling). Not inside there: a miss. Inside: the entry lies
     // between the start and there.
@@ -294,9 +293,8 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     // chord bound and the larger end radius: the search stays where the ray is inside it.
     double t_low = t_min, t_high = t_max;
     {
-        const CentreLine a = centre_line(cp, lo), b = centre_line(cp, hi);
-        const Vec3 middle = 0.5 * (a.c + b.c);
-        const double radius = 0.5 * length(b.c - a.c) + std::max(a.r, b.r) + chord_distance_bound(cp, lo, hi);
+        const Vec3 middle = 0.5 * (end_lo.c + end_hi.c);
+        const double radius = 0.5 * length(end_hi.c - end_lo.c) + std::max(end_lo.r, end_hi.r) + chord_bound;
         const Vec3 to_middle = middle - org;
         const double dd = dir_length * dir_length, along = dot(to_middle, dir) / dd;
         const double miss2 = dot(to_middle, to_middle) / dd - along * along;
