@@ -47,10 +47,41 @@ CentreLine centre_line(const Cubic& cp, double u) {
     return out;
 }
 
-// The u in [lo, hi] nearest to p in the sweep's sense (least |p - c(u)| - r(u)): the best of
-// five points across the range and `u`, then Newton's method; `at` is the centre line there.
-double nearest_u(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at, bool scan,
-                 bool nearly_straight) {
+// Newton's step from u (`at` = the centre line there) for the least excess |p - c(u)| - r(u):
+// to where its slope vanishes where it curves upwards, else a quarter of the range downhill.
+// False where p lies on the centre line.
+bool excess_newton_step(Vec3 p, const CentreLine& at, double lo, double hi, double& step) {
+    const Vec3 w = p - at.c;
+    const double rho = length(w);
+    if (!(rho > 0)) return false;
+    const double along = dot(w, at.dc);
+    const double slope = -along / rho - at.dr;
+    const double curvature =
+        (dot(at.dc, at.dc) - dot(w, at.ddc)) / rho - along * along / (rho * rho * rho) - at.ddr;
+    step = curvature > 0 ? -slope / curvature : -0.25 * (hi - lo) * (slope > 0 ? 1 : -1);
+    return true;
+}
+
+// The u in [lo, hi] nearest to p in the sweep's sense (least |p - c(u)| - r(u)) on a nearly
+// straight piece, where the excess has one minimum: plain Newton's method from `u`; `at` is the
+// centre line there.
+double nearest_u_newton(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at) {
+    for (int i = 0; i < 8; ++i) {
+        at = centre_line(cp, u);
+        double step;
+        if (!excess_newton_step(p, at, lo, hi, step)) return u;
+        const double next = std::clamp(u + step, lo, hi);
+        const bool moved = std::fabs(next - u) > 1e-12;
+        u = next;
+        if (!moved) break;
+    }
+    at = centre_line(cp, u);
+    return u;
+}
+
+// The same on any piece: with `scan`, the best of five points across the range and `u` first;
+// then Newton's steps, each kept only where it lowers the excess (else halved, up to 4 times).
+double nearest_u_guarded(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at, bool scan) {
     auto excess = [&](double v) {
         const CentreLine c = centre_line(cp, v);
         return length(p - c.c) - c.r;
@@ -63,24 +94,10 @@ double nearest_u(const Cubic& cp, Vec3 p, double u, double lo, double hi, Centre
             u = v;
         }
     }
-    // Newton's steps, each kept only where it lowers the excess (else halved, up to 4 times).
     for (int i = 0; i < 8; ++i) {
         at = centre_line(cp, u);
-        const Vec3 w = p - at.c;
-        const double rho = length(w);
-        if (!(rho > 0)) return u;
-        const double along = dot(w, at.dc);
-        const double slope = -along / rho - at.dr;
-        const double curvature =
-            (dot(at.dc, at.dc) - dot(w, at.ddc)) / rho - along * along / (rho * rho * rho) - at.ddr;
-        double step = curvature > 0 ? -slope / curvature : -0.25 * (hi - lo) * (slope > 0 ? 1 : -1);
-        if (nearly_straight) {  // one minimum: plain Newton
-            const double next = std::clamp(u + step, lo, hi);
-            const bool moved = std::fabs(next - u) > 1e-12;
-            u = next;
-            if (!moved) break;
-            continue;
-        }
+        double step;
+        if (!excess_newton_step(p, at, lo, hi, step)) return u;
         bool moved = false;
         for (int halving = 0; halving < 5 && !moved; ++halving, step *= 0.5) {
             const double next = std::clamp(u + step, lo, hi);
@@ -212,7 +229,8 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
         Sample s;
         CentreLine at;
         const Vec3 p = org + t * dir;
-        s.u = nearest_u(cp, p, u, lo, hi, at, first_sample && !nearly_straight, nearly_straight);
+        s.u = nearly_straight ? nearest_u_newton(cp, p, u, lo, hi, at)
+                              : nearest_u_guarded(cp, p, u, lo, hi, at, first_sample);
         first_sample = false;
         s.w = p - at.c;
         s.rho = length(s.w);
