@@ -8,34 +8,20 @@ tables; lab/README.md, "A profiling build") instead of the installed, stripped o
 """
 
 import argparse
-import importlib.machinery
 import importlib.util
 import os
 import sys
+
+from render_args import add_render_arguments, use_native_modules
 
 # The scene lives with the render-unit tests (not in the package): load that file by path.
 UNIT_CASES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                           "blender_tests", "render_units", "unit_cases.py")
 
 
-def use_native_modules(folder, ap):
-    """Loads hairbsdf._core and hairbsdf._render from `folder`, before hairbsdf is imported, so that
-    the package uses them (its Python files stay the installed ones)."""
-    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
-    for name in ("_core", "_render"):
-        path = os.path.join(folder, name + suffix)
-        if not os.path.isfile(path):
-            ap.error(f"--modules: no {name + suffix} in {folder} (build it: lab/README.md, 'A profiling build')")
-        spec = importlib.util.spec_from_file_location("hairbsdf." + name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        sys.modules[spec.name] = module
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--samples", type=int, default=16, help="samples per pixel (default 16)")
-    ap.add_argument("--threads", type=int, default=1, help="render threads (default 1)")
+    add_render_arguments(ap, samples_default=16)
     ap.add_argument("--scene", default="bench_hair", help="a unit_cases.py scene (default bench_hair)")
     ap.add_argument("--npz", default="", help="render a dumped SceneDesc (.npz, e.g. from "
                     "lab/render_identity/dump_scenes.py) at --samples instead of --scene")
@@ -46,8 +32,6 @@ def main():
     ap.add_argument("--one-by-one", action="store_true",
                     help="with --wavefront: integrator.wavefront_streams off (its rays traced one by one)")
     ap.add_argument("--repeat", type=int, default=1, help="render this many times (default 1)")
-    ap.add_argument("--modules", default="", help="a folder holding hairbsdf's _core and _render native modules "
-                    "to use instead of the installed ones: a profiling build's plugin/ (lab/README.md)")
     a = ap.parse_args()
     if a.samples < 1 or a.threads < 1 or a.repeat < 1:
         ap.error("--samples, --threads and --repeat must be positive")

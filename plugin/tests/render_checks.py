@@ -3,6 +3,17 @@
 import numpy as np
 
 
+def assert_differences_average_out(difference, scale, what="the renders"):
+    """Paths that went other ways (a hit one rounding step away) carry the same expected value, so their
+    differences (one value per pixel) must average out: their mean is within 4 standard errors of zero,
+    plus 1e-7 of `scale` (the compared image's mean) for float rounding."""
+    difference = np.asarray(difference, np.float64).ravel()
+    assert difference.size >= 2, f"{what}: {difference.size} values to compare"
+    standard_error = difference.std(ddof=1) / np.sqrt(difference.size)
+    assert abs(difference.mean()) <= 4 * standard_error + 1e-7 * abs(scale), (
+        f"{what}: mean difference {difference.mean():.3e}, standard error {standard_error:.3e}")
+
+
 def assert_same_render_at_float_rounding(result, reference, max_pixel_share=0.35):
     """Embree's streams and packets return some hits one rounding step away from single-ray queries:
     the first hits' depth and normal agree to float rounding, and a path goes on from that point with
@@ -17,7 +28,4 @@ def assert_same_render_at_float_rounding(result, reference, max_pixel_share=0.35
     differ = np.any(other != image, axis=-1)
     assert differ.mean() <= max_pixel_share, f"{differ.sum()} of {differ.size} pixels differ"
     assert np.all(np.isfinite(other))
-    difference = (other - image)[..., :3].mean(axis=-1).ravel()
-    standard_error = difference.std(ddof=1) / np.sqrt(difference.size)
-    assert abs(difference.mean()) <= 4 * standard_error + 1e-7 * abs(image.mean()), (
-        f"mean difference {difference.mean():.3e}, standard error {standard_error:.3e}")
+    assert_differences_average_out((other - image)[..., :3].mean(axis=-1), image.mean())

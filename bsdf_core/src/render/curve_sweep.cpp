@@ -47,10 +47,41 @@ CentreLine centre_line(const Cubic& cp, double u) {
     return out;
 }
 
-// The u in [lo, hi] nearest to p in the sweep's sense (least |p - c(u)| - r(u)): the best of
-// five points across the range and `u`, then Newton's method; `at` is the centre line there.
-double nearest_u(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at, bool scan,
-                 bool nearly_straight) {
+// Newton's step from u (`at` = the centre line there) for the least excess |p - c(u)| - r(u):
+// to where its slope vanishes where it curves upwards, else a quarter of the range downhill.
+// False where p lies on the centre line.
+bool excess_newton_step(Vec3 p, const CentreLine& at, double lo, double hi, double& step) {
+    const Vec3 w = p - at.c;
+    const double rho = length(w);
+    if (!(rho > 0)) return false;
+    const double along = dot(w, at.dc);
+    const double slope = -along / rho - at.dr;
+    const double curvature =
+        (dot(at.dc, at.dc) - dot(w, at.ddc)) / rho - along * along / (rho * rho * rho) - at.ddr;
+    step = curvature > 0 ? -slope / curvature : -0.25 * (hi - lo) * (slope > 0 ? 1 : -1);
+    return true;
+}
+
+// The u in [lo, hi] nearest to p in the sweep's sense (least |p - c(u)| - r(u)) on a nearly
+// straight piece, where the excess has one minimum: plain Newton's method from `u`; `at` is the
+// centre line there.
+double nearest_u_newton(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at) {
+    for (int i = 0; i < 8; ++i) {
+        at = centre_line(cp, u);
+        double step;
+        if (!excess_newton_step(p, at, lo, hi, step)) return u;
+        const double next = std::clamp(u + step, lo, hi);
+        const bool moved = std::fabs(next - u) > 1e-12;
+        u = next;
+        if (!moved) break;
+    }
+    at = centre_line(cp, u);
+    return u;
+}
+
+// The same on any piece: with `scan`, the best of five points across the range and `u` first;
+// then Newton's steps, each kept only where it lowers the excess (else halved, up to 4 times).
+double nearest_u_guarded(const Cubic& cp, Vec3 p, double u, double lo, double hi, CentreLine& at, bool scan) {
     auto excess = [&](double v) {
         const CentreLine c = centre_line(cp, v);
         return length(p - c.c) - c.r;
@@ -63,24 +94,10 @@ double nearest_u(const Cubic& cp, Vec3 p, double u, double lo, double hi, Centre
             u = v;
         }
     }
-    // Newton's steps, each kept only where it lowers the excess (else halved, up to 4 times).
     for (int i = 0; i < 8; ++i) {
         at = centre_line(cp, u);
-        const Vec3 w = p - at.c;
-        const double rho = length(w);
-        if (!(rho > 0)) return u;
-        const double along = dot(w, at.dc);
-        const double slope = -along / rho - at.dr;
-        const double curvature =
-            (dot(at.dc, at.dc) - dot(w, at.ddc)) / rho - along * along / (rho * rho * rho) - at.ddr;
-        double step = curvature > 0 ? -slope / curvature : -0.25 * (hi - lo) * (slope > 0 ? 1 : -1);
-        if (nearly_straight) {  // one minimum: plain Newton
-            const double next = std::clamp(u + step, lo, hi);
-            const bool moved = std::fabs(next - u) > 1e-12;
-            u = next;
-            if (!moved) break;
-            continue;
-        }
+        double step;
+        if (!excess_newton_step(p, at, lo, hi, step)) return u;
         bool moved = false;
         for (int halving = 0; halving < 5 && !moved; ++halving, step *= 0.5) {
             const double next = std::clamp(u + step, lo, hi);
@@ -184,8 +201,8 @@ SweepHit bracketed_entry(const Cubic& cp, Vec3 org, Vec3 dir, double outside, do
 
 double catmull_rom_radius(const Cubic& cp, double u) { return centre_line(cp, u).r; }
 
-double chord_distance_bound(const Cubic& cp, double u_begin, double u_end) {
-    const CentreLine a = centre_line(cp, u_begin), b = centre_line(cp, u_end);
+// The chord bound of a piece from its centre line at its ends a = c(u_begin), b = c(u_end).
+double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_begin, double u_end) {
     const double du2 = (u_end - u_begin) * (u_end - u_begin);
     return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
 }
@@ -212,7 +229,8 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
         Sample s;
         CentreLine at;
         const Vec3 p = org + t * dir;
-        s.u = nearest_u(cp, p, u, lo, hi, at, first_sample && !nearly_straight, nearly_straight);
+        s.u = nearly_straight ? nearest_u_newton(cp, p, u, lo, hi, at)
+                              : nearest_u_guarded(cp, p, u, lo, hi, at, first_sample);
         first_sample = false;
         s.w = p - at.c;
         s.rho = length(s.w);
@@ -254,10 +272,13 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
             }
         }
     }
+    // The centre line at the piece's ends and its chord bound, for the test below and the
+    // bounding sphere of the careful search.
+    const CentreLine end_lo = centre_line(cp, lo), end_hi = centre_line(cp, hi);
+    const double chord_bound = chord_distance_bound(end_lo, end_hi, lo, hi);
     // A piece within a quarter radius of its chord: |p - c(u)| - r(u) has one minimum in u, and
     // along a ray that misses, g has one minimum.
-    nearly_straight =
-        chord_distance_bound(cp, lo, hi) < 0.25 * std::min(catmull_rom_radius(cp, lo), catmull_rom_radius(cp, hi));
+    nearly_straight = chord_bound < 0.25 * std::min(end_lo.r, end_hi.r);
     // A nearly straight piece and a ray outside it: Newton's method for the ray's nearest approach
     // to the tube (where G stops falling). Not inside there: a miss. Inside: the entry lies
     // between the start and there.
@@ -290,9 +311,8 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     // chord bound and the larger end radius: the search stays where the ray is inside it.
     double t_low = t_min, t_high = t_max;
     {
-        const CentreLine a = centre_line(cp, lo), b = centre_line(cp, hi);
-        const Vec3 middle = 0.5 * (a.c + b.c);
-        const double radius = 0.5 * length(b.c - a.c) + std::max(a.r, b.r) + chord_distance_bound(cp, lo, hi);
+        const Vec3 middle = 0.5 * (end_lo.c + end_hi.c);
+        const double radius = 0.5 * length(end_hi.c - end_lo.c) + std::max(end_lo.r, end_hi.r) + chord_bound;
         const Vec3 to_middle = middle - org;
         const double dd = dir_length * dir_length, along = dot(to_middle, dir) / dd;
         const double miss2 = dot(to_middle, to_middle) / dd - along * along;
@@ -356,8 +376,12 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     return {};
 }
 
-double sweep_chord_distance_bound(const std::array<float, 4>* control_points, double u_begin, double u_end) {
-    return chord_distance_bound(Cubic(control_points), u_begin, u_end);
+double sweep_proxy_widening(const std::array<float, 4>* control_points, double u_begin, double u_end) {
+    const Cubic cp(control_points);
+    const CentreLine a = centre_line(cp, u_begin), b = centre_line(cp, u_end);
+    const double run = length(b.c - a.c), rise = std::fabs(b.r - a.r);
+    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
+    return chord_distance_bound(a, b, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
 }
 
 }  // namespace hairbsdf::render

@@ -25,16 +25,17 @@ struct QueryContext {
     const int* light_triangles = nullptr;
     // The nearest hit accepted so far, by ray id (a single ray has id 0), starting at the ray's
     // tfar: the Sweep filter needs it, since Embree hands a filter the candidate's proxy
-    // distance in tfar, not the distance of the hit it would replace.
+    // distance in tfar, not the distance of the hit it would replace. Both arrays are set up
+    // only in a scene with Sweep curves; null otherwise.
     float* nearest = nullptr;
     // The proxy piece (global index + 1) whose last candidate the Sweep filter rejected, by ray
     // id: Embree offers a round linear proxy's entry and exit separately.
     uint32_t* rejected_piece = nullptr;
 };
 
-// Every accepted hit lowers the ray's `nearest`.
+// Every accepted hit lowers the ray's `nearest` (kept only in a scene with Sweep curves).
 void note_accepted(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
-    ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
+    if (ctx->nearest) ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
 }
 
 // The primitive ray `i` of a filter call skips, and the light triangle it aims at.
@@ -396,18 +397,6 @@ size_t Geometry::peak_memory_bytes() const {
     return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
 }
 
-namespace {
-// How much a proxy's radii grow so that it holds its piece of the sweep: the chord bound,
-// and r s^2 / 2 for the slope s = dr / dx of its radius (a sphere of the sweep bulges past a
-// cone through the circles by up to that much).
-double proxy_widening(const std::array<float, 4>* cp, double u_begin, double u_end) {
-    const CurvePoint a = catmull_rom(cp, u_begin), b = catmull_rom(cp, u_end);
-    const double run = length(b.p - a.p), rise = std::fabs(b.r - a.r);
-    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
-    return sweep_chord_distance_bound(cp, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
-}
-}  // namespace
-
 // A Sweep geometry's primitives are its proxy pieces (their hits already carry the segment's u).
 uint32_t Geometry::segment_of_prim(uint32_t prim) const {
     return impl_->sweep ? prim / uint32_t(curve_proxy_pieces) : prim;
@@ -437,7 +426,7 @@ void Geometry::build_sweep_proxies(Impl& im) {
         for (int j = 0; j <= k; ++j) {
             if (j == k && (im.segment_ends[s] & 2) == 0) break;  // the next segment's j = 0
             const double u = double(j) / k;
-            const double bound_after = j < k ? proxy_widening(cp, u, double(j + 1) / k) : 0.0;
+            const double bound_after = j < k ? sweep_proxy_widening(cp, u, double(j + 1) / k) : 0.0;
             const double bound_before = (j == 0 && (im.segment_ends[s] & 1)) ? 0.0 : previous_bound;
             const CurvePoint c = catmull_rom(cp, u);
             const double scale = std::fabs(c.p.x) + std::fabs(c.p.y) + std::fabs(c.p.z) + std::fabs(c.r);
@@ -480,8 +469,10 @@ Hit Geometry::intersect(const Ray& ray, SkipPrim skip) const {
     setup_ray(ray, rh.ray);
     float nearest = rh.ray.tfar;
     uint32_t rejected_piece = 0;
-    ctx.nearest = &nearest;
-    ctx.rejected_piece = &rejected_piece;
+    if (impl_->sweep) {
+        ctx.nearest = &nearest;
+        ctx.rejected_piece = &rejected_piece;
+    }
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(impl_->scene, &ctx.rtc, &rh);
@@ -506,13 +497,16 @@ void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hit
     thread_local std::vector<float> nearest;
     thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
-    nearest.resize(count);
-    rejected_piece.assign(count, 0);
-    ctx.nearest = nearest.data();
-    ctx.rejected_piece = rejected_piece.data();
+    const bool sweep = impl_->sweep;
+    if (sweep) {
+        nearest.resize(count);
+        rejected_piece.assign(count, 0);
+        ctx.nearest = nearest.data();
+        ctx.rejected_piece = rejected_piece.data();
+    }
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);
-        nearest[i] = stream[i].ray.tfar;
+        if (sweep) nearest[i] = stream[i].ray.tfar;
         stream[i].ray.id = unsigned(i);
         stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -535,13 +529,16 @@ void Geometry::occluded_stream(const Ray* rays, const SkipPrim* skips, const int
     thread_local std::vector<float> nearest;
     thread_local std::vector<uint32_t> rejected_piece;
     stream.resize(count);
-    nearest.resize(count);
-    rejected_piece.assign(count, 0);
-    ctx.nearest = nearest.data();
-    ctx.rejected_piece = rejected_piece.data();
+    const bool sweep = impl_->sweep;
+    if (sweep) {
+        nearest.resize(count);
+        rejected_piece.assign(count, 0);
+        ctx.nearest = nearest.data();
+        ctx.rejected_piece = rejected_piece.data();
+    }
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i]);
-        nearest[i] = stream[i].tfar;
+        if (sweep) nearest[i] = stream[i].tfar;
         stream[i].id = unsigned(i);
     }
     rtcOccluded1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRay));
@@ -558,8 +555,10 @@ bool Geometry::occluded(const Ray& ray, SkipPrim skip, int light_triangle) const
     setup_ray(ray, r);
     float nearest = r.tfar;
     uint32_t rejected_piece = 0;
-    ctx.nearest = &nearest;
-    ctx.rejected_piece = &rejected_piece;
+    if (impl_->sweep) {
+        ctx.nearest = &nearest;
+        ctx.rejected_piece = &rejected_piece;
+    }
     rtcOccluded1(impl_->scene, &ctx.rtc, &r);
     return r.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }

@@ -43,9 +43,11 @@ struct SweepHit {
 SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start,
                          double t_min, double t_max);
 
-// How far the piece's centre line and radius may stray from their chords (the proxy's
-// widening): max |c''| du^2 / 8 + max |r''| du^2 / 8 over the piece (c'' and r'' are linear
-// in u, so their largest norms sit at the piece's ends).
-double sweep_chord_distance_bound(const std::array<float, 4>* control_points, double u_begin, double u_end);
+// How much a proxy's radii grow so that it holds its piece [u_begin, u_end] of the sweep: how
+// far the piece's centre line and radius may stray from their chords, max |c''| du^2 / 8 +
+// max |r''| du^2 / 8 (c'' and r'' are linear in u, so their largest norms sit at the piece's
+// ends), plus r s^2 / 2 for the slope s = dr / dx of its radius (a sphere of the sweep bulges
+// past a cone through the circles by up to that much). One evaluation of the cubic at each end.
+double sweep_proxy_widening(const std::array<float, 4>* control_points, double u_begin, double u_end);
 
 }  // namespace hairbsdf::render
