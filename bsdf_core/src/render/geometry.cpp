@@ -33,6 +33,20 @@ struct QueryContext {
     uint32_t* rejected_piece = nullptr;
 };
 
+// The Sweep filter's per-ray arrays for a stream of rays, kept per thread (they grow to the longest
+// stream, then are reused); `attach` points the context at them for `count` rays, each ray's
+// `nearest` still to be set to its tfar.
+struct SweepStreamState {
+    std::vector<float> nearest;
+    std::vector<uint32_t> rejected_piece;
+    void attach(QueryContext& ctx, size_t count) {
+        nearest.resize(count);
+        rejected_piece.assign(count, 0);
+        ctx.nearest = nearest.data();
+        ctx.rejected_piece = rejected_piece.data();
+    }
+};
+
 // Every accepted hit lowers the ray's `nearest` (kept only in a scene with Sweep curves).
 void note_accepted(const QueryContext* ctx, const RTCFilterFunctionNArguments* args, unsigned i) {
     if (ctx->nearest) ctx->nearest[RTCRayN_id(args->ray, args->N, i)] = RTCRayN_tfar(args->ray, args->N, i);
@@ -494,19 +508,12 @@ void Geometry::intersect_stream(const Ray* rays, const SkipPrim* skips, Hit* hit
     if (!skips) ctx.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     ctx.skips = skips;
     thread_local std::vector<RTCRayHit> stream;  // grows to the longest stream, then is reused
-    thread_local std::vector<float> nearest;
-    thread_local std::vector<uint32_t> rejected_piece;
+    thread_local SweepStreamState sweep_state;
     stream.resize(count);
-    const bool sweep = impl_->sweep;
-    if (sweep) {
-        nearest.resize(count);
-        rejected_piece.assign(count, 0);
-        ctx.nearest = nearest.data();
-        ctx.rejected_piece = rejected_piece.data();
-    }
+    if (impl_->sweep) sweep_state.attach(ctx, count);
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i].ray);
-        if (sweep) nearest[i] = stream[i].ray.tfar;
+        if (ctx.nearest) ctx.nearest[i] = stream[i].ray.tfar;
         stream[i].ray.id = unsigned(i);
         stream[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         stream[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -526,19 +533,12 @@ void Geometry::occluded_stream(const Ray* rays, const SkipPrim* skips, const int
     ctx.skips = skips;
     ctx.light_triangles = light_triangles;
     thread_local std::vector<RTCRay> stream;
-    thread_local std::vector<float> nearest;
-    thread_local std::vector<uint32_t> rejected_piece;
+    thread_local SweepStreamState sweep_state;
     stream.resize(count);
-    const bool sweep = impl_->sweep;
-    if (sweep) {
-        nearest.resize(count);
-        rejected_piece.assign(count, 0);
-        ctx.nearest = nearest.data();
-        ctx.rejected_piece = rejected_piece.data();
-    }
+    if (impl_->sweep) sweep_state.attach(ctx, count);
     for (size_t i = 0; i < count; ++i) {
         setup_ray(rays[i], stream[i]);
-        if (sweep) nearest[i] = stream[i].tfar;
+        if (ctx.nearest) ctx.nearest[i] = stream[i].tfar;
         stream[i].id = unsigned(i);
     }
     rtcOccluded1M(impl_->scene, &ctx.rtc, stream.data(), unsigned(count), sizeof(RTCRay));
