@@ -27,6 +27,7 @@ import json
 import os
 import shutil
 import subprocess
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -244,6 +245,8 @@ def run_snippet(kind: str, code: str, tmp: Path, args=None, timeout=DEFAULT_TIME
     full_env["HB_TEST_ARGS"] = json.dumps({"paths": paths, "snippet": str(snippet), "args": args or {},
                                            "tmp": str(tmp), "pre_import": list(pre_import)})
     full_env.setdefault("PYTHONUNBUFFERED", "1")
+    # Blender's session folder under the test's own folder: runs that crash on purpose cannot remove it.
+    full_env["TMPDIR"] = tempfile.mkdtemp(prefix="blender_tmp_", dir=tmp)
     if env:
         full_env.update(env)
     if kind == "bpy":

@@ -179,9 +179,12 @@ def test_extension_install_bpy(tmp_path):
     """bpy 4.5 (Blender 4.2+ API): the add-on installs as an extension from its
     blender_manifest.toml and registers the engine."""
     require("bpy")
-    env = dict(os.environ, **_user_env(tmp_path))
+    temp = tmp_path / "tmp"  # the installer's TMPDIR: it leaves nothing there (nor Blender's session folder)
+    temp.mkdir()
+    env = dict(os.environ, TMPDIR=str(temp), **_user_env(tmp_path))
     inst = subprocess.run([str(ROOT / "scripts" / "install_blender_addon"), str(VENV_PY)], capture_output=True,
                           text=True, env=env, timeout=120)
     assert inst.returncode == 0, inst.stdout + inst.stderr
+    assert list(temp.iterdir()) == []
     assert "enabled bl_ext.user_default.hairbsdf_blender in Blender 4.5" in inst.stdout
     assert list((tmp_path / "user").rglob("hairbsdf_blender/blender_manifest.toml"))
