@@ -1,6 +1,7 @@
 // Curve and triangle intersection with Cycles' semantics (render/geometry.h).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "hairbsdf/render/geometry.h"
@@ -198,7 +199,8 @@ namespace {
 
 // Bent, tapered strands packed so that they cross, and a triangle plane through them, for
 // comparing the two intersectors.
-SceneDesc bent_strands(CurveIntersector intersector, uint32_t seed) {
+// 48 strands (or, `thin`, 400 strands like hair: gently bent, 10x thinner) across a box over a plane.
+SceneDesc bent_strands(CurveIntersector intersector, uint32_t seed, bool thin = false) {
     SceneDesc s;
     s.curve_shape = CurveShape::Thick;
     s.curve_intersector = intersector;
@@ -208,12 +210,12 @@ SceneDesc bent_strands(CurveIntersector intersector, uint32_t seed) {
         state = state * 1664525u + 1013904223u;
         return double(state >> 8) / double(1u << 24);
     };
-    for (int c = 0; c < 48; ++c) {
-        const double y0 = next() - 0.5, z0 = 0.4 * next() - 0.2, bend = 3 * next(), phase = 6.28 * next();
-        const int keys = 3 + int(6 * next());
+    for (int c = 0; c < (thin ? 400 : 48); ++c) {
+        const double y0 = next() - 0.5, z0 = 0.4 * next() - 0.2, bend = (thin ? 1 : 3) * next(), phase = 6.28 * next();
+        const int keys = thin ? 12 : 3 + int(6 * next());
         for (int k = 0; k < keys; ++k) {
             const double x = -1 + 2.0 * k / (keys - 1);
-            const double r = 0.04 * (1.0 - 0.7 * k / (keys - 1)) * (0.5 + next());
+            const double r = (thin ? 0.004 : 0.04) * (1.0 - 0.7 * k / (keys - 1)) * (0.5 + next());
             s.curves.points.push_back({float(x), float(y0 + 0.3 * std::sin(bend * x + phase)),
                                        float(z0 + 0.3 * std::cos(bend * 1.3 * x + phase)), float(r)});
         }
@@ -232,25 +234,42 @@ SceneDesc bent_strands(CurveIntersector intersector, uint32_t seed) {
 // The Sweep intersector (Embree's BVH over linear proxies, the exact test) finds the hits of
 // Embree's round Catmull-Rom curves: the same curve, distance and centre-line point, on
 // strongly bent, tapered strands (a few keys each, radius changing by up to 3x per key), for
-// single rays and for the wavefront's streams. Newton's method may lose a hit or find the
-// second where the tube folds on itself at such bends: a few per thousand hits here.
-TEST(RenderGeometry, SweepIntersectorFindsEmbreesCatmullRomHits) {
-    const SceneDesc a = bent_strands(CurveIntersector::Embree, 7), b = bent_strands(CurveIntersector::Sweep, 7);
+// single rays and for the wavefront's streams. Rays from afar, or (`from_near_strands`) from
+// points within 2.5 radii of a strand's key, inside its tube or not, like the bounce and shadow
+// rays of a render (half of them skip that strand): these reach the exact test's later steps.
+// At most one disagreement per `hits_per_disagreement` hits (a hit on another curve, or none,
+// or t off by 1e-4), and one occlusion answer per `rays_per_occlusion_disagreement` rays.
+static void expect_sweep_finds_embrees_hits(bool from_near_strands, bool thin, int hits_per_disagreement,
+                                            int rays_per_occlusion_disagreement) {
+    const SceneDesc a = bent_strands(CurveIntersector::Embree, 7, thin), b = bent_strands(CurveIntersector::Sweep, 7, thin);
     const Geometry embree(a), sweep(b);
     uint32_t state = 99;
     auto next = [&] {
         state = state * 1664525u + 1013904223u;
         return double(state >> 8) / double(1u << 24);
     };
+    auto random_direction = [&] {
+        const double ct = 2 * next() - 1, phi = 6.283185307 * next(), st = std::sqrt(1 - ct * ct);
+        return Vec3{st * std::cos(phi), st * std::sin(phi), ct};
+    };
     const int n = 20000;
     std::vector<Ray> rays;
     std::vector<SkipPrim> skips;
     for (int i = 0; i < n; ++i) {
+        if (from_near_strands) {
+            const size_t key = size_t(next() * double(a.curves.points.size())) % a.curves.points.size();
+            const auto& k = a.curves.points[key];
+            const int curve = int(std::upper_bound(a.curves.offsets.begin(), a.curves.offsets.end(), int32_t(key)) -
+                                  a.curves.offsets.begin()) - 1;
+            const Vec3 origin = Vec3{k[0], k[1], k[2]} + ((0.2 + 2.3 * next()) * k[3]) * random_direction();
+            rays.push_back(ray(origin, random_direction()));
+            skips.push_back((i % 2 == 0) ? SkipPrim{PrimKind::Curve, curve} : SkipPrim{});
+            continue;
+        }
         const Vec3 target{2 * next() - 1, 1.4 * next() - 0.7, 0.8 * next() - 0.4};
-        const double ct = 2 * next() - 1, phi = 6.283185307 * next(), st = std::sqrt(1 - ct * ct);
-        const Vec3 d{st * std::cos(phi), st * std::sin(phi), ct};
+        const Vec3 d = random_direction();
         rays.push_back(ray(target - 3.0 * d, d));
-        skips.push_back((i % 4 == 0) ? SkipPrim{PrimKind::Curve, int(i % 48)} : SkipPrim{});
+        skips.push_back((i % 4 == 0) ? SkipPrim{PrimKind::Curve, int(i % a.curves.random.size())} : SkipPrim{});
     }
     std::vector<Hit> streamed(n);
     std::vector<uint8_t> occluded_streamed(n);
@@ -284,8 +303,28 @@ TEST(RenderGeometry, SweepIntersectorFindsEmbreesCatmullRomHits) {
         EXPECT_NEAR(hb.segment + hb.u, ha.segment + ha.u, 1e-3) << i;
     }
     EXPECT_GT(hits, 5000);
-    EXPECT_LE(disagreements, hits / 400) << hits;
-    EXPECT_LE(t_mismatch, hits / 400) << hits;
-    EXPECT_LE(occlusion_disagreements, n / 1000);
+    EXPECT_LE(disagreements, hits / hits_per_disagreement) << hits;
+    EXPECT_LE(t_mismatch, hits / hits_per_disagreement) << hits;
+    EXPECT_LE(occlusion_disagreements, n / rays_per_occlusion_disagreement);
     EXPECT_EQ(stream_mismatch, 0);
+}
+
+// Newton's method may lose a hit or find the second where the tube folds on itself at such bends:
+// 6 in 11 553 hits here (17 before the passes by nearly straight pieces), so at most one per thousand.
+TEST(RenderGeometry, SweepIntersectorFindsEmbreesCatmullRomHits) { expect_sweep_finds_embrees_hits(false, false, 1000, 1000); }
+
+// Known gap (issue 29): rays that start inside another strand's tube. Embree reports that tube's
+// far wall a little way along the ray; Sweep misses some of these and finds a farther hit, mostly
+// near a segment's end: Embree's round linear proxies offer no candidate to a ray that starts
+// inside them, and the neighbouring segment's proxy leaves the point to them. Here 375 of 10 272
+// hits on the bent strands (387 before the passes) and 70 of 10 682 on the thin ones; 21 and 28
+// occlusion answers of 20 000. The bounds hold today's counts, so that a change that loses more of
+// these fails (the passes' exit step planted as a miss: 453 and 92; 57 and 45).
+TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsFromNearTheStrands) {
+    expect_sweep_finds_embrees_hits(true, false, 25, 500);
+}
+
+TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsOnThinStrands) {
+    expect_sweep_finds_embrees_hits(false, true, 1000, 1000);
+    expect_sweep_finds_embrees_hits(true, true, 125, 500);
 }

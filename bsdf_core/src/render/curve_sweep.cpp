@@ -14,28 +14,37 @@ struct CentreLine {
     double r = 0, dr = 0, ddr = 0;
 };
 
-// The segment's Catmull-Rom cubic in the power basis (x, y, z, r; coefficient k of u^k), so that
-// each evaluation is a few multiply-adds.
+// The segment's Catmull-Rom cubic in the power basis (coefficient k of u^k; x, y, z, r side by
+// side, so that the compiler evaluates the four axes together), with the derivatives' factors.
 struct Cubic {
-    double coefficient[4][4];
+    alignas(32) double coefficient[4][4];  // [k][axis]
+    alignas(32) double first[3][4];        // k + 1 times coefficient k + 1: c'(u)'s
+    alignas(32) double second[2][4];       // c''(u)'s
     explicit Cubic(const std::array<float, 4>* cp) {
         for (int axis = 0; axis < 4; ++axis) {
             const double p0 = cp[0][axis], p1 = cp[1][axis], p2 = cp[2][axis], p3 = cp[3][axis];
-            coefficient[axis][0] = p1;
-            coefficient[axis][1] = 0.5 * (p2 - p0);
-            coefficient[axis][2] = 0.5 * (2 * p0 - 5 * p1 + 4 * p2 - p3);
-            coefficient[axis][3] = 0.5 * (-p0 + 3 * p1 - 3 * p2 + p3);
+            coefficient[0][axis] = p1;
+            coefficient[1][axis] = 0.5 * (p2 - p0);
+            coefficient[2][axis] = 0.5 * (2 * p0 - 5 * p1 + 4 * p2 - p3);
+            coefficient[3][axis] = 0.5 * (-p0 + 3 * p1 - 3 * p2 + p3);
+        }
+        for (int axis = 0; axis < 4; ++axis) {
+            first[0][axis] = coefficient[1][axis];
+            first[1][axis] = 2 * coefficient[2][axis];
+            first[2][axis] = 3 * coefficient[3][axis];
+            second[0][axis] = 2 * coefficient[2][axis];
+            second[1][axis] = 6 * coefficient[3][axis];
         }
     }
 };
 
 CentreLine centre_line(const Cubic& cp, double u) {
-    double value[4], first[4], second[4];
+    alignas(32) double value[4], first[4], second[4];
     for (int axis = 0; axis < 4; ++axis) {
-        const double* k = cp.coefficient[axis];
-        value[axis] = k[0] + u * (k[1] + u * (k[2] + u * k[3]));
-        first[axis] = k[1] + u * (2 * k[2] + u * 3 * k[3]);
-        second[axis] = 2 * k[2] + u * 6 * k[3];
+        value[axis] = cp.coefficient[0][axis] +
+                      u * (cp.coefficient[1][axis] + u * (cp.coefficient[2][axis] + u * cp.coefficient[3][axis]));
+        first[axis] = cp.first[0][axis] + u * (cp.first[1][axis] + u * cp.first[2][axis]);
+        second[axis] = cp.second[0][axis] + u * cp.second[1][axis];
     }
     CentreLine out;
     out.c = {value[0], value[1], value[2]};
@@ -116,49 +125,58 @@ double nearest_u_guarded(const Cubic& cp, Vec3 p, double u, double lo, double hi
 }
 
 // From a point of the sphere sweep, Newton's method on Embree's own definition of a round
-// curve: the point q = org + t dir lies in the normal plane at u, f = (q - c(u)) . T(u) = 0,
-// at distance r(u) from the centre line there, |q - c|^2 - f^2 = r(u)^2. With a constant
-// radius the two surfaces are one; where the radius changes they part by about r |dr/dc|.
+// curve: the point q = org + t dir lies in the normal plane at u, f = (q - c(u)) . c'(u) = 0,
+// at distance r(u) from the centre line there, h = |q - c|^2 - f^2 / |c'|^2 - r(u)^2 = 0. With
+// a constant radius this is the sphere sweep; where the radius changes they part by about
+// r |dr/dc|. (Both equations without square roots: one division for 1 / |c'|^2, one for the step.)
 SweepHit onto_normal_plane_tube(const Cubic& cp, Vec3 org, Vec3 dir, double t, double u, double t_min,
-                                double t_max, SweepHit* converged = nullptr) {
-    for (int i = 0; i < 12; ++i) {
+                                double t_max, SweepHit* converged = nullptr, int iterations = 12) {
+    for (int i = 0; i < iterations; ++i) {
         const CentreLine c = centre_line(cp, u);
-        const Vec3 q = org + t * dir, w = q - c.c;
-        const double speed = length(c.dc);
-        if (!(speed > 0)) return {};
-        const Vec3 tangent = (1.0 / speed) * c.dc;
-        const Vec3 tangent_du = (1.0 / speed) * (c.ddc - dot(tangent, c.ddc) * tangent);
-        const double f = dot(w, tangent);
-        const double f_du = -speed + dot(w, tangent_du), f_dt = dot(dir, tangent);
-        const double k = dot(w, w) - f * f;
-        if (!(k > 0)) return {};
-        const double root_k = std::sqrt(k);
-        const double g = root_k - c.r;
-        const double g_du = (-dot(w, c.dc) - f * f_du) / root_k - c.dr, g_dt = (dot(w, dir) - f * f_dt) / root_k;
-        const double tolerance = 1e-7 * (std::fabs(c.r) + 1e-9);
-        if (std::fabs(f) <= tolerance && std::fabs(g) <= tolerance) {
+        const Vec3 w = org + t * dir - c.c;
+        const double speed2 = dot(c.dc, c.dc);
+        if (!(speed2 > 0)) return {};
+        const double inverse_speed2 = 1.0 / speed2;
+        const double f = dot(w, c.dc), f_du = -speed2 + dot(w, c.ddc), f_dt = dot(dir, c.dc);
+        const double along2 = f * f * inverse_speed2;  // the square of q - c's part along c'
+        const double h = dot(w, w) - along2 - c.r * c.r;
+        // |f| / |c'| and h / 2r: the distances off the normal plane and off the circle.
+        const double radius = std::fabs(c.r) + 1e-9, tolerance = 1e-7 * radius;
+        auto root = [&](double t_root, double u_root) {
             SweepHit out;
             out.hit = true;
-            out.t = t;
-            out.u = u;
-            out.normal = normalize(w - f * tangent);
+            out.t = t_root;
+            out.u = u_root;
+            out.normal = normalize(w - (f * inverse_speed2) * c.dc);
             out.front = dot(dir, out.normal) < 0;
             if (converged) *converged = out;
-            if (!(u >= 0.0 && u <= 1.0 && t >= t_min && t <= t_max)) return {};
+            if (!(u_root >= 0.0 && u_root <= 1.0 && t_root >= t_min && t_root <= t_max)) return SweepHit{};
             return out;
-        }
-        const double det = f_du * g_dt - f_dt * g_du;
+        };
+        if (along2 <= tolerance * tolerance && std::fabs(h) <= 2 * radius * tolerance) return root(t, u);
+        const double speed2_du = 2 * dot(c.dc, c.ddc);
+        const double h_du = -2 * dot(w, c.dc) - (2 * f * f_du - along2 * speed2_du) * inverse_speed2 - 2 * c.r * c.dr;
+        const double h_dt = 2 * dot(w, dir) - 2 * f * f_dt * inverse_speed2;
+        const double det = f_du * h_dt - f_dt * h_du;
         if (!(std::fabs(det) > 0)) return {};
-        u -= (g_dt * f - f_dt * g) / det;
-        t -= (f_du * g - g_du * f) / det;
-        if (!std::isfinite(u) || !std::isfinite(t)) return {};
+        const double inverse_det = 1.0 / det;
+        const double du = (h_dt * f - f_dt * h) * inverse_det, dt = (f_du * h - h_du * f) * inverse_det;
+        if (!std::isfinite(du) || !std::isfinite(dt)) return {};
+        // Within 1e-3 r of the surface, a step shorter than 1e-5 r lands within the tolerance
+        // (Newton's error squares): that root, with the normal from here.
+        if (along2 <= 1e-6 * radius * radius && std::fabs(h) <= 2e-3 * radius * radius &&
+            dt * dt * dot(dir, dir) <= 1e-10 * radius * radius && du * du * speed2 <= 1e-10 * radius * radius)
+            return root(t - dt, u - du);
+        u -= du;
+        t -= dt;
     }
     return {};
 }
 
 // Embree's surface along the ray: at q = org + t dir, the foot u of q on the centre line
-// (f = (q - c(u)) . c'(u) = 0, Newton's method from `u`) and G = |q - c(u)| - r(u) there.
-double tube_excess(const Cubic& cp, Vec3 org, Vec3 dir, double t, double& u) {
+// (f = (q - c(u)) . c'(u) = 0, Newton's method from `u`) and G = |q - c(u)| - r(u) there;
+// `foot`, if given, receives the centre line at u.
+double tube_excess(const Cubic& cp, Vec3 org, Vec3 dir, double t, double& u, CentreLine* foot = nullptr) {
     const Vec3 q = org + t * dir;
     CentreLine c = centre_line(cp, u);
     for (int i = 0; i < 4; ++i) {
@@ -170,20 +188,22 @@ double tube_excess(const Cubic& cp, Vec3 org, Vec3 dir, double t, double& u) {
         c = centre_line(cp, u);
         if (std::fabs(step) < 1e-10) break;
     }
+    if (foot) *foot = c;
     return length(q - c.c) - c.r;
 }
 
 // The tube's entry between `outside` (G > 0) and `inside` (G < 0) along the ray, by
 // regula falsi with the Illinois halving; then Newton's last steps on both equations.
 SweepHit bracketed_entry(const Cubic& cp, Vec3 org, Vec3 dir, double outside, double g_outside,
-                         double inside, double g_inside, double u, double t_min, double t_max) {
+                         double inside, double g_inside, double u, double t_min, double t_max,
+                         SweepHit* converged = nullptr) {
     const double tolerance = 1e-5 * (std::fabs(centre_line(cp, std::clamp(u, 0.0, 1.0)).r) + 1e-9);
     int kept_side = 0;
     for (int i = 0; i < 40; ++i) {
         const double t = outside - g_outside * (inside - outside) / (g_inside - g_outside);
         const double g = tube_excess(cp, org, dir, t, u);
         if (!std::isfinite(g)) return {};
-        if (std::fabs(g) <= tolerance) return onto_normal_plane_tube(cp, org, dir, t, u, t_min, t_max);
+        if (std::fabs(g) <= tolerance) return onto_normal_plane_tube(cp, org, dir, t, u, t_min, t_max, converged);
         if (g > 0) {
             outside = t;
             g_outside = g;
@@ -205,6 +225,121 @@ double catmull_rom_radius(const Cubic& cp, double u) { return centre_line(cp, u)
 double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_begin, double u_end) {
     const double du2 = (u_end - u_begin) * (u_end - u_begin);
     return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
+}
+
+// Where the ray is inside the sphere about the chord's middle that holds the chord, the chord bound
+// and the larger end radius (the piece's sweep lies in it): [t_low, t_high] narrowed to that; false
+// if the ray misses it there.
+bool ray_in_bounding_sphere(const CentreLine& a, const CentreLine& b, double chord_bound, Vec3 org, Vec3 dir,
+                            double& t_low, double& t_high) {
+    const Vec3 middle = 0.5 * (a.c + b.c);
+    const double radius = 0.5 * length(b.c - a.c) + std::max(a.r, b.r) + chord_bound;
+    const Vec3 to_middle = middle - org;
+    const double dd = dot(dir, dir), along = dot(to_middle, dir) / dd;
+    const double miss2 = dot(to_middle, to_middle) / dd - along * along;
+    const double half2 = radius * radius / dd - miss2;
+    if (!(half2 >= 0)) return false;
+    const double half = std::sqrt(half2);
+    t_low = std::max(t_low, along - half);
+    t_high = std::min(t_high, along + half);
+    return t_low <= t_high;
+}
+
+// The ray's pass by a nearly straight piece (within a quarter radius of its chord), between t_low and
+// t_high where the ray is inside the piece's bounding sphere: along the ray, G (tube_excess) has one
+// minimum there. Newton's method for it, kept inside a shrinking bracket, from the ray's nearest
+// approach to the chord. Outside at the minimum: a miss. Inside: the entry lies between the last
+// point outside and there. `decided` is false where this cannot tell (the ray is inside at t_low, or
+// the entry lies past an open end): the careful search then goes on.
+struct PassResult {
+    bool decided = false;
+    SweepHit hit;
+};
+
+PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, const CentreLine& end_lo,
+                                  const CentreLine& end_hi, Vec3 org, Vec3 dir, double t_low, double t_high,
+                                  double t_min, double t_max) {
+    const double lo = piece.u_begin, hi = piece.u_end;
+    // The nearest approach of the ray to the chord segment.
+    const Vec3 chord = end_hi.c - end_lo.c, from_start = org - end_lo.c;
+    const double dd = dot(dir, dir), de = dot(dir, chord), ee = dot(chord, chord);
+    const double dw = dot(dir, from_start), ew = dot(chord, from_start);
+    const double denominator = dd * ee - de * de;
+    const double s = denominator > 1e-12 * dd * ee ? std::clamp((dd * ew - de * dw) / denominator, 0.0, 1.0) : 0.5;
+    double t = std::clamp((s * de - dw) / dd, t_low, t_high), u = lo + s * (hi - lo);
+    const double scale = std::fabs(t) + std::max(end_lo.r, end_hi.r);
+    double below = t_low, above = t_high;  // the minimum lies between
+    double outside = 0, g_outside = 0;     // the farthest point so far with G > 0
+    bool have_outside = false;
+    for (int i = 0; i < 16; ++i) {
+        CentreLine at;
+        const double g = tube_excess(cp, org, dir, t, u, &at);
+        if (!std::isfinite(g)) return {};
+        if (g < 0) {
+            // Where G's foot lies past an open end of the curve, G measures the cubic's
+            // continuation, no part of the tube: the careful search decides.
+            auto past_open_end = [&](double v) { return (v < 0 && piece.curve_begins) || (v > 1 && piece.curve_ends); };
+            bool exit = false;
+            if (!have_outside) {
+                double u_low = u;
+                const double g_low = tube_excess(cp, org, dir, t_low, u_low);
+                if (g_low > 0 && t > t_low) {
+                    outside = t_low;  // the entry lies between
+                    g_outside = g_low;
+                } else {
+                    // Inside at t_low too: an entry would lie in the bounding sphere, past t_low, so
+                    // the piece holds none; its one root is the exit, if the ray leaves the tube
+                    // before t_high (else that lies past the piece, or past the nearest hit).
+                    if (past_open_end(u_low)) return {};
+                    double u_high = u;
+                    g_outside = tube_excess(cp, org, dir, t_high, u_high);
+                    if (past_open_end(u_high)) return {};
+                    if (!(g_outside > 0)) return {true, {}};
+                    outside = t_high;
+                    exit = true;
+                }
+            }
+            SweepHit root;
+            const SweepHit found = bracketed_entry(cp, org, dir, outside, g_outside, t, g, u, t_min, t_max, &root);
+            if (found.hit && found.front != exit) return {true, found};
+            // On the tube past a joined end (the neighbour's proxies hold it), or farther than
+            // the nearest hit so far: a miss here.
+            if (root.hit && ((root.u < 0 && !piece.curve_begins) || (root.u > 1 && !piece.curve_ends) || root.t > t_max))
+                return {true, {}};
+            return {};
+        }
+        if (t > outside || !have_outside) {
+            outside = t;
+            g_outside = g;
+            have_outside = true;
+        }
+        // dG/dt at the foot (where (q - c) . c' = 0, so u moves with t by -f_t / f_u), and the
+        // curvature of a straight tube's G.
+        const Vec3 w = org + t * dir - at.c;
+        const double rho = length(w);
+        if (!(rho > 0)) return {};
+        const double f_u = -dot(at.dc, at.dc) + dot(w, at.ddc);
+        const double du_dt = f_u < 0 ? dot(dir, at.dc) / -f_u : 0.0;
+        const double along = dot(dir, w) / rho;
+        const double slope = along - at.dr * du_dt;
+        const double curvature = (dd - along * along) / rho;
+        if (slope < 0) below = t;
+        else above = t;
+        // G > 0 all along the range: the minimum at an end of it, or G's tangent here (below G,
+        // which is convex) still above zero across the bracket.
+        if ((slope >= 0 && t <= t_low) || (slope <= 0 && t >= t_high) || above - below <= 1e-9 * scale ||
+            g > std::fabs(slope) * (slope < 0 ? above - t : t - below))
+            return {true, {}};
+        double next = curvature > 0 ? t - slope / curvature : 0.5 * (below + above);
+        if (!(next > below && next < above)) {
+            // Past the bracket: to its end, if not yet looked at, else its middle.
+            const double end = next <= below ? below : above;
+            next = (end == t_low || end == t_high) && end != t ? end : 0.5 * (below + above);
+        }
+        if (std::fabs(next - t) <= 1e-9 * scale) return {true, {}};  // the minimum: outside
+        t = next;
+    }
+    return {};
 }
 
 }  // namespace
@@ -244,7 +379,7 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     {
         SweepHit root;
         const SweepHit quick =
-            onto_normal_plane_tube(cp, org, dir, t_start, std::clamp(u_start, lo, hi), t_min, t_max, &root);
+            onto_normal_plane_tube(cp, org, dir, t_start, std::clamp(u_start, lo, hi), t_min, t_max, &root, 7);
         if (quick.hit && quick.front) return quick;
         if (root.hit) {
             // On the tube past this segment's end where the next segment joins: that
@@ -279,49 +414,42 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     // A piece within a quarter radius of its chord: |p - c(u)| - r(u) has one minimum in u, and
     // along a ray that misses, g has one minimum.
     nearly_straight = chord_bound < 0.25 * std::min(end_lo.r, end_hi.r);
-    // A nearly straight piece and a ray outside it: Newton's method for the ray's nearest approach
-    // to the tube (where G stops falling). Not inside there: a miss. Inside: the entry lies
-    // between the start and there.
-    if (nearly_straight) {
-        double u = std::clamp(u_start, lo, hi);
-        const double g_start = tube_excess(cp, org, dir, t_start, u);
-        if (g_start > 0) {
-            double t = t_start, g = g_start;
-            bool nearest_found = false;
-            for (int i = 0; i < 8 && !nearest_found; ++i) {
-                const CentreLine c = centre_line(cp, u);
-                const Vec3 w = org + t * dir - c.c;
-                const double rho = length(w);
-                if (!(rho > 0)) break;
-                const double slope = dot(dir, w) / rho;
-                const double curvature = (dot(dir, dir) - slope * slope) / rho;
-                if (!(curvature > 0)) break;
-                const double next = t - slope / curvature;
-                nearest_found = std::fabs(next - t) <= 1e-9 * (std::fabs(t) + c.r);
-                if (!(next >= t_min && next <= t_max)) break;
-                t = next;
-                g = tube_excess(cp, org, dir, t, u);
-                if (g < 0) return bracketed_entry(cp, org, dir, t_start, g_start, t, g, u, t_min, t_max);
-            }
-            if (nearest_found && g > 0) return {};
-        }
-    }
     const double tolerance = 1e-7 * (std::fabs(catmull_rom_radius(cp, 0.5 * (lo + hi))) + 1e-9);
     // The piece's sweep lies in the sphere about its chord's middle that holds the chord, the
     // chord bound and the larger end radius: the search stays where the ray is inside it.
     double t_low = t_min, t_high = t_max;
-    {
-        const Vec3 middle = 0.5 * (end_lo.c + end_hi.c);
-        const double radius = 0.5 * length(end_hi.c - end_lo.c) + std::max(end_lo.r, end_hi.r) + chord_bound;
-        const Vec3 to_middle = middle - org;
-        const double dd = dir_length * dir_length, along = dot(to_middle, dir) / dd;
-        const double miss2 = dot(to_middle, to_middle) / dd - along * along;
-        const double half2 = radius * radius / dd - miss2;
-        if (!(half2 >= 0)) return {};
-        const double half = std::sqrt(half2);
-        t_low = std::max(t_min, along - half);
-        t_high = std::min(t_max, along + half);
-        if (!(t_low <= t_high)) return {};
+    if (!ray_in_bounding_sphere(end_lo, end_hi, chord_bound, org, dir, t_low, t_high)) return {};
+    // A nearly straight piece: the ray's pass by it decides most candidates. A bent one: the
+    // passes by its halves, thirds or quarters (the chord bound falls with the square of their
+    // length), the nearest hit of any; if each is nearly straight and each pass decides.
+    if (nearly_straight) {
+        const PassResult pass = pass_by_straight_piece(cp, piece, end_lo, end_hi, org, dir, t_low, t_high, t_min, t_max);
+        if (pass.decided) return pass.hit;
+    } else if (const double r_min = std::min(end_lo.r, end_hi.r); r_min > 0 && chord_bound < 16 * 0.25 * r_min) {
+        const int parts = int(std::ceil(std::sqrt(chord_bound / (0.25 * r_min))));
+        SweepHit nearest;
+        bool decided = true;
+        CentreLine part_lo = end_lo;
+        for (int j = 0; j < parts && decided; ++j) {
+            SweepPiece part = piece;
+            part.u_begin = lo + (hi - lo) * j / parts;
+            part.u_end = j + 1 == parts ? hi : lo + (hi - lo) * (j + 1) / parts;
+            const CentreLine part_hi = j + 1 == parts ? end_hi : centre_line(cp, part.u_end);
+            const double part_bound = chord_distance_bound(part_lo, part_hi, part.u_begin, part.u_end);
+            const double part_t_max = nearest.hit ? std::min(t_max, nearest.t) : t_max;
+            double part_low = t_low, part_high = std::min(t_high, part_t_max);
+            if (!(part_bound < 0.25 * std::min(part_lo.r, part_hi.r))) {
+                decided = false;
+            } else if (part_low <= part_high &&
+                       ray_in_bounding_sphere(part_lo, part_hi, part_bound, org, dir, part_low, part_high)) {
+                const PassResult pass =
+                    pass_by_straight_piece(cp, part, part_lo, part_hi, org, dir, part_low, part_high, t_min, part_t_max);
+                decided = pass.decided;
+                if (pass.hit.hit && (!nearest.hit || pass.hit.t < nearest.t)) nearest = pass.hit;
+            }
+            part_lo = part_hi;
+        }
+        if (decided) return nearest;
     }
     double t = std::clamp(t_start, t_low, t_high);
     Sample at = sample(t, std::clamp(u_start, lo, hi));
