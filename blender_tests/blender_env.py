@@ -22,6 +22,7 @@ Every run is a subprocess that ends with os._exit, so a bpy process never hangs 
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import json
 import os
@@ -55,6 +56,18 @@ KINDS = {"bpy": "bpy4.5", "blender": "blender3.4"}
 # test_compiler_folds_evaluates_and_warns / test_emission_networks_match_cycles_per_pixel (renamed socket,
 # removed Combine RGB node).
 ENGINE_KINDS = {"bpy": "bpy4.5", "bpy5": "bpy5.3", "blender": "blender3.4"}
+
+
+@contextlib.contextmanager
+def own_tmpdir(env=None):
+    """`env` (default: os.environ) with TMPDIR set to a new folder, removed afterwards. Each Blender
+    process makes its session folder $TMPDIR/blender_XXXXXX, and our jobs end with os._exit (or crash),
+    which leaves it: the launcher's TMPDIR is where it goes, and what removes it."""
+    temp = tempfile.mkdtemp(prefix="blender_tmp_")
+    try:
+        yield dict(os.environ if env is None else env, TMPDIR=temp)
+    finally:
+        shutil.rmtree(temp, ignore_errors=True)
 
 
 def venv5_py():
@@ -137,13 +150,9 @@ except SystemExit as _e:
 except BaseException:
     traceback.print_exc()
     _rc = 1
-try:  # ends at once and removes Blender's session temporary folder
-    from hairbsdf.compare.blender_job import exit_blender_process
-except Exception:  # hairbsdf not importable here (a test of that case)
-    exit_blender_process = os._exit
-    sys.stdout.flush()
-    sys.stderr.flush()
-exit_blender_process(_rc)
+sys.stdout.flush()  # ends at once (bpy can hang at exit); the launcher's TMPDIR holds Blender's session folder
+sys.stderr.flush()
+os._exit(_rc)
 '''
 
 

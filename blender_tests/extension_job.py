@@ -78,18 +78,9 @@ def main():
         out["render"] = blender_job.do_render(job)
     with open(SPEC["out"], "w") as f:
         json.dump(out, f, indent=1, default=str)
-    exit_through_blender_job()
-
-
-def exit_through_blender_job():
-    """The installed package's blender_job.exit_blender_process (removes Blender's session folder),
-    loaded by its path: with plant_import_error the hairbsdf package itself does not import."""
-    import importlib.util
-    package_dir = importlib.util.find_spec("hairbsdf").submodule_search_locations[0]
-    spec = importlib.util.spec_from_file_location("blender_job", os.path.join(package_dir, "compare", "blender_job.py"))
-    blender_job = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(blender_job)
-    blender_job.exit_blender_process(0)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)  # the bpy module can hang at exit with classes registered
 
 
 main()

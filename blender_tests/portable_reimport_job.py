@@ -154,8 +154,8 @@ def main():
         result.update(error="%s: %s" % (type(exc).__name__, exc), traceback=traceback.format_exc())
     with open(job["result"], "w") as f:
         json.dump(result, f, indent=1, default=str)
-    from hairbsdf.compare.blender_job import exit_blender_process
-    exit_blender_process(0)
+    sys.stdout.flush()
+    os._exit(0)
 
 
 if __name__ == "__main__":

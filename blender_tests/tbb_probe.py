@@ -54,8 +54,7 @@ def main():
         out[key] = hashlib.sha256(px.tobytes()).hexdigest()[:16]
     out["hairbsdf_file"] = hairbsdf.__file__
     print("@@" + json.dumps(out), flush=True)
-    from hairbsdf.compare.blender_job import exit_blender_process
-    exit_blender_process(0)
+    os._exit(0)  # the bpy module can hang at exit with classes registered
 
 
 if __name__ == "__main__":

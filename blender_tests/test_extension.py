@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from blender_env import own_tmpdir
 from ci import skip_or_fail
 from hairbsdf._constants import ENGINE_ID
 from hairbsdf.compare.metrics import load_image
@@ -50,7 +51,9 @@ def user_env(folder):
 
 def run(cmd, env, cwd, timeout=600):
     t0 = time.monotonic()
-    r = subprocess.run([str(c) for c in cmd], env=env, cwd=cwd, capture_output=True, text=True, timeout=timeout)
+    with own_tmpdir(env) as job_env:
+        r = subprocess.run([str(c) for c in cmd], env=job_env, cwd=cwd, capture_output=True, text=True,
+                           timeout=timeout)
     return r, time.monotonic() - t0
 
 

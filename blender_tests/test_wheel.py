@@ -20,6 +20,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from blender_env import own_tmpdir
 
 pytestmark = pytest.mark.blender
 
@@ -39,7 +40,9 @@ def clean_env(venv):
 
 def run(cmd, cwd, env=None, timeout=600):
     t0 = time.monotonic()
-    r = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    with own_tmpdir(env) as job_env:
+        r = subprocess.run([str(c) for c in cmd], cwd=cwd, env=job_env, capture_output=True, text=True,
+                           timeout=timeout)
     assert r.returncode == 0, "%s\n%s\n%s" % (" ".join(map(str, cmd)), r.stdout[-4000:], r.stderr[-4000:])
     return r, time.monotonic() - t0
 

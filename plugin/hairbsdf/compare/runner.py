@@ -163,8 +163,10 @@ class Target:
     def command(self, job_json):
         if self.kind == "bpy":
             return [self.path, str(JOB_SCRIPT), str(job_json)]
-        return [self.path, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(JOB_SCRIPT), "--",
-                str(job_json)]
+        # -noaudio: no sound system (a background job needs none; PulseAudio's client may leave a
+        # pulse-XXXXXX folder in TMPDIR when it finds no server).
+        return [self.path, "-b", "-noaudio", "--factory-startup", "--python-exit-code", "1", "--python",
+                str(JOB_SCRIPT), "--", str(job_json)]
 
     def as_dict(self):
         return dict(spec=self.spec, kind=self.kind, path=self.path, label=self.label, version=list(self.version))
