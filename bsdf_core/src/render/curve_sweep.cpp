@@ -383,8 +383,14 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
         if (quick.hit && quick.front) return quick;
         if (root.hit) {
             // On the tube past this segment's end where the next segment joins: that
-            // segment's proxies hold the point.
-            if ((root.u < 0 && !piece.curve_begins) || (root.u > 1 && !piece.curve_ends)) return {};
+            // segment's proxies hold the point (the caller may test it there).
+            if ((root.u < 0 && !piece.curve_begins) || (root.u > 1 && !piece.curve_ends)) {
+                SweepHit past;
+                past.t = root.t;
+                past.u = root.u;
+                past.past_joined_end = root.u < 0 ? -1 : 1;
+                return past;
+            }
             // An entry farther than the nearest hit so far.
             if (root.front && root.t > t_max) return {};
             // Newton's steps jumped to the far wall (a grazing ray): the entry lies before it,

@@ -147,9 +147,24 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
         const Vec3 org{RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i), RTCRayN_org_z(ray, n, i)};
         const Vec3 dir{RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i), RTCRayN_dir_z(ray, n, i)};
         const float nearest = ctx->nearest[RTCRayN_id(ray, n, i)];
-        const SweepHit hit = intersect_sweep(sweep, org, dir, RTCRayN_tfar(ray, n, i),
-                                             (piece + RTCHitN_u(args->hit, n, i)) / k, RTCRayN_tnear(ray, n, i),
-                                             nearest);
+        SweepHit hit = intersect_sweep(sweep, org, dir, RTCRayN_tfar(ray, n, i),
+                                       (piece + RTCHitN_u(args->hit, n, i)) / k, RTCRayN_tnear(ray, n, i), nearest);
+        unsigned hit_prim = prim;
+        if (!hit.hit && hit.past_joined_end != 0) {
+            // The root lies on the joined neighbour's tube, near its end: test the neighbour's
+            // end piece from there. Its own proxy may never be offered (Embree's round linear
+            // curves offer none to a ray that starts inside them).
+            const uint32_t next_segment = segment + uint32_t(hit.past_joined_end);
+            const int next_piece = hit.past_joined_end < 0 ? k - 1 : 0;
+            const uint8_t next_ends = geometry->segment_ends[next_segment];
+            const SweepPiece neighbour{&geometry->control_points[geometry->segment_first[next_segment]],
+                                       double(next_piece) / k, double(next_piece + 1) / k, (next_ends & 1) != 0,
+                                       (next_ends & 2) != 0};
+            hit = intersect_sweep(neighbour, org, dir, hit.t, hit.u - double(hit.past_joined_end),
+                                  RTCRayN_tnear(ray, n, i), nearest);
+            hit.past_joined_end = 0;
+            hit_prim = (next_segment - geometry->first_segment) * uint32_t(k) + uint32_t(next_piece);
+        }
         const float t = float(hit.t);
         if (!hit.hit || !(t <= nearest) || (kCullBackFaces && !hit.front)) {
             if (!hit.hit) rejected = global_piece;
@@ -157,6 +172,7 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
             continue;
         }
         RTCRayN_tfar(ray, n, i) = t;
+        RTCHitN_primID(args->hit, n, i) = hit_prim;
         RTCHitN_u(args->hit, n, i) = float(hit.u);
         RTCHitN_Ng_x(args->hit, n, i) = float(hit.normal.x);
         RTCHitN_Ng_y(args->hit, n, i) = float(hit.normal.y);

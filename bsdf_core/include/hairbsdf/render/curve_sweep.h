@@ -35,6 +35,9 @@ struct SweepHit {
     double t = 0, u = 0;  // along the ray; in the segment
     Vec3 normal;          // unit, outwards from the centre line, in the normal plane
     bool front = true;    // the ray enters the tube here (false: it leaves, from inside)
+    // With no hit: the first root found lies past a joined end of the segment, on the tube of
+    // the previous (-1) or next (+1) segment, near t and u (this segment's u, below 0 or above 1).
+    int past_joined_end = 0;
 };
 
 // The tube's first hit along org + t dir, t in [t_min, t_max], near the proxy's hit
