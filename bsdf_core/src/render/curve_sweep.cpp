@@ -249,8 +249,9 @@ bool ray_in_bounding_sphere(const CentreLine& a, const CentreLine& b, double cho
 // t_high where the ray is inside the piece's bounding sphere: along the ray, G (tube_excess) has one
 // minimum there. Newton's method for it, kept inside a shrinking bracket, from the ray's nearest
 // approach to the chord. Outside at the minimum: a miss. Inside: the entry lies between the last
-// point outside and there. `decided` is false where this cannot tell (the ray is inside at t_low, or
-// the entry lies past an open end): the careful search then goes on.
+// point outside before the minimum (or t_low) and there; inside at t_low too, the one root is the exit.
+// `decided` is false where this cannot tell (a root past an open end, or no convergence): the careful
+// search then goes on.
 struct PassResult {
     bool decided = false;
     SweepHit hit;
@@ -269,8 +270,8 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
     double t = std::clamp((s * de - dw) / dd, t_low, t_high), u = lo + s * (hi - lo);
     const double scale = std::fabs(t) + std::max(end_lo.r, end_hi.r);
     double below = t_low, above = t_high;  // the minimum lies between
-    double outside = 0, g_outside = 0;     // the farthest point so far with G > 0
-    bool have_outside = false;
+    double g_below = 0;                    // G at `below`, once looked at (G > 0 there, before the entry)
+    bool below_looked_at = false;
     for (int i = 0; i < 16; ++i) {
         CentreLine at;
         const double g = tube_excess(cp, org, dir, t, u, &at);
@@ -280,7 +281,8 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
             // continuation, no part of the tube: the careful search decides.
             auto past_open_end = [&](double v) { return (v < 0 && piece.curve_begins) || (v > 1 && piece.curve_ends); };
             bool exit = false;
-            if (!have_outside) {
+            double outside = below, g_outside = g_below;
+            if (!below_looked_at) {
                 double u_low = u;
                 const double g_low = tube_excess(cp, org, dir, t_low, u_low);
                 if (g_low > 0 && t > t_low) {
@@ -308,11 +310,6 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
                 return {true, {}};
             return {};
         }
-        if (t > outside || !have_outside) {
-            outside = t;
-            g_outside = g;
-            have_outside = true;
-        }
         // dG/dt at the foot (where (q - c) . c' = 0, so u moves with t by -f_t / f_u), and the
         // curvature of a straight tube's G.
         const Vec3 w = org + t * dir - at.c;
@@ -323,8 +320,13 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
         const double along = dot(dir, w) / rho;
         const double slope = along - at.dr * du_dt;
         const double curvature = (dd - along * along) / rho;
-        if (slope < 0) below = t;
-        else above = t;
+        if (slope < 0) {
+            below = t;
+            g_below = g;
+            below_looked_at = true;
+        } else {
+            above = t;
+        }
         // G > 0 all along the range: the minimum at an end of it, or G's tangent here (below G,
         // which is convex) still above zero across the bracket.
         if ((slope >= 0 && t <= t_low) || (slope <= 0 && t >= t_high) || above - below <= 1e-9 * scale ||
