@@ -347,7 +347,7 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
 }  // namespace
 
 SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start, double t_min,
-                         double t_max) {
+                         double t_max, int quick_steps) {
     const Cubic cp(piece.control_points);
     const double lo = piece.u_begin, hi = piece.u_end, dir_length = length(dir);
     if (!(dir_length > 0)) return {};
@@ -378,10 +378,10 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     // Most proxy hits lie just outside the tube, near the hit: Newton's method on Embree's
     // surface from there finds it at once. A ray that misses the tube, starts inside it or
     // lands on its far side takes the careful search below.
-    {
+    if (quick_steps > 0) {
         SweepHit root;
         const SweepHit quick =
-            onto_normal_plane_tube(cp, org, dir, t_start, std::clamp(u_start, lo, hi), t_min, t_max, &root, 7);
+            onto_normal_plane_tube(cp, org, dir, t_start, std::clamp(u_start, lo, hi), t_min, t_max, &root, quick_steps);
         if (quick.hit && quick.front) return quick;
         if (root.hit) {
             // On the tube past this segment's end where the next segment joins: that

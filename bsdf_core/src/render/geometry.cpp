@@ -152,8 +152,8 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
         unsigned hit_prim = prim;
         if (!hit.hit && hit.past_joined_end != 0) {
             // The root lies on the joined neighbour's tube, near its end: test the neighbour's
-            // end piece from there. Its own proxy may never be offered (Embree's round linear
-            // curves offer none to a ray that starts inside them).
+            // end piece from there. Its own proxy may never be offered (a proxy that holds the
+            // ray's origin offers only its exit, which Embree culls once a nearer hit is taken).
             const uint32_t next_segment = segment + uint32_t(hit.past_joined_end);
             const int next_piece = hit.past_joined_end < 0 ? k - 1 : 0;
             const uint8_t next_ends = geometry->segment_ends[next_segment];

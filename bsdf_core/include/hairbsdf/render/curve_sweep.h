@@ -42,9 +42,10 @@ struct SweepHit {
 
 // The tube's first hit along org + t dir, t in [t_min, t_max], near the proxy's hit
 // (t_start, u_start), for the piece's range of u (a hit may lie a little outside it, within
-// the segment); none if the ray misses (docs/engine.md lists the steps).
+// the segment); none if the ray misses (docs/engine.md lists the steps). `quick_steps`: Newton's
+// first steps from the proxy's hit (0 skips them, so that the later steps decide: for tests).
 SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start,
-                         double t_min, double t_max);
+                         double t_min, double t_max, int quick_steps = 7);
 
 // How much a proxy's radii grow so that it holds its piece [u_begin, u_end] of the sweep: how
 // far the piece's centre line and radius may stray from their chords, max |c''| du^2 / 8 +
