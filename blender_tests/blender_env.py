@@ -22,13 +22,11 @@ Every run is a subprocess that ends with os._exit, so a bpy process never hangs 
 
 from __future__ import annotations
 
-import contextlib
 import fcntl
 import json
 import os
 import shutil
 import subprocess
-import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -56,18 +54,6 @@ KINDS = {"bpy": "bpy4.5", "blender": "blender3.4"}
 # test_compiler_folds_evaluates_and_warns / test_emission_networks_match_cycles_per_pixel (renamed socket,
 # removed Combine RGB node).
 ENGINE_KINDS = {"bpy": "bpy4.5", "bpy5": "bpy5.3", "blender": "blender3.4"}
-
-
-@contextlib.contextmanager
-def own_tmpdir(env=None):
-    """`env` (default: os.environ) with TMPDIR set to a new folder, removed afterwards. Each Blender
-    process makes its session folder $TMPDIR/blender_XXXXXX, and our jobs end with os._exit (or crash),
-    which leaves it: the launcher's TMPDIR is where it goes, and what removes it."""
-    temp = tempfile.mkdtemp(prefix="blender_tmp_")
-    try:
-        yield dict(os.environ if env is None else env, TMPDIR=temp)
-    finally:
-        shutil.rmtree(temp, ignore_errors=True)
 
 
 def venv5_py():
@@ -239,9 +225,10 @@ def _write_runner(tmp: Path) -> Path:
 
 
 def run_snippet(kind: str, code: str, tmp: Path, args=None, timeout=DEFAULT_TIMEOUT, env=None,
-                check=True, blender_args=(), pre_import=()) -> BlenderRun:
+                check=True, pre_import=()) -> BlenderRun:
     """Run `code` in a fresh process of `kind` ('bpy', 'bpy5' or 'blender'); `pre_import` modules are
     imported before bpy (bpy module only: Blender itself has loaded everything already)."""
+    from hairbsdf.compare.runner import blender_script_command, job_tmpdir
     tmp.mkdir(parents=True, exist_ok=True)
     snippet = tmp / f"snippet_{kind}_{time.monotonic_ns()}.py"
     snippet.write_text(textwrap.dedent(code))
@@ -250,25 +237,22 @@ def run_snippet(kind: str, code: str, tmp: Path, args=None, timeout=DEFAULT_TIME
     if kind == "blender":
         ensure_staged()
         paths.append(str(SITE))
-    full_env = dict(os.environ)
-    full_env["HB_TEST_ARGS"] = json.dumps({"paths": paths, "snippet": str(snippet), "args": args or {},
+    base_env = dict(os.environ)
+    base_env["HB_TEST_ARGS"] = json.dumps({"paths": paths, "snippet": str(snippet), "args": args or {},
                                            "tmp": str(tmp), "pre_import": list(pre_import)})
-    full_env.setdefault("PYTHONUNBUFFERED", "1")
-    # Blender's session folder under the test's own folder: runs that crash on purpose cannot remove it.
-    full_env["TMPDIR"] = tempfile.mkdtemp(prefix="blender_tmp_", dir=tmp)
-    if env:
-        full_env.update(env)
+    base_env.setdefault("PYTHONUNBUFFERED", "1")
     if kind == "bpy":
         cmd = [str(VENV_PY), str(runner)]
     elif kind == "bpy5":
         cmd = [str(venv5_py()), str(runner)]
     elif kind == "blender":
-        cmd = [BLENDER_EXE, "-b", "--factory-startup", *blender_args, "--python-exit-code", "1",
-               "--python", str(runner)]
+        cmd = blender_script_command(BLENDER_EXE, runner)
     else:
         raise ValueError(kind)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=full_env, cwd=str(tmp))
+    with job_tmpdir(base_env, parent=tmp) as full_env:  # under the test's own folder
+        full_env.update(env or {})
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=full_env, cwd=str(tmp))
     seconds = time.perf_counter() - t0
     log_path = snippet.with_suffix(".log")
     log_path.write_text(proc.stdout + "\n--- stderr ---\n" + proc.stderr)

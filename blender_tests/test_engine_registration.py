@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from blender_env import BLENDER_EXE, ROOT, VENV_PY, need_renderer, require, run_snippet
+from hairbsdf.compare.runner import job_tmpdir
 
 pytestmark = pytest.mark.blender
 
@@ -159,8 +160,8 @@ def test_addon_install_and_command_line_render(tmp_path, renderer_available):
     need_renderer("blender", renderer_available)
     report = tmp_path / "report.jsonl"
     cmd = [BLENDER_EXE, "-b", str(blend), "-E", "HAIRBSDF", "-o", str(tmp_path / "out_"), "-F", "OPEN_EXR", "-f", "1"]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=180,
-                       env=dict(env, HAIRBSDF_REPORT_FILE=str(report)))
+    with job_tmpdir(dict(env, HAIRBSDF_REPORT_FILE=str(report))) as job_env:  # the user's command, as documented
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=180, env=job_env)
     out = tmp_path / "out_0001.exr"
     assert r.returncode == 0 and out.exists(), r.stdout[-3000:] + r.stderr[-3000:]
     assert '"status": "ok"' in report.read_text()

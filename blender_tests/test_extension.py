@@ -15,11 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from blender_env import own_tmpdir
 from ci import skip_or_fail
 from hairbsdf._constants import ENGINE_ID
 from hairbsdf.compare.metrics import load_image
-from hairbsdf.compare.runner import CYCLES_ACCURACY
+from hairbsdf.compare.runner import CYCLES_ACCURACY, blender_script_command, job_tmpdir
 
 pytestmark = pytest.mark.blender
 
@@ -51,7 +50,7 @@ def user_env(folder):
 
 def run(cmd, env, cwd, timeout=600):
     t0 = time.monotonic()
-    with own_tmpdir(env) as job_env:
+    with job_tmpdir(env) as job_env:
         r = subprocess.run([str(c) for c in cmd], env=job_env, cwd=cwd, capture_output=True, text=True,
                            timeout=timeout)
     return r, time.monotonic() - t0
@@ -86,7 +85,7 @@ def command(blender, script, spec):
         exe = shutil.which("blender")
         if not exe:
             skip_or_fail("no Debian blender (scripts/setup installs it)")
-        return [exe, "-b", "--factory-startup", "--python-exit-code", "1", "--python", script, "--", spec]
+        return blender_script_command(exe, script, spec)
     py = bpy_python(blender)
     return [py, "-S", script, spec] if script.name == "extension_job.py" else [py, script, spec]
 

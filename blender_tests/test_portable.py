@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_env import VENV_PY, own_tmpdir, require
+from blender_env import VENV_PY, require
+from hairbsdf.compare.runner import job_tmpdir
 
 REPO = Path(__file__).resolve().parent.parent
 PY = str(VENV_PY) if VENV_PY.exists() else sys.executable
@@ -176,7 +177,7 @@ def test_usd_reimported_into_blender_passes_judge(exported, name, tmp_path):
     job = dict(folder=str(folder), out=str(tmp_path / "reimport"), seeds=manifest["references"]["seeds"],
                first_seed=1000, result=str(tmp_path / "result.json"))
     (tmp_path / "job.json").write_text(json.dumps(job))
-    with own_tmpdir() as env:
+    with job_tmpdir() as env:
         r = subprocess.run([PY, str(REIMPORT_JOB), str(tmp_path / "job.json")], capture_output=True, text=True,
                            timeout=600, cwd=str(tmp_path), env=env)
     res = json.loads((tmp_path / "result.json").read_text()) if (tmp_path / "result.json").exists() else {}

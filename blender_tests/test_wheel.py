@@ -20,7 +20,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from blender_env import own_tmpdir
+from hairbsdf.compare.runner import job_tmpdir
 
 pytestmark = pytest.mark.blender
 
@@ -40,7 +40,7 @@ def clean_env(venv):
 
 def run(cmd, cwd, env=None, timeout=600):
     t0 = time.monotonic()
-    with own_tmpdir(env) as job_env:
+    with job_tmpdir(env) as job_env:
         r = subprocess.run([str(c) for c in cmd], cwd=cwd, env=job_env, capture_output=True, text=True,
                            timeout=timeout)
     assert r.returncode == 0, "%s\n%s\n%s" % (" ".join(map(str, cmd)), r.stdout[-4000:], r.stderr[-4000:])

@@ -13,6 +13,7 @@ A crash, timeout or missing image in one render fails that case only.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import dataclasses
 import fcntl
 import hashlib
@@ -152,6 +153,15 @@ class TargetError(RuntimeError):
     pass
 
 
+def blender_script_command(blender, script, *script_args):
+    """A Blender executable running `script` in the background with factory settings, exiting with
+    status 1 if the script raises; `script_args` follow "--" (the script's own arguments).
+    -noaudio: no sound system (a background job needs none; PulseAudio's client may leave a
+    pulse-XXXXXX folder in TMPDIR when it finds no server)."""
+    return [str(blender), "-b", "-noaudio", "--factory-startup", "--python-exit-code", "1", "--python", str(script),
+            "--", *map(str, script_args)]
+
+
 @dataclasses.dataclass
 class Target:
     spec: str
@@ -163,10 +173,7 @@ class Target:
     def command(self, job_json):
         if self.kind == "bpy":
             return [self.path, str(JOB_SCRIPT), str(job_json)]
-        # -noaudio: no sound system (a background job needs none; PulseAudio's client may leave a
-        # pulse-XXXXXX folder in TMPDIR when it finds no server).
-        return [self.path, "-b", "-noaudio", "--factory-startup", "--python-exit-code", "1", "--python",
-                str(JOB_SCRIPT), "--", str(job_json)]
+        return blender_script_command(self.path, JOB_SCRIPT, job_json)
 
     def as_dict(self):
         return dict(spec=self.spec, kind=self.kind, path=self.path, label=self.label, version=list(self.version))
@@ -350,6 +357,20 @@ def shard(cases, spec):
 
 # --------------------------------------------------------------------------- jobs
 
+@contextlib.contextmanager
+def job_tmpdir(env=None, parent=None):
+    """A copy of `env` (default: os.environ) with TMPDIR set to a new folder (under `parent` if given),
+    removed on exit: where a Blender job's session folder ($TMPDIR/blender_XXXXXX) goes.  Only Blender's
+    own exit removes that folder, and our jobs end with os._exit (the bpy module can hang at exit), crash
+    or time out.  blender_job.exit_blender_process removes it on a normal end; this removes it also after
+    a crash or a timeout, and for the tests' jobs, which end with a plain os._exit."""
+    temp = tempfile.mkdtemp(prefix="hairbsdf_job_", dir=parent)
+    try:
+        yield dict(os.environ if env is None else env, TMPDIR=temp)
+    finally:
+        shutil.rmtree(temp, ignore_errors=True)
+
+
 def run_job(target, job, job_path, log_path, timeout, env=None):
     """Runs one blender_job.py in its own process.  Returns the job's JSON (status OK, NOT
     AVAILABLE, NO OUTPUT, ERROR) or a synthesised one for CRASH / TIMEOUT / NO OUTPUT."""
@@ -360,27 +381,19 @@ def run_job(target, job, job_path, log_path, timeout, env=None):
     with open(job_path, "w") as f:
         json.dump(job, f, indent=1)
     t0 = time.time()
-    # Blender's session temporary folder (blender_XXXXXX) goes into a folder of this job's own,
-    # removed afterwards: blender_job.exit_blender_process removes it on a normal end, this also
-    # after a crash or a timeout.
-    job_temp = tempfile.mkdtemp(prefix="hairbsdf_job_")
-    env = dict(os.environ if env is None else env, TMPDIR=job_temp)
-    try:
-        with open(log_path, "w") as log:
-            proc = subprocess.Popen(target.command(job_path), stdout=log, stderr=subprocess.STDOUT,
-                                    cwd=os.path.dirname(job_path), env=env, start_new_session=True)
+    with job_tmpdir(env) as job_env, open(log_path, "w") as log:
+        proc = subprocess.Popen(target.command(job_path), stdout=log, stderr=subprocess.STDOUT,
+                                cwd=os.path.dirname(job_path), env=job_env, start_new_session=True)
+        try:
+            rc = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
             try:
-                rc = proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                try:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:  # pragma: no cover
-                    pass
-                proc.wait()
-                return dict(ok=False, status="TIMEOUT", error="no result after %d s (killed)" % timeout, rc=None,
-                            wall_seconds=time.time() - t0)
-    finally:
-        shutil.rmtree(job_temp, ignore_errors=True)
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:  # pragma: no cover
+                pass
+            proc.wait()
+            return dict(ok=False, status="TIMEOUT", error="no result after %d s (killed)" % timeout, rc=None,
+                        wall_seconds=time.time() - t0)
     wall = time.time() - t0
     if os.path.exists(out_json):
         with open(out_json) as f:
