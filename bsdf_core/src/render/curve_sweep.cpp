@@ -227,6 +227,14 @@ double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_b
     return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
 }
 
+// A piece is nearly straight when its centre line stays within this share of its smaller end
+// radius from its chord: |p - c(u)| - r(u) then has one minimum in u, and along a ray that
+// misses, G has one minimum (the passes below rely on both).
+constexpr double kNearlyStraight = 0.25;
+bool nearly_straight_piece(const CentreLine& a, const CentreLine& b, double chord_bound) {
+    return chord_bound < kNearlyStraight * std::min(a.r, b.r);
+}
+
 // Where the ray is inside the sphere about the chord's middle that holds the chord, the chord bound
 // and the larger end radius (the piece's sweep lies in it): [t_low, t_high] narrowed to that; false
 // if the ray misses it there.
@@ -419,9 +427,7 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     // bounding sphere of the careful search.
     const CentreLine end_lo = centre_line(cp, lo), end_hi = centre_line(cp, hi);
     const double chord_bound = chord_distance_bound(end_lo, end_hi, lo, hi);
-    // A piece within a quarter radius of its chord: |p - c(u)| - r(u) has one minimum in u, and
-    // along a ray that misses, g has one minimum.
-    nearly_straight = chord_bound < 0.25 * std::min(end_lo.r, end_hi.r);
+    nearly_straight = nearly_straight_piece(end_lo, end_hi, chord_bound);
     const double tolerance = 1e-7 * (std::fabs(catmull_rom_radius(cp, 0.5 * (lo + hi))) + 1e-9);
     // The piece's sweep lies in the sphere about its chord's middle that holds the chord, the
     // chord bound and the larger end radius: the search stays where the ray is inside it.
@@ -433,8 +439,8 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     if (nearly_straight) {
         const PassResult pass = pass_by_straight_piece(cp, piece, end_lo, end_hi, org, dir, t_low, t_high, t_min, t_max);
         if (pass.decided) return pass.hit;
-    } else if (const double r_min = std::min(end_lo.r, end_hi.r); r_min > 0 && chord_bound < 16 * 0.25 * r_min) {
-        const int parts = int(std::ceil(std::sqrt(chord_bound / (0.25 * r_min))));
+    } else if (const double r_min = std::min(end_lo.r, end_hi.r); r_min > 0 && chord_bound < 16 * kNearlyStraight * r_min) {
+        const int parts = int(std::ceil(std::sqrt(chord_bound / (kNearlyStraight * r_min))));
         SweepHit nearest;
         bool decided = true;
         CentreLine part_lo = end_lo;
@@ -446,7 +452,7 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
             const double part_bound = chord_distance_bound(part_lo, part_hi, part.u_begin, part.u_end);
             const double part_t_max = nearest.hit ? std::min(t_max, nearest.t) : t_max;
             double part_low = t_low, part_high = std::min(t_high, part_t_max);
-            if (!(part_bound < 0.25 * std::min(part_lo.r, part_hi.r))) {
+            if (!nearly_straight_piece(part_lo, part_hi, part_bound)) {
                 decided = false;
             } else if (part_low <= part_high &&
                        ray_in_bounding_sphere(part_lo, part_hi, part_bound, org, dir, part_low, part_high)) {
