@@ -321,16 +321,17 @@ TEST(RenderGeometry, SweepIntersectorFindsEmbreesCatmullRomHits) { expect_sweep_
 // farther hit was accepted first, Embree culls that exit by tfar and never offers it (the exact
 // test's later steps do find these far walls: SweepLaterStepsFindEmbreesHits). Where the
 // neighbouring segment's proxy finds the root past its joined end, the filter tests the segment it
-// lies on (without that: 375 and 70 disagreements, 21 and 28 occlusion answers).
-// Now 299 of 10 348 hits on the bent strands and 34 of 10 718 on the thin ones; 10 and 10 occlusion
+// lies on (without that: 375 and 70 disagreements, 21 and 28 occlusion answers), and where that
+// finds none, this piece's later steps decide (without that: 298 and 34, 10 and 10).
+// Now 266 of 10 381 hits on the bent strands and 13 of 10 739 on the thin ones; 0 and 2 occlusion
 // answers of 20 000. The bounds sit between, so that losing more of these fails.
 TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsFromNearTheStrands) {
-    expect_sweep_finds_embrees_hits(true, false, 30, 1000);
+    expect_sweep_finds_embrees_hits(true, false, 36, 5000);
 }
 
 TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsOnThinStrands) {
     expect_sweep_finds_embrees_hits(false, true, 1000, 1000);
-    expect_sweep_finds_embrees_hits(true, true, 200, 1000);
+    expect_sweep_finds_embrees_hits(true, true, 500, 5000);
 }
 
 // The exact test's later steps alone (the passes by nearly straight pieces, the bent pieces'

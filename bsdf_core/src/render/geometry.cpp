@@ -147,8 +147,8 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
         const Vec3 org{RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i), RTCRayN_org_z(ray, n, i)};
         const Vec3 dir{RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i), RTCRayN_dir_z(ray, n, i)};
         const float nearest = ctx->nearest[RTCRayN_id(ray, n, i)];
-        SweepHit hit = intersect_sweep(sweep, org, dir, RTCRayN_tfar(ray, n, i),
-                                       (piece + RTCHitN_u(args->hit, n, i)) / k, RTCRayN_tnear(ray, n, i), nearest);
+        const double t_start = RTCRayN_tfar(ray, n, i), u_start = (piece + RTCHitN_u(args->hit, n, i)) / k;
+        SweepHit hit = intersect_sweep(sweep, org, dir, t_start, u_start, RTCRayN_tnear(ray, n, i), nearest);
         unsigned hit_prim = prim;
         if (!hit.hit && hit.past_joined_end != 0) {
             // The root lies on the joined neighbour's tube, near its end: test the neighbour's
@@ -160,10 +160,17 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
             const SweepPiece neighbour{&geometry->control_points[geometry->segment_first[next_segment]],
                                        double(next_piece) / k, double(next_piece + 1) / k, (next_ends & 1) != 0,
                                        (next_ends & 2) != 0};
-            hit = intersect_sweep(neighbour, org, dir, hit.t, hit.u - double(hit.past_joined_end),
-                                  RTCRayN_tnear(ray, n, i), nearest);
-            hit.past_joined_end = 0;
-            hit_prim = (next_segment - geometry->first_segment) * uint32_t(k) + uint32_t(next_piece);
+            const SweepHit on_neighbour = intersect_sweep(neighbour, org, dir, hit.t, hit.u - double(hit.past_joined_end),
+                                                          RTCRayN_tnear(ray, n, i), nearest);
+            if (on_neighbour.hit) {
+                hit = on_neighbour;
+                hit_prim = (next_segment - geometry->first_segment) * uint32_t(k) + uint32_t(next_piece);
+            } else {
+                // None there: Newton's first steps left for the cubic's continuation past the
+                // end, which is no tube. This piece's later steps decide (for rays from near the
+                // strands they find far walls and joints' inner walls that the first steps miss).
+                hit = intersect_sweep(sweep, org, dir, t_start, u_start, RTCRayN_tnear(ray, n, i), nearest, 0);
+            }
         }
         const float t = float(hit.t);
         if (!hit.hit || !(t <= nearest) || (kCullBackFaces && !hit.front)) {
