@@ -199,6 +199,20 @@ TEST(RenderGeometry, LinearCurvesCanBeCulled) {
 
 namespace {
 
+// The tests' random numbers: a small LCG, the same on every platform, so that the counts in the
+// comments below are reproducible.
+struct TestRandom {
+    uint32_t state;
+    double next() {
+        state = state * 1664525u + 1013904223u;
+        return double(state >> 8) / double(1u << 24);
+    }
+    Vec3 direction() {  // uniform on the sphere
+        const double ct = 2 * next() - 1, phi = 6.283185307 * next(), st = std::sqrt(1 - ct * ct);
+        return Vec3{st * std::cos(phi), st * std::sin(phi), ct};
+    }
+};
+
 // Bent, tapered strands packed so that they cross, and a triangle plane through them, for
 // comparing the two intersectors.
 // 48 strands (or, `thin`, 400 strands like hair: gently bent, 10x thinner) across a box over a plane.
@@ -207,11 +221,8 @@ SceneDesc bent_strands(CurveIntersector intersector, uint32_t seed, bool thin = 
     s.curve_shape = CurveShape::Thick;
     s.curve_intersector = intersector;
     s.curves.offsets.push_back(0);
-    uint32_t state = seed;
-    auto next = [&] {
-        state = state * 1664525u + 1013904223u;
-        return double(state >> 8) / double(1u << 24);
-    };
+    TestRandom random{seed};
+    auto next = [&] { return random.next(); };
     for (int c = 0; c < (thin ? 400 : 48); ++c) {
         const double y0 = next() - 0.5, z0 = 0.4 * next() - 0.2, bend = (thin ? 1 : 3) * next(), phase = 6.28 * next();
         const int keys = thin ? 12 : 3 + int(6 * next());
@@ -245,15 +256,9 @@ static void expect_sweep_finds_embrees_hits(bool from_near_strands, bool thin, i
                                             int rays_per_occlusion_disagreement) {
     const SceneDesc a = bent_strands(CurveIntersector::Embree, 7, thin), b = bent_strands(CurveIntersector::Sweep, 7, thin);
     const Geometry embree(a), sweep(b);
-    uint32_t state = 99;
-    auto next = [&] {
-        state = state * 1664525u + 1013904223u;
-        return double(state >> 8) / double(1u << 24);
-    };
-    auto random_direction = [&] {
-        const double ct = 2 * next() - 1, phi = 6.283185307 * next(), st = std::sqrt(1 - ct * ct);
-        return Vec3{st * std::cos(phi), st * std::sin(phi), ct};
-    };
+    TestRandom random{99};
+    auto next = [&] { return random.next(); };
+    auto random_direction = [&] { return random.direction(); };
     const int n = 20000;
     std::vector<Ray> rays;
     std::vector<SkipPrim> skips;
@@ -348,15 +353,9 @@ enum class LaterStepsRays { FromAfar, FromNear, Grazing };
 
 static int sweep_later_steps_disagreements(LaterStepsRays rays, bool thin, int& hits) {
     const SceneDesc all = bent_strands(CurveIntersector::Embree, 11, thin);
-    uint32_t state = 5;
-    auto next = [&] {
-        state = state * 1664525u + 1013904223u;
-        return double(state >> 8) / double(1u << 24);
-    };
-    auto random_direction = [&] {
-        const double ct = 2 * next() - 1, phi = 6.283185307 * next(), st = std::sqrt(1 - ct * ct);
-        return Vec3{st * std::cos(phi), st * std::sin(phi), ct};
-    };
+    TestRandom random{5};
+    auto next = [&] { return random.next(); };
+    auto random_direction = [&] { return random.direction(); };
     int disagreements = 0;
     hits = 0;
     for (size_t c = 0; c + 1 < std::min<size_t>(all.curves.offsets.size(), 49); ++c) {
