@@ -112,6 +112,9 @@ def wheel_venv(tmp_path_factory):
     (site / "checkout_venv_packages.pth").write_text(str(dep_site) + "\n")
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "HAIRBSDF_", "VIRTUAL_ENV"))}
     env["PATH"] = "%s%s%s" % (venv / "bin", os.pathsep, env.get("PATH", ""))
+    # Each job's own TMPDIR (runner.job_tmpdir) is made here: the worker these tests kill cannot remove its job's.
+    (tmp / "tmp").mkdir()
+    env["TMPDIR"] = str(tmp / "tmp")
     py = venv / "bin" / "python"
     r = subprocess.run([str(py), "-c", "import sys, hairbsdf, bpy, distributed; print(hairbsdf.__file__); "
                         "print(sys.path)"], cwd=tmp, env=env, capture_output=True, text=True)
@@ -157,6 +160,7 @@ def test_sweep_on_a_local_cluster(wheel_venv):
     tmp, py, env = wheel_venv
     storage = tmp / "storage"
     times = {}
+    job_temp_before = set(Path(env["TMPDIR"]).glob("hairbsdf_job_*"))
 
     # 1. On the cluster; kill the worker of one running render.
     killed = {}
@@ -199,6 +203,8 @@ def test_sweep_on_a_local_cluster(wheel_venv):
     assert cl["scheduler"].startswith("LocalCluster of 2 worker processes") and cl["allowed_failures"] == 3
     assert cl["task_worker_losses"] >= 1, cl
     assert not list((storage / "staging").iterdir()), "staged task files left"
+    job_temp_left = set(Path(env["TMPDIR"]).glob("hairbsdf_job_*")) - job_temp_before
+    assert len(job_temp_left) <= 1, "job TMPDIRs left (only the killed worker's may be): %s" % job_temp_left
     assert inside(run["hairbsdf_file"], tmp / "venv"), run["hairbsdf_file"]
     for w in cl["workers"]:
         assert inside(w["hairbsdf_file"], tmp / "venv") and not inside(w["cwd"], ROOT), w
