@@ -392,8 +392,8 @@ static int sweep_later_steps_disagreements(LaterStepsRays rays, bool thin, int& 
             int nearest_segment = -1;
             for (int segment = 0; segment < segments; ++segment)
                 for (int j = 0; j < curve_proxy_pieces; ++j) {
-                    const SweepPiece piece{control_points.data() + segment, double(j) / curve_proxy_pieces,
-                                           double(j + 1) / curve_proxy_pieces, segment == 0, segment + 1 == segments};
+                    const SweepPiece piece =
+                        proxy_piece(control_points.data() + segment, j, segment == 0, segment + 1 == segments);
                     const double t_max = nearest.hit ? nearest.t : std::numeric_limits<double>::infinity();
                     const SweepHit found = intersect_sweep(piece, r.org, r.dir, 0.0, 0.5 * (piece.u_begin + piece.u_end),
                                                            r.tmin, t_max, 0);

@@ -140,8 +140,8 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
             continue;
         }
         const uint8_t ends = geometry->segment_ends[segment];
-        const SweepPiece sweep{&geometry->control_points[geometry->segment_first[segment]], double(piece) / k,
-                               double(piece + 1) / k, (ends & 1) != 0, (ends & 2) != 0};
+        const SweepPiece sweep = proxy_piece(&geometry->control_points[geometry->segment_first[segment]], piece,
+                                             (ends & 1) != 0, (ends & 2) != 0);
         RTCRayN* ray = args->ray;
         const unsigned n = args->N;
         const Vec3 org{RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i), RTCRayN_org_z(ray, n, i)};
@@ -157,9 +157,8 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
             const uint32_t next_segment = segment + uint32_t(hit.past_joined_end);
             const int next_piece = hit.past_joined_end < 0 ? k - 1 : 0;
             const uint8_t next_ends = geometry->segment_ends[next_segment];
-            const SweepPiece neighbour{&geometry->control_points[geometry->segment_first[next_segment]],
-                                       double(next_piece) / k, double(next_piece + 1) / k, (next_ends & 1) != 0,
-                                       (next_ends & 2) != 0};
+            const SweepPiece neighbour = proxy_piece(&geometry->control_points[geometry->segment_first[next_segment]],
+                                                     next_piece, (next_ends & 1) != 0, (next_ends & 2) != 0);
             const SweepHit on_neighbour = intersect_sweep(neighbour, org, dir, hit.t, hit.u - double(hit.past_joined_end),
                                                           RTCRayN_tnear(ray, n, i), nearest);
             if (on_neighbour.hit) {

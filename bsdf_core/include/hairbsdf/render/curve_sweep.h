@@ -30,6 +30,14 @@ struct SweepPiece {
     bool curve_begins, curve_ends;
 };
 
+// Piece `piece` (0 .. curve_proxy_pieces - 1) of the segment whose four control points start at
+// `segment_control_points`: u in [piece / k, (piece + 1) / k].
+inline SweepPiece proxy_piece(const std::array<float, 4>* segment_control_points, int piece, bool curve_begins,
+                              bool curve_ends) {
+    constexpr double k = curve_proxy_pieces;
+    return {segment_control_points, piece / k, (piece + 1) / k, curve_begins, curve_ends};
+}
+
 struct SweepHit {
     bool hit = false;
     double t = 0, u = 0;  // along the ray; in the segment
