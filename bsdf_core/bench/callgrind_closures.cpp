@@ -3,7 +3,7 @@
 // each loop's instructions under callgrind (only inside run_sum / run_direct); the ratio is
 // ClosureSum's overhead (goal <= 1.05, docs/benchmarks.md). `sample` runs the model's own
 // prepare + sample (run_sample). These three run the scalar path's dispatched build (AVX2 + FMA where the CPU,
-// or valgrind, has them: chiang_scalar_avx2); a third argument `baseline` runs the baseline (SSE2) build.
+// or valgrind, has them: scalar_avx2); a third argument `baseline` runs the baseline (SSE2) build.
 // `kernel_eval`, `kernel_pdf` and
 // `kernel_sample` run the float32 batch kernels (docs/simd.md) over the same rows in one call
 // (run_kernel); under valgrind they take the AVX2 path (valgrind has no AVX-512). `rows_eval`,
@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     const size_t calls = argc > 2 ? size_t(std::atol(argv[2])) : 10000;
-    if (argc > 3 && std::strcmp(argv[3], "baseline") == 0) set_chiang_scalar_avx2(false);
+    if (argc > 3 && std::strcmp(argv[3], "baseline") == 0) set_scalar_avx2(false);
     std::mt19937_64 rng(1);
     std::normal_distribution<double> g;
     std::uniform_real_distribution<double> uni;
@@ -144,6 +144,6 @@ int main(int argc, char** argv) {
                        : std::strcmp(argv[1], "sample") == 0 ? run_sample(model, in)
                                                              : run_direct(model, in);
     std::printf("%s %zu calls on the %s build, checksum %.17g\n", argv[1], calls,
-                chiang_scalar_avx2() ? "avx2" : "baseline", acc);
+                scalar_avx2() ? "avx2" : "baseline", acc);
     return 0;
 }

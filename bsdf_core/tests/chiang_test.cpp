@@ -310,7 +310,7 @@ TEST(ChiangHair, FloatAccuracyMathsMatchTheDoubleReference) {
     EXPECT_EQ(fast_exact, reference_exact);
 }
 
-// The scalar path's AVX2 + FMA build (chiang_scalar_avx2, src/models/chiang_avx2.cpp) gives the baseline
+// The scalar path's AVX2 + FMA build (scalar_avx2, src/models/chiang_avx2.cpp) gives the baseline
 // build's values to FMA rounding: eval's lobes and pdf, sample's direction, value, pdf and lobe, over both
 // accuracies, both tilt conventions, coat and the given longitudinal numbers; and the switch takes effect
 // (not bit for bit) where the CPU has AVX2 and FMA.
@@ -344,11 +344,11 @@ TEST(ChiangHair, ScalarAvx2BuildMatchesTheBaseline) {
         }
         return out;
     };
-    const bool avx2 = set_chiang_scalar_avx2(true);
+    const bool avx2 = set_scalar_avx2(true);
     const std::vector<double> dispatched = run();
-    EXPECT_FALSE(set_chiang_scalar_avx2(false));
+    EXPECT_FALSE(set_scalar_avx2(false));
     const std::vector<double> baseline = run();
-    set_chiang_scalar_avx2(true);
+    set_scalar_avx2(true);
     const size_t per_row = dispatched.size() / rows.size();
     double scale = 0, worst = 0;
     int other_lobe = 0;

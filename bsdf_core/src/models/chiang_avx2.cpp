@@ -2,7 +2,7 @@
 // function below carries the target attribute and `flatten`, so the *_baseline body and everything it calls
 // from the headers is inlined into it and compiled for AVX2 + FMA there; no out-of-line copy of a header
 // function is built for AVX2 (a call flatten could not inline goes to the baseline copy), so callers on
-// machines without AVX2 never reach AVX2 code. Chosen at run time by chiang_scalar_avx2().
+// machines without AVX2 never reach AVX2 code. Chosen at run time by scalar_avx2() (math_simd.h).
 #include "hairbsdf/models/chiang.h"
 
 #include "hairbsdf/math_simd.h"
@@ -10,8 +10,6 @@
 namespace hairbsdf {
 
 #if defined(__x86_64__) && defined(__GNUC__)
-bool chiang_scalar_avx2_supported() { return simd_isa_supported(SimdIsa::avx2); }
-
 HAIRBSDF_SCALAR_AVX2 __attribute__((flatten)) ChiangHair::ShadingPoint ChiangHair::prepare_avx2(
     const ChiangHair& model, const ShadingContext& ctx) {
     return model.prepare_baseline(ctx);

@@ -5,27 +5,9 @@
 
 #include "hairbsdf/closure.h"
 #include "hairbsdf/math_hair_defaults.h"
+#include "hairbsdf/math_simd.h"
 
 namespace hairbsdf {
-
-// The scalar path's instruction set (prepare, eval and sample of ChiangHair below): its AVX2 + FMA build where
-// the CPU has both, else the baseline build (x86-64's SSE2). set_chiang_scalar_avx2(false) selects the
-// baseline (the tests compare the two); set_chiang_scalar_avx2(true) takes AVX2 only where the CPU has it.
-// Returns the build in use.
-#if defined(__x86_64__) && defined(__GNUC__)
-#define HAIRBSDF_SCALAR_AVX2 __attribute__((target("avx2,fma")))
-bool chiang_scalar_avx2_supported();  // src/models/chiang_avx2.cpp
-inline std::atomic<bool> g_chiang_scalar_avx2{chiang_scalar_avx2_supported()};
-inline bool chiang_scalar_avx2() { return g_chiang_scalar_avx2.load(std::memory_order_relaxed); }
-inline bool set_chiang_scalar_avx2(bool on) {
-    g_chiang_scalar_avx2.store(on && chiang_scalar_avx2_supported(), std::memory_order_relaxed);
-    return chiang_scalar_avx2();
-}
-#else
-#define HAIRBSDF_SCALAR_AVX2
-inline bool chiang_scalar_avx2() { return false; }
-inline bool set_chiang_scalar_avx2(bool) { return false; }
-#endif
 
 // Chiang's roughness mapping, from the user's roughnesses to the model's numbers.
 // The mappings below are written once, over any number type T (double here, SIMD float batches in
@@ -252,9 +234,9 @@ public:
         ViewTerms view;
     };
     // prepare, eval and sample run the AVX2 + FMA build of their bodies (the *_baseline functions below) where
-    // the machine has both (chiang_scalar_avx2(), src/models/chiang_avx2.cpp); the same formulas, FMA-rounded.
+    // the machine has both (scalar_avx2(), src/models/chiang_avx2.cpp); the same formulas, FMA-rounded.
     ShadingPoint prepare(const ShadingContext& ctx) const {
-        if (chiang_scalar_avx2()) return prepare_avx2(*this, ctx);
+        if (scalar_avx2()) return prepare_avx2(*this, ctx);
         return prepare_baseline(ctx);
     }
     HAIRBSDF_ALWAYS_INLINE ShadingPoint prepare_baseline(const ShadingContext& ctx) const {
@@ -325,7 +307,7 @@ public:
     }
 
     BsdfEval eval(const ShadingPoint& sp, Vec3 wi) const {
-        if (chiang_scalar_avx2()) return eval_avx2(*this, sp, wi);
+        if (scalar_avx2()) return eval_avx2(*this, sp, wi);
         return eval_baseline(sp, wi);
     }
     HAIRBSDF_ALWAYS_INLINE BsdfEval eval_baseline(const ShadingPoint& sp, Vec3 wi) const {
@@ -346,7 +328,7 @@ public:
     }
     BsdfSample sample(const ShadingPoint& sp, const std::array<double, 3>& u,
                       const LongitudinalNumbers* longitudinal = nullptr) const {
-        if (chiang_scalar_avx2()) return sample_avx2(*this, sp, u, longitudinal);
+        if (scalar_avx2()) return sample_avx2(*this, sp, u, longitudinal);
         return sample_baseline(sp, u, longitudinal);
     }
     HAIRBSDF_ALWAYS_INLINE BsdfSample sample_baseline(const ShadingPoint& sp, const std::array<double, 3>& u,
