@@ -352,7 +352,8 @@ std::vector<SceneKey> make_schema() {
         Row("curve_backface_culling", K::Bool, "cull back faces of THICK curves (Cycles 3.x)")
             .field(&R::SceneDesc::cull_curve_back_faces),
         Row("curve_intersector", K::Enum, "THICK curves: EMBREE, Embree 3's round Catmull-Rom curves; SWEEP, "
-            "hairbsdf's exact test of the same surface over Embree's linear proxies (experimental, slower today)")
+            "hairbsdf's exact test of the same surface over Embree's capped-cone proxies (experimental: faster, more "
+            "memory)")
             .choices<R::CurveIntersector>({{"EMBREE", R::CurveIntersector::Embree}, {"SWEEP", R::CurveIntersector::Sweep}})
             .field(&R::SceneDesc::curve_intersector),
 

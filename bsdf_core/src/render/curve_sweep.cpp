@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hairbsdf/math_simd.h"
+
 namespace hairbsdf::render {
 
 namespace {
@@ -124,6 +126,11 @@ double nearest_u_guarded(const Cubic& cp, Vec3 p, double u, double lo, double hi
     return u;
 }
 
+// Newton's last step on Embree's equations, squared, in units of r^2: a step shorter than 1e-3 r is
+// taken as the root (onto_normal_plane_tube). 1e-5 saved a little more but biased the hits measurably
+// (test_curves_in_object_space).
+constexpr double kLastStep2 = 1e-6;
+
 // From a point of the sphere sweep, Newton's method on Embree's own definition of a round
 // curve: the point q = org + t dir lies in the normal plane at u, f = (q - c(u)) . c'(u) = 0,
 // at distance r(u) from the centre line there, h = |q - c|^2 - f^2 / |c'|^2 - r(u)^2 = 0. With
@@ -131,42 +138,44 @@ double nearest_u_guarded(const Cubic& cp, Vec3 p, double u, double lo, double hi
 // r |dr/dc|. (Both equations without square roots: one division for 1 / |c'|^2, one for the step.)
 SweepHit onto_normal_plane_tube(const Cubic& cp, Vec3 org, Vec3 dir, double t, double u, double t_min,
                                 double t_max, SweepHit* converged = nullptr, int iterations = 12) {
+    const double dir2 = dot(dir, dir);
     for (int i = 0; i < iterations; ++i) {
         const CentreLine c = centre_line(cp, u);
         const Vec3 w = org + t * dir - c.c;
         const double speed2 = dot(c.dc, c.dc);
         if (!(speed2 > 0)) return {};
         const double inverse_speed2 = 1.0 / speed2;
-        const double f = dot(w, c.dc), f_du = -speed2 + dot(w, c.ddc), f_dt = dot(dir, c.dc);
+        const double f = dot(w, c.dc), f_du = dot(w, c.ddc) - speed2, f_dt = dot(dir, c.dc);
         const double along2 = f * f * inverse_speed2;  // the square of q - c's part along c'
         const double h = dot(w, w) - along2 - c.r * c.r;
-        // |f| / |c'| and h / 2r: the distances off the normal plane and off the circle.
-        const double radius = std::fabs(c.r) + 1e-9, tolerance = 1e-7 * radius;
-        auto root = [&](double t_root, double u_root) {
+        const double radius2 = (std::fabs(c.r) + 1e-9) * (std::fabs(c.r) + 1e-9);
+        // The root at (t_root, u_root), where q - c is w_root.
+        auto root = [&](double t_root, double u_root, Vec3 w_root) {
             SweepHit out;
             out.hit = true;
             out.t = t_root;
             out.u = u_root;
-            out.normal = normalize(w - (f * inverse_speed2) * c.dc);
+            out.normal = normalize(w_root - (dot(w_root, c.dc) * inverse_speed2) * c.dc);
             out.front = dot(dir, out.normal) < 0;
             if (converged) *converged = out;
             if (!(u_root >= 0.0 && u_root <= 1.0 && t_root >= t_min && t_root <= t_max)) return SweepHit{};
             return out;
         };
-        if (along2 <= tolerance * tolerance && std::fabs(h) <= 2 * radius * tolerance) return root(t, u);
+        // |f| / |c'| and h / 2r: the distances off the normal plane and off the circle, within 1e-7 r.
+        if (along2 <= 1e-14 * radius2 && std::fabs(h) <= 2e-7 * radius2) return root(t, u, w);
         const double speed2_du = 2 * dot(c.dc, c.ddc);
-        const double h_du = -2 * dot(w, c.dc) - (2 * f * f_du - along2 * speed2_du) * inverse_speed2 - 2 * c.r * c.dr;
+        const double h_du = -2 * f - (2 * f * f_du - along2 * speed2_du) * inverse_speed2 - 2 * c.r * c.dr;
         const double h_dt = 2 * dot(w, dir) - 2 * f * f_dt * inverse_speed2;
         const double det = f_du * h_dt - f_dt * h_du;
         if (!(std::fabs(det) > 0)) return {};
         const double inverse_det = 1.0 / det;
         const double du = (h_dt * f - f_dt * h) * inverse_det, dt = (f_du * h - h_du * f) * inverse_det;
-        if (!std::isfinite(du) || !std::isfinite(dt)) return {};
-        // Within 1e-3 r of the surface, a step shorter than 1e-5 r lands within the tolerance
-        // (Newton's error squares): that root, with the normal from here.
-        if (along2 <= 1e-6 * radius * radius && std::fabs(h) <= 2e-3 * radius * radius &&
-            dt * dt * dot(dir, dir) <= 1e-10 * radius * radius && du * du * speed2 <= 1e-10 * radius * radius)
-            return root(t - dt, u - du);
+        if (!std::isfinite(du + dt)) return {};
+        // Within 1e-2 r of the surface, a step shorter than 1e-3 r (kLastStep2 = its square) lands within
+        // about 1e-6 r of it (Newton's error squares): that root, with q - c moved to first order.
+        if (along2 <= 1e-4 * radius2 && std::fabs(h) <= 2e-2 * radius2 && dt * dt * dir2 <= kLastStep2 * radius2 &&
+            du * du * speed2 <= kLastStep2 * radius2)
+            return root(t - dt, u - du, w - dt * dir + du * c.dc);
         u -= du;
         t -= dt;
     }
@@ -221,10 +230,19 @@ SweepHit bracketed_entry(const Cubic& cp, Vec3 org, Vec3 dir, double outside, do
 
 double catmull_rom_radius(const Cubic& cp, double u) { return centre_line(cp, u).r; }
 
+// The largest |c''| and |r''| over a piece, from its centre line at its ends a, b (both are linear in u).
+struct SecondDerivativeMaxima {
+    double centre, radius;
+};
+SecondDerivativeMaxima second_derivative_maxima(const CentreLine& a, const CentreLine& b) {
+    return {std::max(length(a.ddc), length(b.ddc)), std::max(std::fabs(a.ddr), std::fabs(b.ddr))};
+}
+
 // The chord bound of a piece from its centre line at its ends a = c(u_begin), b = c(u_end).
 double chord_distance_bound(const CentreLine& a, const CentreLine& b, double u_begin, double u_end) {
     const double du2 = (u_end - u_begin) * (u_end - u_begin);
-    return (std::max(length(a.ddc), length(b.ddc)) + std::max(std::fabs(a.ddr), std::fabs(b.ddr))) * du2 / 8.0;
+    const SecondDerivativeMaxima m = second_derivative_maxima(a, b);
+    return (m.centre + m.radius) * du2 / 8.0;
 }
 
 // A piece is nearly straight when its centre line stays within this share of its smaller end
@@ -352,10 +370,9 @@ PassResult pass_by_straight_piece(const Cubic& cp, const SweepPiece& piece, cons
     return {};
 }
 
-}  // namespace
-
-SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start, double t_min,
-                         double t_max, int quick_steps) {
+// intersect_sweep's body, built twice: for the baseline and, where the CPU has them, for AVX2 + FMA.
+inline SweepHit intersect_sweep_body(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start,
+                                     double t_min, double t_max, int quick_steps) {
     const Cubic cp(piece.control_points);
     const double lo = piece.u_begin, hi = piece.u_end, dir_length = length(dir);
     if (!(dir_length > 0)) return {};
@@ -518,12 +535,56 @@ SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_s
     return {};
 }
 
-double sweep_proxy_widening(const std::array<float, 4>* control_points, double u_begin, double u_end) {
-    const Cubic cp(control_points);
-    const CentreLine a = centre_line(cp, u_begin), b = centre_line(cp, u_end);
-    const double run = length(b.c - a.c), rise = std::fabs(b.r - a.r);
-    const double slope_squared = run > 0 ? std::min(1.0, (rise / run) * (rise / run)) : 1.0;
-    return chord_distance_bound(a, b, u_begin, u_end) + 0.5 * slope_squared * std::max(a.r, b.r);
+#if defined(__x86_64__) && defined(__GNUC__)
+// The AVX2 + FMA build (math_simd.h, scalar_avx2): the body and everything it calls inlined here.
+HAIRBSDF_SCALAR_AVX2 __attribute__((flatten)) SweepHit intersect_sweep_avx2(const SweepPiece& piece, Vec3 org,
+                                                                           Vec3 dir, double t_start, double u_start,
+                                                                           double t_min, double t_max, int quick_steps) {
+    return intersect_sweep_body(piece, org, dir, t_start, u_start, t_min, t_max, quick_steps);
+}
+#endif
+
+}  // namespace
+
+SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start, double t_min,
+                         double t_max, int quick_steps) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (scalar_avx2()) return intersect_sweep_avx2(piece, org, dir, t_start, u_start, t_min, t_max, quick_steps);
+#endif
+    return intersect_sweep_body(piece, org, dir, t_start, u_start, t_min, t_max, quick_steps);
+}
+
+SweepProxyCone sweep_proxy_cone(const SweepPiece& piece) {
+    const Cubic cp(piece.control_points);
+    const CentreLine a = centre_line(cp, piece.u_begin), b = centre_line(cp, piece.u_end);
+    const double du2 = (piece.u_end - piece.u_begin) * (piece.u_end - piece.u_begin);
+    const SecondDerivativeMaxima m = second_derivative_maxima(a, b);
+    const double centre_stray = m.centre * du2 / 8.0, radius_stray = m.radius * du2 / 8.0;
+    const double r_max = std::max(std::fabs(a.r), std::fabs(b.r));
+    const double scale = std::fabs(a.c.x) + std::fabs(a.c.y) + std::fabs(a.c.z) + r_max;
+    const double margin = 1e-3 * r_max + 1e-6 * scale;
+    const Vec3 chord = b.c - a.c;
+    const double run = length(chord);
+    SweepProxyCone cone;
+    if (!(run > 1e-3 * r_max + 1e-7 * scale)) {
+        // A piece shorter than this: a cylinder about its ball (centre a, radius r + strays + run).
+        const double reach = r_max + centre_stray + radius_stray + run + margin;
+        const Vec3 axis = length(a.dc) > 0 ? normalize(a.dc) : Vec3{1, 0, 0};
+        cone.begin = a.c - reach * axis;
+        cone.end = a.c + reach * axis;
+        cone.begin_radius = cone.end_radius = reach;
+        return cone;
+    }
+    const Vec3 axis = (1.0 / run) * chord;
+    const double sin_tilt = std::min(1.0, m.centre * du2 / run);
+    const double extension = r_max * sin_tilt + centre_stray + margin;
+    const double slope = (b.r - a.r) / run;
+    const double widening = centre_stray + radius_stray + 2 * std::fabs(slope) * extension + margin;
+    cone.begin = a.c - extension * axis;
+    cone.end = b.c + extension * axis;
+    cone.begin_radius = std::max(a.r - slope * extension, 0.0) + widening;
+    cone.end_radius = std::max(b.r + slope * extension, 0.0) + widening;
+    return cone;
 }
 
 }  // namespace hairbsdf::render

@@ -29,7 +29,7 @@ struct QueryContext {
     // only in a scene with Sweep curves; null otherwise.
     float* nearest = nullptr;
     // The proxy piece (global index + 1) whose last candidate the Sweep filter rejected, by ray
-    // id: Embree offers a round linear proxy's entry and exit separately.
+    // id: Embree offers a proxy's entry and exit separately.
     uint32_t* rejected_piece = nullptr;
 };
 
@@ -230,14 +230,13 @@ struct Geometry::Impl {
     MemoryCounter memory;
     size_t own_bytes = 0;
     // The Sweep intersector (CurveIntersector::Sweep, THICK curves): per segment whether it
-    // starts or ends its curve; the proxies' vertices (radii widened), index buffer and flags
-    // (no neighbours: every proxy is a whole cone between two spheres); one user-data record
-    // per Embree geometry (reserved up front: Embree keeps pointers to them).
+    // starts or ends its curve; the proxies' vertices (each piece's capped cone, two of its own)
+    // and index buffer; one user-data record per Embree geometry (reserved up front: Embree keeps
+    // pointers to them).
     bool sweep = false;
     std::vector<uint8_t> segment_ends;
     std::vector<std::array<float, 4>> proxy_vertices;
     std::vector<uint32_t> proxy_first;
-    std::vector<uint8_t> proxy_flags;
     std::vector<SweepGeometry> sweep_geometries;
 };
 
@@ -325,13 +324,11 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         im.sweep_geometries.reserve(n_spaces);
         auto sweep_geometry = [&](size_t first, size_t count) {
             constexpr size_t k = curve_proxy_pieces;
-            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
+            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_CONE_LINEAR_CURVE);
             rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, im.proxy_vertices.data(), 0,
                                        sizeof(float) * 4, im.proxy_vertices.size());
             rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, im.proxy_first.data() + first * k, 0,
                                        sizeof(uint32_t), count * k);
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_FLAGS, 0, RTC_FORMAT_UCHAR, im.proxy_flags.data() + first * k,
-                                       0, sizeof(uint8_t), count * k);
             im.sweep_geometries.push_back({control_points_.data(), segment_first_.data(), segment_curve_.data(),
                                            im.segment_ends.data(), uint32_t(first)});
             rtcSetGeometryUserData(g, &im.sweep_geometries.back());
@@ -418,7 +415,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
                    segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
                    curve_object_.capacity() * sizeof(int32_t) + im.segment_ends.capacity() +
                    im.proxy_vertices.capacity() * sizeof(im.proxy_vertices[0]) +
-                   im.proxy_first.capacity() * sizeof(uint32_t) + im.proxy_flags.capacity();
+                   im.proxy_first.capacity() * sizeof(uint32_t);
 }
 
 Geometry::~Geometry() {
@@ -449,27 +446,20 @@ void Geometry::build_sweep_proxies(Impl& im) {
             segment_first_[s] + 1 != segment_first_[s + 1])
             im.segment_ends[s] |= 2;
     }
-    // Per curve one run of vertices: the centre line at u = j / k of each segment, then its
-    // end; a vertex's radius is widened by the larger chord bound of the pieces beside it,
-    // plus a little for float rounding, so each proxy holds its piece of the sweep.
-    im.proxy_vertices.clear();
-    im.proxy_vertices.reserve(n_segments * k + n_segments / 4 + 2);
+    // Per piece its capped cone (sweep_proxy_cone): two vertices of its own.
+    im.proxy_vertices.resize(n_segments * k * 2);
     im.proxy_first.resize(n_segments * k);
-    im.proxy_flags.assign(n_segments * k, 0);
-    double previous_bound = 0;
     for (size_t s = 0; s < n_segments; ++s) {
         const auto* cp = &control_points_[segment_first_[s]];
-        for (int j = 0; j <= k; ++j) {
-            if (j == k && (im.segment_ends[s] & 2) == 0) break;  // the next segment's j = 0
-            const double u = double(j) / k;
-            const double bound_after = j < k ? sweep_proxy_widening(cp, u, double(j + 1) / k) : 0.0;
-            const double bound_before = (j == 0 && (im.segment_ends[s] & 1)) ? 0.0 : previous_bound;
-            const CurvePoint c = catmull_rom(cp, u);
-            const double scale = std::fabs(c.p.x) + std::fabs(c.p.y) + std::fabs(c.p.z) + std::fabs(c.r);
-            const double widened = c.r + std::max(bound_before, bound_after) + 1e-3 * std::fabs(c.r) + 1e-6 * scale;
-            if (j < k) im.proxy_first[s * k + size_t(j)] = uint32_t(im.proxy_vertices.size());
-            im.proxy_vertices.push_back({float(c.p.x), float(c.p.y), float(c.p.z), float(widened)});
-            previous_bound = bound_after;
+        for (int j = 0; j < k; ++j) {
+            const SweepProxyCone cone =
+                sweep_proxy_cone(proxy_piece(cp, j, (im.segment_ends[s] & 1) != 0, (im.segment_ends[s] & 2) != 0));
+            const size_t piece = s * k + size_t(j);
+            im.proxy_first[piece] = uint32_t(2 * piece);
+            im.proxy_vertices[2 * piece] = {float(cone.begin.x), float(cone.begin.y), float(cone.begin.z),
+                                            float(cone.begin_radius)};
+            im.proxy_vertices[2 * piece + 1] = {float(cone.end.x), float(cone.end.y), float(cone.end.z),
+                                                float(cone.end_radius)};
         }
     }
 }

@@ -5,10 +5,9 @@
 // at u (q in the normal plane of c at u, |q - c(u)| = r(u)), u in [0, 1], open at the curve's
 // ends; c and r are uniform Catmull-Rom in u (geometry.h). It lies inside the sweep of the
 // spheres (c(u), r(u)), whose signed distance g(q) = min over u of |q - c(u)| - r(u) guides
-// the careful search. Embree's BVH is built over round *linear* proxies, `curve_proxy_pieces`
-// straight pieces per segment whose radii are widened by a bound on the piece's distance from
-// its chord, so every point of the sweep lies inside some proxy. A proxy hit starts Newton's
-// method; its answer is the tube's own hit, or none.
+// the careful search. Embree's BVH is built over capped cones (cone linear curves), one per
+// piece, `curve_proxy_pieces` pieces per segment, each holding its piece of the tube
+// (sweep_proxy_cone). A proxy hit starts Newton's method; its answer is the tube's own hit, or none.
 #pragma once
 
 #include <array>
@@ -55,11 +54,22 @@ struct SweepHit {
 SweepHit intersect_sweep(const SweepPiece& piece, Vec3 org, Vec3 dir, double t_start, double u_start,
                          double t_min, double t_max, int quick_steps = 7);
 
-// How much a proxy's radii grow so that it holds its piece [u_begin, u_end] of the sweep: how
-// far the piece's centre line and radius may stray from their chords, max |c''| du^2 / 8 +
-// max |r''| du^2 / 8 (c'' and r'' are linear in u, so their largest norms sit at the piece's
-// ends), plus r s^2 / 2 for the slope s = dr / dx of its radius (a sphere of the sweep bulges
-// past a cone through the circles by up to that much). One evaluation of the cubic at each end.
-double sweep_proxy_widening(const std::array<float, 4>* control_points, double u_begin, double u_end);
+// The proxy of a piece [u_begin, u_end] (proxy_piece): a capped cone (Embree's cone linear curve) that holds the
+// piece's tube, every circle of radius r(u) about c(u) in the normal plane there. Its axis is the
+// chord c(u_begin) -> c(u_end), of length L, extended by `extension` at both ends; its radii are the
+// chord's, r(u_begin) and r(u_end) interpolated linearly along the axis, widened. The bounds, with
+// dc = max |c''| du^2 / 8 and dr = max |r''| du^2 / 8 (how far the centre line and the radius stray
+// from their chords; c'' and r'' are linear in u, so their largest norms sit at the piece's ends):
+// a circle's centre lies within dc of the chord, and its plane is tilted from the axis by at most
+// phi, sin phi <= max |c''| du^2 / L (c' differs from the chord's mean slope by at most max |c''|
+// du), so its points lie within r sin phi + dc of the centre's place along the axis: that is the
+// extension. Across the axis they lie within dc + r(u) <= dc + dr + the chord's radius at u, and
+// since a point may sit `extension` along the axis from its circle's u, the radius's slope times
+// that once more (twice, past the chord's ends). Plus 1e-3 r and a float margin.
+struct SweepProxyCone {
+    Vec3 begin, end;  // the extended axis
+    double begin_radius = 0, end_radius = 0;
+};
+SweepProxyCone sweep_proxy_cone(const SweepPiece& piece);
 
 }  // namespace hairbsdf::render

@@ -12,7 +12,7 @@
 // Linear 3D Curves) = Embree's round linear curves through the keys, whose neighbour flags
 // Embree derives from the index buffer as in Cycles' build. A ray leaving a primitive
 // skips it: all of a curve, or one triangle. THICK with SceneDesc::curve_intersector = Sweep:
-// the same surface, found by our own test over Embree's round linear proxies (curve_sweep.h).
+// the same surface, found by our own test over Embree's capped-cone proxies (curve_sweep.h).
 #pragma once
 
 #include <atomic>

@@ -19,8 +19,8 @@ namespace hairbsdf::render {
 // at the keys, Embree's round linear curves).
 enum class CurveShape { Ribbons, Thick, ThickLinear };
 // How THICK curves are intersected: Embree 3's round Catmull-Rom curves, or Embree's BVH over
-// round linear proxies with hairbsdf's exact test of the same surface (render/curve_sweep.h;
-// experimental: slower than Embree's today, docs/benchmarks.md "Engine VII").
+// capped-cone proxies with hairbsdf's exact test of the same surface (render/curve_sweep.h;
+// experimental: faster, with about 4x the memory, docs/benchmarks.md "Engine IX").
 enum class CurveIntersector { Embree, Sweep };
 
 // All strands, concatenated. Curve c owns points [offsets[c], offsets[c+1]).
