@@ -22,6 +22,9 @@ so that a loaded machine slows both alike. Per render, in the child:
   scene_s      building the scene before the call (Blender's data + depsgraph; our scene arrays)
   peak_mb      the child's peak resident set during the render call (VmHWM, reset just before it
                through /proc/self/clear_refs); added_mb = peak_mb - the resident set before the call
+`--intersector SWEEP` renders ours with that curve_intersector (the scene key's choices; Cycles is unchanged);
+`--engines hairbsdf` renders ours alone. The table's "own MB" is our renderer's own account of its peak
+(stats["peak_memory_bytes"]: Embree's peak and our buffers).
 The parent stops the run (exit 1) if a child's resident set passes --max-gib. Progress goes to stderr;
 the table to stdout; scaling.json and scaling.png (log-log, time and memory, ours and Cycles) to --out.
 Ctrl-C kills the running child and writes what was measured.
@@ -108,7 +111,7 @@ def _stamp_seconds(text):
 
 # ----------------------------------------------------------------------------- child processes
 
-def child(engine, strands, width, spp, threads):
+def child(engine, strands, width, spp, threads, intersector=None):
     sys.path.insert(0, UNITS)
     import unit_cases as units
     units.hair_patch = patch_arrays  # both engines build their strands from this generator
@@ -142,6 +145,8 @@ def child(engine, strands, width, spp, threads):
         import hairbsdf
         from hairbsdf.render import render
         desc = units.scene_desc(c, samples=spp)
+        if intersector:  # else the scene's default
+            desc["curve_intersector"] = intersector
         scene_s = time.perf_counter() - t_scene
         base, cpu0 = _status_kb("VmRSS"), _cpu_seconds()
         _reset_peak()
@@ -153,6 +158,7 @@ def child(engine, strands, width, spp, threads):
         st = out["stats"]
         sample_s = st["seconds"] - st["build_seconds"]
         extra = {"version": hairbsdf.__version__, "rays": st["rays"],
+                 "curve_intersector": desc.get("curve_intersector", "default"),
                  "renderer_peak_mb": st["peak_memory_bytes"] / 2**20,
                  "mean": float(out["combined"][..., :3].mean())}
     print(RESULT_TAG + json.dumps(dict(
@@ -165,11 +171,11 @@ class OverMemory(RuntimeError):
     pass
 
 
-def run_child(engine, strands, width, spp, threads, max_kb):
+def run_child(engine, strands, width, spp, threads, intersector, max_kb):
     """One render in a child process of its own session (Ctrl-C reaches only the parent, which then
     kills it); its resident set is polled against max_kb. Returns the child's result dict."""
     cmd = [sys.executable, os.path.abspath(__file__), "--child", engine, str(strands), str(width), str(spp),
-           str(threads)]
+           str(threads), intersector]
     with tempfile.TemporaryFile("w+") as log:
         p = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, text=True, cwd=UNITS,
                              start_new_session=True)
@@ -234,7 +240,8 @@ def plot(result, path):
     ax[0, 0].set_title(f"strand sweep: {w}x{w} px, {spp} spp")
     ax[0, 1].set_title("resolution x spp sweep")
     fig.suptitle(f"bench_hair scene, {s['threads']} threads, {result['date']} "
-                 f"(Cycles {s.get('cycles_version', '?')} vs hairbsdf {s.get('hairbsdf_version', '?')})")
+                 f"(Cycles {s.get('cycles_version', '?')} vs hairbsdf {s.get('hairbsdf_version', '?')}, "
+                 f"{s.get('curve_intersector', 'EMBREE')})")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -254,6 +261,12 @@ def parse_args(argv):
     ap.add_argument("--grid", help=f"WIDTHxSPP points of the resolution x spp sweep, comma separated "
                                    f"(default {FULL['grid']})")
     ap.add_argument("--threads", type=int, default=2, help="render threads of both engines (default 2)")
+    from hairbsdf.render import schema_choices, schema_default
+    ap.add_argument("--intersector", choices=schema_choices("curve_intersector"),
+                    default=schema_default("curve_intersector"),
+                    help="our scene's curve_intersector (default %(default)s; Cycles is unchanged)")
+    ap.add_argument("--engines", default=",".join(ENGINES),
+                    help="the engines to render, comma separated (default %(default)s: both)")
     ap.add_argument("--max-gib", type=float, default=6.0,
                     help="stop the run when a render's resident set passes this many GiB (default 6)")
     a = ap.parse_args(argv)
@@ -286,6 +299,10 @@ def parse_args(argv):
         ap.error(f"--grid-strands: expected a positive integer, got {a.grid_strands}")
     if a.threads < 1:
         ap.error(f"--threads: expected a positive integer, got {a.threads}")
+    names = [x.strip() for x in a.engines.split(",") if x.strip()]
+    if not names or any(x not in ENGINES for x in names) or len(set(names)) != len(names):
+        ap.error(f"--engines: expected some of {','.join(ENGINES)}, comma separated, got {a.engines!r}")
+    a.engines = tuple(x for x in ENGINES if x in names)
     if not a.max_gib > 0:
         ap.error(f"--max-gib: expected a positive number, got {a.max_gib}")
     return a
@@ -293,12 +310,13 @@ def parse_args(argv):
 
 def table(result):
     lines = [f"{'sweep':7} {'strands':>8} {'px':>4} {'spp':>4} | {'engine':8} {'call s':>8} {'sample s':>8} "
-             f"{'build s':>8} {'cpu s':>8} {'added MB':>9} {'peak MB':>8}"]
+             f"{'build s':>8} {'cpu s':>8} {'added MB':>9} {'peak MB':>8} {'own MB':>7}"]
     for sweep in ("strands", "grid"):
         for r in result[sweep]:
             lines.append(f"{sweep:7} {r['strands']:8d} {r['width']:4d} {r['spp']:4d} | {r['engine']:8} "
                          f"{r['seconds']:8.2f} {r['sample_s']:8.2f} {r['build_s']:8.2f} {r['cpu_s']:8.2f} "
-                         f"{r['added_mb']:9.0f} {r['peak_mb']:8.0f}")
+                         f"{r['added_mb']:9.0f} {r['peak_mb']:8.0f} "
+                         + (f"{r['renderer_peak_mb']:7.1f}" if "renderer_peak_mb" in r else f"{'-':>7}"))
     return "\n".join(lines)
 
 
@@ -313,7 +331,8 @@ def save(result, out_dir):
 
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        child(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]), int(sys.argv[6]))
+        child(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]), int(sys.argv[6]),
+              sys.argv[7] if len(sys.argv) > 7 else None)
         return 0
     a = parse_args(sys.argv[1:])
     try:
@@ -324,7 +343,8 @@ def main():
     result = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "load_start": os.getloadavg(),
               "commit": commit, "cpus": os.cpu_count(),
               "settings": {"strands": a.strands, "strand_point": a.strand_point, "grid_strands": a.grid_strands,
-                           "grid": a.grid, "threads": a.threads, "keys": KEYS, "max_gib": a.max_gib},
+                           "grid": a.grid, "threads": a.threads, "keys": KEYS, "max_gib": a.max_gib,
+                           "curve_intersector": a.intersector, "engines": a.engines},
               "strands": [], "grid": []}
     plan = [("strands", n, *a.strand_point) for n in a.strands] + [("grid", a.grid_strands, w, spp)
                                                                    for w, spp in a.grid]
@@ -332,12 +352,12 @@ def main():
     status = 0
     try:
         for i, (sweep, n, width, spp) in enumerate(plan):
-            for engine in (ENGINES if i % 2 == 0 else ENGINES[::-1]):
+            for engine in (a.engines if i % 2 == 0 else a.engines[::-1]):
                 key = (engine, n, width, spp)
                 if key not in done:
                     print(f"[{time.strftime('%H:%M:%S')}] {engine:8} {n:8d} strands {width}x{width} px {spp} spp "
                           f"(load {os.getloadavg()[0]:.1f}) ...", file=sys.stderr, flush=True)
-                    r = run_child(engine, n, width, spp, a.threads, int(a.max_gib * 2**20))
+                    r = run_child(engine, n, width, spp, a.threads, a.intersector, int(a.max_gib * 2**20))
                     r["load"] = os.getloadavg()[0]
                     done[key] = r
                     print(f"    {r['seconds']:.2f} s (sampling {r['sample_s']:.2f} s, cpu {r['cpu_s']:.1f} s), "
