@@ -288,7 +288,8 @@ bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters) 
     return true;
 }
 
-bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
+static HAIRBSDF_ALWAYS_INLINE bool prepare_hit_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
+                                                      PathCounters& counters, HitShading& h) {
     const IntegratorSettings& is = s.desc.integrator;
     const Ray& ray = st.ray;
     const Hit& hit = st.hit;
@@ -332,25 +333,28 @@ bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, P
     if (killed || st.terminate_after || !material.has_bsdf()) return false;
     if (q != 1.0) st.throughput = (1.0 / q) * st.throughput;
 
-    double blur = 0.0;
+    h.blur = 0.0;
     if (is.filter_glossy > 0 && !st.camera) {
         const double blur_pdf = st.min_ray_pdf / is.filter_glossy;
-        if (blur_pdf < 1.0) blur = 0.5 * std::sqrt(1.0 - blur_pdf);
+        if (blur_pdf < 1.0) h.blur = 0.5 * std::sqrt(1.0 - blur_pdf);
     }
-    Bsdf& bsdf = scratch.bsdf;
     sp.g.near_field = st.camera && hit.kind == PrimKind::Curve;
-    bsdf.set(material, sp.g, blur, st.rng, h.first_hair);  // draws the seed of a stochastic eval
+    return true;
+}
+
+bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
+    if (!prepare_hit_inline(s, st, scratch, counters, h)) return false;
+    Bsdf& bsdf = scratch.bsdf;
+    bsdf.set(s.materials[size_t(h.sp.material)], h.sp.g, h.blur, st.rng, h.first_hair);  // draws a stochastic eval's seed
     return !bsdf.empty();
 }
 
-bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
-                  PathCounters& counters, ShadowRay& shadow) {
+static HAIRBSDF_ALWAYS_INLINE bool draw_light_sample_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
+                                                            const HitShading& h, bool bsdf_transmits, LightSample& ls) {
     if (s.lights.size() == 0) return false;
     const SurfacePoint& sp = h.sp;
-    const Bsdf& bsdf = scratch.bsdf;
     const double u_sel = st.rng.next(), u0 = st.rng.next(), u1 = st.rng.next();
-    LightSample ls;
-    const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
+    const LightPickContext at{sp.p, sp.g.n, s.lights.uses_tree() && bsdf_transmits};
     if (!s.lights.sample(at, u_sel, u0, u1, ls)) return false;
     if (ls.triangle >= 0) {
         // An emissive triangle: its material's emission at the sampled point.
@@ -366,7 +370,14 @@ bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, c
                                                        scratch.light_registers);
         ls.radiance = emitter.emission(regs);
     }
-    const BsdfValue b = bsdf.eval(ls.wi);
+    return true;
+}
+
+static HAIRBSDF_ALWAYS_INLINE bool finish_light_sample_inline(const PreparedScene& /*s*/, PathState& st,
+                                                              const HitShading& h, const LightSample& ls,
+                                                              const BsdfValue& b, PathCounters& counters,
+                                                              ShadowRay& shadow) {
+    const SurfacePoint& sp = h.sp;
     const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
     const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (st.throughput * b.value * ls.radiance);
     if (c.r == 0 && c.g == 0 && c.b == 0) return false;
@@ -383,26 +394,39 @@ bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, c
     return true;
 }
 
+bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                  PathCounters& counters, ShadowRay& shadow) {
+    const Bsdf& bsdf = scratch.bsdf;
+    LightSample ls;
+    if (!draw_light_sample_inline(s, st, scratch, h, bsdf.has_transmission(), ls)) return false;
+    return finish_light_sample_inline(s, st, h, ls, bsdf.eval(ls.wi), counters, shadow);
+}
+
 void add_light_sample(const PreparedScene& s, PathState& st, PathCounters& counters, const ShadowRay& shadow) {
     const RGB added = add(s.desc.integrator, st, counters, shadow.contribution, shadow.light_bounce, shadow.split);
     if (shadow.first_hair)
         for (size_t k = 0; k < shadow.direct_shares.size(); ++k) st.res.lobes[k] += shadow.direct_shares[k] * added;
 }
 
-bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
-                 PathCounters& counters) {
-    const IntegratorSettings& is = s.desc.integrator;
-    const SurfacePoint& sp = h.sp;
-    const Bsdf& bsdf = scratch.bsdf;
-    const double u0 = st.rng.next(), u1 = st.rng.next(), u2 = st.rng.next();
-    LongitudinalNumbers lcg_numbers;
-    if (is.chiang_lcg) {
+static HAIRBSDF_ALWAYS_INLINE BsdfNumbers draw_bsdf_numbers_inline(const PreparedScene& s, PathState& st) {
+    BsdfNumbers n;
+    n.u0 = st.rng.next();
+    n.u1 = st.rng.next();
+    n.u2 = st.rng.next();
+    if (s.desc.integrator.chiang_lcg) {
         // Cycles' rng_offset grows by 16 at every path_state_next: each scatter and each
         // transparent step (lights crossed, transparent closures).
-        lcg_numbers =
-            LongitudinalNumbers::from_cycles_lcg(st.lcg_path_seed + 16u * uint32_t(st.bounce + st.transparent));
+        n.lcg = LongitudinalNumbers::from_cycles_lcg(st.lcg_path_seed + 16u * uint32_t(st.bounce + st.transparent));
+        n.use_lcg = true;
     }
-    const BsdfScatter sc = bsdf.sample(u0, u1, u2, is.chiang_lcg ? &lcg_numbers : nullptr);
+    return n;
+}
+
+static HAIRBSDF_ALWAYS_INLINE bool finish_bsdf_sample_inline(const PreparedScene& s, PathState& st, const HitShading& h,
+                                                             const BsdfScatter& sc, bool bsdf_transmits,
+                                                             PathCounters& counters) {
+    const IntegratorSettings& is = s.desc.integrator;
+    const SurfacePoint& sp = h.sp;
     if (sc.label == LabelNone) return false;
     st.throughput = st.throughput * ((1.0 / sc.pdf) * sc.value);
     if (!isfinite(st.throughput)) {
@@ -423,7 +447,7 @@ bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, co
         st.split = true;
     }
     st.mis_ray_pdf = sc.pdf;
-    st.mis_origin = {sp.p, sp.g.n, s.lights.uses_tree() && bsdf.has_transmission()};
+    st.mis_origin = {sp.p, sp.g.n, s.lights.uses_tree() && bsdf_transmits};
     st.min_ray_pdf = std::min(st.min_ray_pdf, sc.blur_pdf);
     if (++st.bounce >= is.max_bounces + 1) st.terminate_after = true;
     if (sc.label & LabelReflect) {
@@ -439,6 +463,36 @@ bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, co
     st.ray = leaving_ray(sp, sc.wi, 1e30);
     st.skip = sp.self;
     return true;
+}
+
+bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                 PathCounters& counters) {
+    const Bsdf& bsdf = scratch.bsdf;
+    const BsdfNumbers n = draw_bsdf_numbers_inline(s, st);
+    const BsdfScatter sc = bsdf.sample(n.u0, n.u1, n.u2, n.use_lcg ? &n.lcg : nullptr);
+    return finish_bsdf_sample_inline(s, st, h, sc, bsdf.has_transmission(), counters);
+}
+
+// The halves on their own, for the wavefront (the whole stages above inline them).
+bool prepare_hit(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
+    return prepare_hit_inline(s, st, scratch, counters, h);
+}
+
+bool draw_light_sample(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                       bool bsdf_transmits, LightSample& ls) {
+    return draw_light_sample_inline(s, st, scratch, h, bsdf_transmits, ls);
+}
+
+bool finish_light_sample(const PreparedScene& s, PathState& st, const HitShading& h, const LightSample& ls,
+                         const BsdfValue& b, PathCounters& counters, ShadowRay& shadow) {
+    return finish_light_sample_inline(s, st, h, ls, b, counters, shadow);
+}
+
+BsdfNumbers draw_bsdf_numbers(const PreparedScene& s, PathState& st) { return draw_bsdf_numbers_inline(s, st); }
+
+bool finish_bsdf_sample(const PreparedScene& s, PathState& st, const HitShading& h, const BsdfScatter& sc,
+                        bool bsdf_transmits, PathCounters& counters) {
+    return finish_bsdf_sample_inline(s, st, h, sc, bsdf_transmits, counters);
 }
 
 }  // namespace stages

@@ -47,6 +47,14 @@ struct SurfacePoint {
 struct HitShading {
     SurfacePoint sp;
     bool first_hair = false;  // the camera ray's first hair interaction (lobe passes)
+    double blur = 0;          // Filter Glossy's roughness for this hit (0: none)
+};
+
+// The numbers of a BSDF sample, drawn from the path's sampler (draw_bsdf_numbers).
+struct BsdfNumbers {
+    double u0 = 0, u1 = 0, u2 = 0;
+    LongitudinalNumbers lcg;  // Cycles < 3.6 (integrator.chiang_lcg)
+    bool use_lcg = false;
 };
 
 // A light sample's contribution, added if its shadow ray is unoccluded (add_light_sample).
@@ -70,17 +78,30 @@ void begin_path(const PreparedScene& s, PathState& st);
 // escaped, the suns, the world or the film's transparency. False: the path ended.
 bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters);
 // At st.hit: surface point, first-hit passes, Russian roulette, the material's program, emission
-// with forward MIS, termination, then the Bsdf (scratch.bsdf) with Filter Glossy. False: the path ended.
+// with forward MIS, termination, Filter Glossy's roughness (h.blur). False: the path ended.
+bool prepare_hit(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h);
+// prepare_hit, then the Bsdf (scratch.bsdf). False: the path ended.
 bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h);
-// Next-event estimation with scratch.bsdf: light pick, point on the light, BSDF eval, MIS. True
-// when the contribution is non-zero and waits for `shadow`'s ray.
+// Next-event estimation with scratch.bsdf: draw_light_sample, the BSDF's eval there, finish_light_sample.
+// True when the contribution is non-zero and waits for `shadow`'s ray.
 bool sample_light(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
                   PathCounters& counters, ShadowRay& shadow);
+// Its halves, around a BSDF eval done elsewhere (the wavefront's batch kernels). The light pick and the
+// point on the light (`bsdf_transmits`: Cycles' SD_BSDF_HAS_TRANSMISSION); false: no light sample.
+bool draw_light_sample(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
+                       bool bsdf_transmits, LightSample& ls);
+// MIS, the contribution with the path's throughput and the shadow ray, from the BSDF's value at ls.wi.
+bool finish_light_sample(const PreparedScene& s, PathState& st, const HitShading& h, const LightSample& ls,
+                         const BsdfValue& b, PathCounters& counters, ShadowRay& shadow);
 // Adds a light sample whose shadow ray was not occluded.
 void add_light_sample(const PreparedScene& s, PathState& st, PathCounters& counters, const ShadowRay& shadow);
 // The BSDF sample with scratch.bsdf: throughput, MIS state, bounce budgets, the next ray. False:
 // the path ended.
 bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,
                  PathCounters& counters);
+// Its halves, around a BSDF sample done elsewhere: the sample's numbers, then what follows the sample.
+BsdfNumbers draw_bsdf_numbers(const PreparedScene& s, PathState& st);
+bool finish_bsdf_sample(const PreparedScene& s, PathState& st, const HitShading& h, const BsdfScatter& sc,
+                        bool bsdf_transmits, PathCounters& counters);
 
 }  // namespace hairbsdf::render::stages
