@@ -109,18 +109,24 @@ def _blocks(img, n=4):
     return img.reshape(n, h // n, n, w // n, -1).mean(axis=(1, 3, 4))
 
 
-@pytest.mark.parametrize("name", C.CASE_NAMES)
-def test_mean_matches_cycles(name, cycles_images):
+def _assert_mean_matches_cycles(name, cycles_images, **integrator):
+    """Our two renders of case `name` (integrator keys set as given) against Cycles' image; returns them."""
     from hairbsdf.render import render
 
     images, meta = cycles_images
     c = C.case(name)
     spp = _samples(c)
     ref = images[name][..., :3].astype(np.float64)
-    runs = [render(C.scene_desc(c, samples=spp, seed=s), threads=2) for s in (11, 12)]
+    runs = []
+    for seed in (11, 12):
+        desc = C.scene_desc(c, samples=spp, seed=seed)
+        desc["integrator"].update(integrator)
+        runs.append(render(desc, threads=2))
     a, b = (r["combined"][..., :3].astype(np.float64) for r in runs)
     for r in runs:
         assert r["stats"]["nan_count"] == 0 and not r["stats"]["warnings"]
+    if integrator:
+        name += " + " + ", ".join(f"{k} {v}" for k, v in integrator.items())
     ours = 0.5 * (a + b)
     # Per-pixel variance of one render from the two independent ones; the difference
     # ours - cycles has variance <= var(ours) + var(cycles) ~ 1.5 var(one render).
@@ -129,7 +135,7 @@ def test_mean_matches_cycles(name, cycles_images):
     sigma = np.sqrt(1.5 * var_pixel.sum()) / n
     diff = ours.mean() - ref.mean()
     _rows.append((name, spp, ours.mean(), ref.mean(), sigma, runs[0]["stats"]["seconds"],
-                  meta["seconds"].get(name, float("nan"))))
+                  meta["seconds"].get(c["name"], float("nan"))))
     assert abs(diff) <= SIGMAS * sigma + 1e-5 * abs(ref.mean()), (
         f"{name}: ours {ours.mean():.6f} vs Cycles {ref.mean():.6f} (diff {diff:.2e}, sigma {sigma:.2e})")
     # 4 x 4 block means, each within its own noise.
@@ -138,6 +144,23 @@ def test_mean_matches_cycles(name, cycles_images):
     bs = np.sqrt(1.5 * _blocks(var_pixel) * m) / m
     bad = np.abs(bo - br) > SIGMAS * bs + 1e-4 * np.abs(br) + 1e-4 * abs(ref.mean())  # floor: rare events
     assert not bad.any(), f"{name}: blocks differ beyond noise: ours {bo[bad]}, Cycles {br[bad]}, sigma {bs[bad]}"
+    return runs
+
+
+@pytest.mark.parametrize("name", C.CASE_NAMES)
+def test_mean_matches_cycles(name, cycles_images):
+    _assert_mean_matches_cycles(name, cycles_images)
+
+
+HAIR_CASES = [c["name"] for c in C.CASES if c["hair"]]
+
+
+@pytest.mark.parametrize("name", HAIR_CASES)
+def test_wavefront_mean_matches_cycles(name, cycles_images):
+    """The wavefront path tracer, its Chiang hair shaded through the float32 batch kernels
+    (integrator.wavefront_kernels, on by default): the same gates against Cycles."""
+    runs = _assert_mean_matches_cycles(name, cycles_images, wavefront=True)
+    assert all(r["stats"]["kernel_hits"] > 0 for r in runs), "no hit went through the batch kernels"
 
 
 @pytest.fixture(scope="module", autouse=True)

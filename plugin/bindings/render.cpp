@@ -253,6 +253,7 @@ py::dict py_render(py::handle scene_dict, py::object progress, py::object cancel
     stats["rays"] = out.stats.rays;
     stats["peak_memory_bytes"] = out.stats.peak_memory_bytes;
     stats["nan_count"] = out.stats.nan_count;
+    stats["kernel_hits"] = out.stats.kernel_hits;
     stats["cancelled"] = out.stats.cancelled;
     stats["warnings"] = out.warnings;
     py::dict result;
@@ -479,8 +480,8 @@ py::dict py_shading_vm_instruction_set() {
 const std::string& render_doc() {
     static const std::string doc = [] {
         std::string d = "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
-                        "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, cancelled, "
-                        "warnings}} plus the passes asked for in integrator['passes']:";
+                        "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, kernel_hits, "
+                        "cancelled, warnings}} plus the passes asked for in integrator['passes']:";
         for (const bindings::RenderPass& pass : bindings::render_passes()) {
             d += std::string(" ") + pass.name + " ->";
             for (const bindings::PassImage& im : pass.images)

@@ -596,6 +596,8 @@ std::vector<SceneKey> make_schema() {
             .field(&Settings::wavefront),
         Row("integrator.wavefront_streams", K::Bool, "the wavefront's bounce and shadow rays as Embree streams; off: one by one (bit-identical image)")
             .field(&Settings::wavefront_streams),
+        Row("integrator.wavefront_kernels", K::Bool, "the wavefront shades one-closure Chiang materials through the float32 batch kernels; off: the scalar double path (the per-pixel image)")
+            .field(&Settings::wavefront_kernels),
         Row("integrator.tilt", K::Enum, "Principled Hair tilt convention")
             .choices<TiltConvention>({{"4.2", TiltConvention::Blender42}, {"3.4", TiltConvention::Blender34}})
             .field(&Settings::tilt),

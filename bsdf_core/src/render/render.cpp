@@ -128,6 +128,7 @@ void RenderJob::run() {
         for (const PathCounters& c : counters) {
             out.stats.rays += c.rays;
             out.stats.nan_count += c.nan;
+            out.stats.kernel_hits += c.kernel_hits;
         }
         for (float& v : out.rgba) {
             if (!std::isfinite(v)) {

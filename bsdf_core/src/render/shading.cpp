@@ -191,6 +191,17 @@ MaterialShader::MaterialShader(const MaterialDesc& desc, TiltConvention tilt, Ac
             }
         }
     }
+    if (hair.size() == 1 && cycles_hair.empty() && diffuse.empty() && models.empty()) {
+        const MaterialClosure& h = hair[0];
+        if (!h.huang && h.links.empty() && h.weight_register < 0 && h.color_register < 0) {
+            PrincipledHairInputs in = h.hair;
+            const bool random_per_row = h.random_from_curve && hair_depends_on_random(in);
+            if (h.random_from_curve) in.random = 0.0;  // per row where the model depends on it
+            const HairModel model(std::in_place_type<ChiangHair>, chiang_params_from_principled(in, accuracy, tilt));
+            batch_chiang_ = BatchChiangMaterial{chiang_batch_constants_principled(in, accuracy, tilt, h.weight),
+                                                random_per_row, model_transmits(model)};
+        }
+    }
     for (std::vector<MaterialClosure>* kind : {&hair, &cycles_hair, &diffuse, &models})
         for (MaterialClosure& m : *kind) closures_.push_back(std::move(m));
 }

@@ -21,6 +21,20 @@ struct WavefrontStorage {
     std::vector<SkipPrim> shadow_skips;
     std::vector<int> shadow_light_triangles;
     std::vector<uint8_t> occluded;
+    // A material's hits shaded through the batch kernels (shade_with_kernels): each hit's state between
+    // the numbers drawn and the kernels' results, and the kernels' rows (float32, the fibre frame).
+    struct KernelHit {
+        uint32_t path = 0;
+        stages::HitShading h;
+        bool has_light = false;
+        LightSample light;
+        stages::BsdfNumbers numbers;
+        Vec3 b1, b2;  // with the tangent, the hit's right-handed frame (the kernels' x is the tangent)
+    };
+    std::vector<KernelHit> kernel_hits;
+    std::vector<float> wo, h, random, u, sampled_wi, weight, sample_pdf;
+    std::vector<int32_t> lobe;
+    std::vector<float> light_wo, light_wi, light_h, light_random, value, eval_pdf;  // the light samples' rows
 };
 
 namespace {
@@ -29,6 +43,141 @@ namespace {
 // stay in a core's L2 cache): a tile's rows are traced in groups of rows below it.
 constexpr size_t kMaxPaths = 512;
 
+// Two unit vectors completing a unit tangent t to a right-handed orthonormal frame (t, b1, b2).
+void complete_frame(Vec3 t, Vec3& b1, Vec3& b2) {
+    const Vec3 a = std::fabs(t.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    b1 = normalize(cross(t, a));
+    b2 = cross(t, b1);
+}
+
+// v in the frame (t, b1, b2), as float32 into a row of 3.
+void put_local(Vec3 v, Vec3 t, Vec3 b1, Vec3 b2, float* row) {
+    row[0] = float(dot(v, t));
+    row[1] = float(dot(v, b1));
+    row[2] = float(dot(v, b2));
+}
+
+// The hits [begin, end) of w.shading, all of one material that the batch kernels can shade
+// (MaterialShader::batch_chiang): each path's stages up to its numbers, one kernel call for the light
+// samples' evals and one for the BSDF samples, then each path's stages after them, in the path's own
+// order (light sample, then BSDF sample), so that every path draws its numbers as the scalar path does
+// (a Chiang Bsdf draws none of its own). Hits the kernels do not take (Filter Glossy's blurred ones, the
+// lobe passes' first hits) go the scalar way.
+void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch, size_t begin, size_t end,
+                        PathScratch& scratch, PathCounters& counters) {
+    using namespace stages;
+    WavefrontStorage& w = *scratch.wavefront;
+    w.kernel_hits.clear();
+    for (size_t j = begin; j < end; ++j) {
+        const uint32_t i = w.shading[j].second;
+        PathState& st = w.paths[i];
+        WavefrontStorage::KernelHit k;
+        k.path = i;
+        if (!prepare_hit(s, st, scratch, counters, k.h)) continue;
+        if (k.h.first_hair || k.h.blur > 0) {  // the scalar way
+            Bsdf& bsdf = scratch.bsdf;
+            bsdf.set(s.materials[size_t(k.h.sp.material)], k.h.sp.g, k.h.blur, st.rng, k.h.first_hair);
+            if (bsdf.empty()) continue;
+            ShadowRay shadow;
+            if (sample_light(s, st, scratch, k.h, counters, shadow)) {
+                w.shadows.push_back(shadow);
+                w.shadow_path.push_back(i);
+            }
+            if (sample_bsdf(s, st, scratch, k.h, counters)) w.next_live.push_back(i);
+            continue;
+        }
+        k.has_light = draw_light_sample(s, st, scratch, k.h, batch.transmits, k.light);
+        k.numbers = draw_bsdf_numbers(s, st);
+        complete_frame(k.h.sp.g.tangent, k.b1, k.b2);
+        w.kernel_hits.push_back(k);
+    }
+    const size_t n = w.kernel_hits.size();
+    if (n == 0) return;
+    counters.kernel_hits += n;
+
+    // The rows: every hit samples; those with a light sample evaluate too.
+    w.wo.resize(3 * n), w.h.resize(n), w.random.resize(n), w.u.resize(3 * n);
+    w.light_wo.clear(), w.light_wi.clear(), w.light_h.clear(), w.light_random.clear();
+    for (size_t j = 0; j < n; ++j) {
+        const WavefrontStorage::KernelHit& k = w.kernel_hits[j];
+        const ShadingGeometry& g = k.h.sp.g;
+        put_local(g.wo, g.tangent, k.b1, k.b2, &w.wo[3 * j]);
+        w.h[j] = float(clamp(g.h, -1.0, 1.0));
+        w.random[j] = float(g.random);
+        w.u[3 * j] = float(k.numbers.u0);
+        w.u[3 * j + 1] = float(k.numbers.u1);
+        w.u[3 * j + 2] = float(k.numbers.u2);
+        if (k.has_light) {
+            float wi[3];
+            put_local(k.light.wi, g.tangent, k.b1, k.b2, wi);
+            w.light_wo.insert(w.light_wo.end(), &w.wo[3 * j], &w.wo[3 * j] + 3);
+            w.light_wi.insert(w.light_wi.end(), wi, wi + 3);
+            w.light_h.push_back(w.h[j]);
+            w.light_random.push_back(w.random[j]);
+        }
+    }
+    const size_t m = w.light_h.size();
+    w.value.resize(3 * m), w.eval_pdf.resize(m);
+    if (m > 0) {
+        ChiangBatchRows rows;
+        rows.wo = w.light_wo.data();
+        rows.wi = w.light_wi.data();
+        rows.h = w.light_h.data();
+        if (batch.random_per_row) rows.inputs.random = w.light_random.data();
+        ChiangBatchOutput out;
+        out.value = w.value.data();
+        out.pdf = w.eval_pdf.data();
+        chiang_batch_run(batch.constants, ChiangBatchOp::Eval, rows, out, 0, m);
+    }
+    w.sampled_wi.resize(3 * n), w.weight.resize(3 * n), w.sample_pdf.resize(n), w.lobe.resize(n);
+    {
+        ChiangBatchRows rows;
+        rows.wo = w.wo.data();
+        rows.h = w.h.data();
+        rows.u = w.u.data();
+        if (batch.random_per_row) rows.inputs.random = w.random.data();
+        ChiangBatchOutput out;
+        out.wi = w.sampled_wi.data();
+        out.weight = w.weight.data();
+        out.pdf = w.sample_pdf.data();
+        out.lobe = w.lobe.data();
+        chiang_batch_run(batch.constants, ChiangBatchOp::Sample, rows, out, 0, n);
+    }
+
+    // Each path's stages after its numbers, as the scalar path runs them (render_eval, render_sample).
+    size_t light_row = 0;
+    for (size_t j = 0; j < n; ++j) {
+        const WavefrontStorage::KernelHit& k = w.kernel_hits[j];
+        PathState& st = w.paths[k.path];
+        const Vec3 t = k.h.sp.g.tangent;
+        if (k.has_light) {
+            const size_t r = light_row++;
+            BsdfValue b;
+            b.pdf = double(w.eval_pdf[r]);
+            // A closure counts where its pdf is not 0 (closure_counts); non-finite results count as none.
+            const RGB value(w.value[3 * r], w.value[3 * r + 1], w.value[3 * r + 2]);
+            if (b.pdf != 0.0 && std::isfinite(b.pdf) && isfinite(value)) b.value = value;
+            else b.pdf = 0.0;
+            ShadowRay shadow;
+            if (finish_light_sample(s, st, k.h, k.light, b, counters, shadow)) {
+                w.shadows.push_back(shadow);
+                w.shadow_path.push_back(k.path);
+            }
+        }
+        BsdfScatter sc;
+        const double pdf = double(w.sample_pdf[j]);
+        if (w.lobe[j] >= 0 && pdf > 0 && std::isfinite(pdf)) {
+            const float* d = &w.sampled_wi[3 * j];
+            sc.wi = normalize(double(d[0]) * t + double(d[1]) * k.b1 + double(d[2]) * k.b2);
+            sc.value = pdf * RGB(w.weight[3 * j], w.weight[3 * j + 1], w.weight[3 * j + 2]);
+            sc.pdf = pdf;
+            sc.blur_pdf = pdf;
+            sc.label = ChiangHair::scatter_label(w.lobe[j]);
+        }
+        if (finish_bsdf_sample(s, st, k.h, sc, batch.transmits, counters)) w.next_live.push_back(k.path);
+    }
+}
+
 // Rows [y0, y1) of a tile: the wavefront proper.
 void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, int s1, bool streams,
                 PathScratch& scratch, PathCounters& counters,
@@ -36,6 +185,8 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
     using namespace stages;
     const IntegratorSettings& is = s.desc.integrator;
     WavefrontStorage& w = *scratch.wavefront;
+    // Cycles < 3.6's LCG numbers are the scalar path's alone.
+    const bool kernels = is.wavefront_kernels && !is.chiang_lcg;
 
     // Camera rays, each from its own sample's Sampler, which the path keeps.
     w.paths.clear();
@@ -84,14 +235,25 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
         w.next_live.clear();
         HitShading h;      // each hit's, written by prepare_bsdf
         ShadowRay shadow;  // each hit's light sample, written by sample_light
-        for (const auto& [material, i] : w.shading) {
-            PathState& st = w.paths[i];
-            if (!prepare_bsdf(s, st, scratch, counters, h)) continue;
-            if (sample_light(s, st, scratch, h, counters, shadow)) {
-                w.shadows.push_back(shadow);
-                w.shadow_path.push_back(i);
+        for (size_t begin = 0, end; begin < w.shading.size(); begin = end) {
+            const int material = w.shading[begin].first;
+            for (end = begin + 1; end < w.shading.size() && w.shading[end].first == material; ++end) {
             }
-            if (sample_bsdf(s, st, scratch, h, counters)) w.next_live.push_back(i);
+            const std::optional<BatchChiangMaterial>& batch = s.materials[size_t(material)].batch_chiang();
+            if (kernels && batch) {
+                shade_with_kernels(s, *batch, begin, end, scratch, counters);
+                continue;
+            }
+            for (size_t j = begin; j < end; ++j) {
+                const uint32_t i = w.shading[j].second;
+                PathState& st = w.paths[i];
+                if (!prepare_bsdf(s, st, scratch, counters, h)) continue;
+                if (sample_light(s, st, scratch, h, counters, shadow)) {
+                    w.shadows.push_back(shadow);
+                    w.shadow_path.push_back(i);
+                }
+                if (sample_bsdf(s, st, scratch, h, counters)) w.next_live.push_back(i);
+            }
         }
 
         // The shadow rays as one stream; each unoccluded light sample to its own path, before

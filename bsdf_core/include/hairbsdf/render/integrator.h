@@ -59,6 +59,7 @@ struct PreparedScene {
 struct PathCounters {
     uint64_t rays = 0;
     uint64_t nan = 0;
+    uint64_t kernel_hits = 0;  // hits shaded through the batch kernels (the wavefront's)
 };
 
 struct PathResult {

@@ -28,6 +28,7 @@ struct RenderStats {
     uint64_t rays = 0;         // camera, bounce and shadow rays traced
     size_t peak_memory_bytes = 0;
     uint64_t nan_count = 0;    // non-finite contributions zeroed
+    uint64_t kernel_hits = 0;  // hits shaded through the batch kernels (integrator.wavefront_kernels)
     bool cancelled = false;
 };
 

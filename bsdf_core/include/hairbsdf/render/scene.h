@@ -222,6 +222,11 @@ struct IntegratorSettings {
     // packets return some hits a rounding step away); off: one rtcIntersect1 / rtcOccluded1 per ray,
     // and without camera_ray_stream the image is the per-pixel loop's bit for bit.
     bool wavefront_streams = true;
+    // The wavefront shades the hits of materials that are one Principled Hair (Chiang) closure through
+    // the float32 batch kernels (docs/simd.md), a material's hits together; Filter Glossy's blurred hits,
+    // the lobe passes' first hits and Cycles < 3.6's LCG stay on the scalar double path. The same image
+    // in expectation (float instead of double rounding). Off: every hit on the scalar path.
+    bool wavefront_kernels = true;
 };
 
 // An equirectangular Environment Texture on the world, as Cycles reads it: the lookup vector

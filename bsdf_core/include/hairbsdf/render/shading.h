@@ -26,6 +26,7 @@
 #include <optional>
 #include <vector>
 
+#include "hairbsdf/batch/chiang_batch.h"
 #include "hairbsdf/closures.h"
 #include "hairbsdf/render/model_closure.h"
 #include "hairbsdf/render/sampler.h"
@@ -35,6 +36,16 @@ namespace hairbsdf::render {
 
 constexpr int kMaxBsdfClosures = 8;
 constexpr double kClosureWeightCutoff = 1e-5;  // Cycles' CLOSURE_WEIGHT_CUTOFF
+
+// A material the wavefront can shade through the float32 batch kernels (docs/simd.md, render/wavefront.h):
+// a single Principled Hair closure with the Chiang model whose inputs are all the material's own (none
+// from the shading program, a constant weight). Its kernel constants (the closure weight included);
+// `random_per_row`: the model depends on the curve's Random, which goes to the kernels per row.
+struct BatchChiangMaterial {
+    ChiangBatchConstants constants;
+    bool random_per_row = false;
+    bool transmits = true;  // Cycles' SD_BSDF_HAS_TRANSMISSION, from the model
+};
 
 // One material, prepared once per render: its BSDF closures (a weight and a model each, in the
 // order principled_hair, cycles_hair, diffuse, hair_model) and its emission closures.
@@ -73,9 +84,12 @@ public:
     GlassAlbedoTable huang_glass_albedo_table() const { return huang_glass_albedo_table_; }
     // Unique to this material's closures (copies share it): the key of the per-hit models Bsdf keeps.
     uint64_t id() const { return id_; }
+    // Set where the material is one the batch kernels can shade (BatchChiangMaterial).
+    const std::optional<BatchChiangMaterial>& batch_chiang() const { return batch_chiang_; }
 
 private:
     uint64_t id_;
+    std::optional<BatchChiangMaterial> batch_chiang_;
     std::vector<MaterialClosure> closures_;
     RGB emission_{0.0};                          // the emission closures without program inputs
     std::vector<EmissionClosure> linked_emission_;  // those with
