@@ -3,7 +3,7 @@
 
     .venv/bin/python lab/bench_vs_cycles.py [--scenes bench_hair,swatch] [--model chiang|huang|scene]
                                             [--rounds 3] [--spp N] [--res WxH] [--before DIR] [--sweep]
-                                            [--json F] [--perf]
+                                            [--wavefront] [--json F] [--perf]
 
 Scenes: `bench_hair` (blender_tests/render_units: 1500 strands over a plane, sun + world, 160 x 160, 32 spp)
 and the harness scenes of plugin/hairbsdf/compare/scenes/catalog.py (`swatch`, `huang_ellipse`, ...), at
@@ -15,7 +15,9 @@ Blender scene (the HAIRBSDF exporter) once.
 Each round renders every scene in its own child process, Cycles first, then ours, then with --before
 ours again from another build of the module (DIR is put first on sys.path: a folder holding another
 build's hairbsdf package and .so files), and with --sweep ours again with the scene key curve_intersector
-set to SWEEP (our own exact curve test over Embree's linear proxies; docs/engine.md, "Curve intersection"). Per render:
+set to SWEEP (our own exact curve test over Embree's linear proxies; docs/engine.md, "Curve intersection"), and
+with --wavefront ours again with integrator.wavefront (the wavefront path tracer, its Chiang hits through the
+batch kernels; with --sweep also both together). Per render:
   wall   seconds of the render call: Cycles' bpy.ops.render.render (scene sync, BVH build, sampling),
          ours hairbsdf.render.render (scene checks, BVH build, sampling)
   cpu    user + system CPU seconds of the child over the same call (all threads)
@@ -115,7 +117,7 @@ print("@@RESULT@@", json.dumps(dict(wall=wall, cpu=cpu, models=sorted(models),
 
 OURS_CHILD = PERF_SWITCH + r"""
 import json, resource, sys, time
-first, npz, intersector = sys.argv[-3], sys.argv[-2], sys.argv[-1]
+first, npz, settings = sys.argv[-3], sys.argv[-2], json.loads(sys.argv[-1])
 if first:  # the other build: drop the editable install's finder, which would win over sys.path
     sys.meta_path = [f for f in sys.meta_path if "editable" not in type(f).__module__]
     sys.path.insert(0, first)
@@ -123,8 +125,12 @@ import hairbsdf
 from hairbsdf.render import render
 from hairbsdf.scene_file import load_scene
 desc = load_scene(npz)[0]
-if intersector:
-    desc["curve_intersector"] = intersector
+for key, value in settings.items():  # "curve_intersector", "integrator.wavefront", ...
+    where = desc
+    *parents, last = key.split(".")
+    for parent in parents:
+        where = where[parent]
+    where[last] = value
 perf_switch("enable")
 u0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
@@ -213,6 +219,8 @@ def main(argv=None):
     ap.add_argument("--before", default="", help="a folder put first on sys.path for a second build of ours")
     ap.add_argument("--sweep", action="store_true",
                     help="also render ours with curve_intersector SWEEP (one more column)")
+    ap.add_argument("--wavefront", action="store_true",
+                    help="also render ours with integrator.wavefront (one more column; two with --sweep)")
     ap.add_argument("--json", default="", help="also write every measurement to this JSON file")
     ap.add_argument("--perf", action="store_true",
                     help="profile each render call with perf and split it into Embree and the rest")
@@ -232,34 +240,42 @@ def main(argv=None):
     if a.perf and not shutil.which("perf"):
         ap.error("--perf: the perf tool is not installed (Debian: apt-get install linux-perf)")
 
+    # Our renders besides the default one: a column each, scene keys set as given.
+    variants = {}
+    if a.sweep:
+        variants["SWEEP"] = {"curve_intersector": "SWEEP"}
+    if a.wavefront:
+        variants["wavefront"] = {"integrator.wavefront": True}
+        if a.sweep:
+            variants["SWEEP + wavefront"] = {"curve_intersector": "SWEEP", "integrator.wavefront": True}
     rows = []
     print("| round | scene | models | Cycles wall / cpu s | ours wall / cpu s | ours / Cycles: wall / cpu |"
           + (" before wall / cpu s | before / Cycles: cpu |" if a.before else "")
-          + (" SWEEP wall / cpu s | SWEEP / Cycles: cpu |" if a.sweep else ""))
-    print("|---|---|---|---|---|---|" + ("---|---|" if a.before else "") + ("---|---|" if a.sweep else ""))
+          + "".join(f" {v} wall / cpu s | {v} / Cycles: cpu |" for v in variants))
+    print("|---|---|---|---|---|---|" + ("---|---|" if a.before else "") + "---|---|" * len(variants))
     try:
         with tempfile.TemporaryDirectory() as tmp:
             for k in range(a.rounds):
                 for name in scenes:
                     npz = os.path.join(tmp, f"{name}_{a.model}.npz")
                     print(f"round {k + 1}/{a.rounds}: {name} (Cycles, ours{', before' if a.before else ''}"
-                          f"{', SWEEP' if a.sweep else ''})",
+                          f"{''.join(', ' + v for v in variants)})",
                           file=sys.stderr, flush=True)
                     size = BENCH_SIZE.get(name, (None, 0))
                     args = [name, a.model, res or size[0], a.spp or size[1], npz, RENDER_UNITS]
                     perf_dir = tmp if a.perf else None
                     cy = child(CYCLES_CHILD, [json.dumps(args)], perf_dir)
-                    ours = child(OURS_CHILD, ["", npz, ""], perf_dir)
+                    ours = child(OURS_CHILD, ["", npz, "{}"], perf_dir)
                     row = dict(round=k + 1, scene=name, models=cy["models"], res=cy["res"], samples=cy["samples"],
                                cycles=cy, ours=ours)
                     line = (f"| {k + 1} | {name} | {'+'.join(cy['models'])} | {cy['wall']:.2f} / {cy['cpu']:.2f} | "
                             f"{ours['wall']:.2f} / {ours['cpu']:.2f} | {ours['wall'] / cy['wall']:.3f} / "
                             f"{ours['cpu'] / cy['cpu']:.3f} |")
                     if a.before:
-                        row["before"] = b = child(OURS_CHILD, [a.before, npz, ""], perf_dir)
+                        row["before"] = b = child(OURS_CHILD, [a.before, npz, "{}"], perf_dir)
                         line += f" {b['wall']:.2f} / {b['cpu']:.2f} | {b['cpu'] / cy['cpu']:.3f} |"
-                    if a.sweep:
-                        row["sweep"] = w = child(OURS_CHILD, ["", npz, "SWEEP"], perf_dir)
+                    for variant, settings in variants.items():
+                        row[variant] = w = child(OURS_CHILD, ["", npz, json.dumps(settings)], perf_dir)
                         line += f" {w['wall']:.2f} / {w['cpu']:.2f} | {w['cpu'] / cy['cpu']:.3f} |"
                     rows.append(row)
                     print(line, flush=True)
@@ -280,10 +296,11 @@ def main(argv=None):
                                                                       "met in CPU time" if cpu <= goal else "not met"))
         print(f"{name} ({'+'.join(models)}, {mine[0]['res'][0]}x{mine[0]['res'][1]}, {mine[0]['samples']} spp, "
               f"{len(mine)} rounds): median ours / Cycles wall {wall:.3f}, cpu {cpu:.3f}{verdict}")
-        if a.sweep:
-            sweep_wall = statistics.median(r["sweep"]["wall"] / r["cycles"]["wall"] for r in mine)
-            sweep_cpu = statistics.median(r["sweep"]["cpu"] / r["cycles"]["cpu"] for r in mine)
-            print(f"  with curve_intersector SWEEP: median ours / Cycles wall {sweep_wall:.3f}, cpu {sweep_cpu:.3f}")
+        for variant, settings in variants.items():
+            v_wall = statistics.median(r[variant]["wall"] / r["cycles"]["wall"] for r in mine)
+            v_cpu = statistics.median(r[variant]["cpu"] / r["cycles"]["cpu"] for r in mine)
+            print(f"  with {', '.join(f'{k} {v}' for k, v in settings.items())}: median ours / Cycles wall "
+                  f"{v_wall:.3f}, cpu {v_cpu:.3f}")
         if a.perf:
             floor = statistics.median(r["ours"]["perf"]["embree"] / max(r["cycles"]["perf"]["samples"], 1)
                                       for r in mine)

@@ -3,8 +3,9 @@ with the running Python's hairbsdf and saves the images; compare with compare.py
 
     python lab/render_identity/render_scenes.py SCENES OUT [--wavefront | --wavefront-one-by-one] [VARIANT ...]
 
---wavefront renders with integrator.wavefront (rays as Embree streams: the per-pixel engine's images at
-float rounding); --wavefront-one-by-one also sets wavefront_streams off (its images must be bit-identical)."""
+--wavefront renders with integrator.wavefront (rays as Embree streams, one-closure Chiang materials through the
+float32 batch kernels: the per-pixel engine's images at float rounding); --wavefront-one-by-one also sets
+wavefront_streams and wavefront_kernels off (its images must be bit-identical)."""
 import copy, glob, os, sys
 import numpy as np
 from hairbsdf.blender.export_scene import load_scene
@@ -32,7 +33,8 @@ def variants(name, desc):
         yield name + "+huang_mixture", d
         d = copy.deepcopy(desc); d["integrator"]["passes"] = ["hair_lobes"]
         yield name + "+lobes", d
-options = {"--wavefront": {"wavefront": True}, "--wavefront-one-by-one": {"wavefront": True, "wavefront_streams": False}}
+options = {"--wavefront": {"wavefront": True}, "--wavefront-one-by-one": {"wavefront": True, "wavefront_streams": False,
+                                                                            "wavefront_kernels": False}}
 integrator = {k: v for a in sys.argv[3:] for k, v in options.get(a, {}).items()}
 only = [a for a in sys.argv[3:] if a not in options]
 for path in sorted(glob.glob(os.path.join(src, "*.npz"))):
