@@ -288,7 +288,7 @@ bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters) 
     return true;
 }
 
-static HAIRBSDF_ALWAYS_INLINE bool prepare_hit_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
+static inline bool prepare_hit_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
                                                       PathCounters& counters, HitShading& h) {
     const IntegratorSettings& is = s.desc.integrator;
     const Ray& ray = st.ray;
@@ -349,7 +349,7 @@ bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, P
     return !bsdf.empty();
 }
 
-static HAIRBSDF_ALWAYS_INLINE bool draw_light_sample_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
+static inline bool draw_light_sample_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
                                                             const HitShading& h, bool bsdf_transmits, LightSample& ls) {
     if (s.lights.size() == 0) return false;
     const SurfacePoint& sp = h.sp;
@@ -373,7 +373,7 @@ static HAIRBSDF_ALWAYS_INLINE bool draw_light_sample_inline(const PreparedScene&
     return true;
 }
 
-static HAIRBSDF_ALWAYS_INLINE bool finish_light_sample_inline(const PreparedScene& /*s*/, PathState& st,
+static inline bool finish_light_sample_inline(const PreparedScene& /*s*/, PathState& st,
                                                               const HitShading& h, const LightSample& ls,
                                                               const BsdfValue& b, PathCounters& counters,
                                                               ShadowRay& shadow) {
@@ -408,7 +408,7 @@ void add_light_sample(const PreparedScene& s, PathState& st, PathCounters& count
         for (size_t k = 0; k < shadow.direct_shares.size(); ++k) st.res.lobes[k] += shadow.direct_shares[k] * added;
 }
 
-static HAIRBSDF_ALWAYS_INLINE BsdfNumbers draw_bsdf_numbers_inline(const PreparedScene& s, PathState& st) {
+static inline BsdfNumbers draw_bsdf_numbers_inline(const PreparedScene& s, PathState& st) {
     BsdfNumbers n;
     n.u0 = st.rng.next();
     n.u1 = st.rng.next();
@@ -422,7 +422,7 @@ static HAIRBSDF_ALWAYS_INLINE BsdfNumbers draw_bsdf_numbers_inline(const Prepare
     return n;
 }
 
-static HAIRBSDF_ALWAYS_INLINE bool finish_bsdf_sample_inline(const PreparedScene& s, PathState& st, const HitShading& h,
+static inline bool finish_bsdf_sample_inline(const PreparedScene& s, PathState& st, const HitShading& h,
                                                              const BsdfScatter& sc, bool bsdf_transmits,
                                                              PathCounters& counters) {
     const IntegratorSettings& is = s.desc.integrator;

@@ -68,17 +68,19 @@ void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch
     using namespace stages;
     WavefrontStorage& w = *scratch.wavefront;
     w.kernel_hits.clear();
+    ShadowRay shadow;  // each hit's light sample, written by sample_light / finish_light_sample
+    size_t n = 0;      // the hits in w.kernel_hits[0, n), each written in place (no copies)
     for (size_t j = begin; j < end; ++j) {
         const uint32_t i = w.shading[j].second;
         PathState& st = w.paths[i];
-        WavefrontStorage::KernelHit k;
+        if (w.kernel_hits.size() == n) w.kernel_hits.emplace_back();
+        WavefrontStorage::KernelHit& k = w.kernel_hits[n];
         k.path = i;
         if (!prepare_hit(s, st, scratch, counters, k.h)) continue;
         if (k.h.first_hair || k.h.blur > 0) {  // the scalar way
             Bsdf& bsdf = scratch.bsdf;
             bsdf.set(s.materials[size_t(k.h.sp.material)], k.h.sp.g, k.h.blur, st.rng, k.h.first_hair);
             if (bsdf.empty()) continue;
-            ShadowRay shadow;
             if (sample_light(s, st, scratch, k.h, counters, shadow)) {
                 w.shadows.push_back(shadow);
                 w.shadow_path.push_back(i);
@@ -89,15 +91,15 @@ void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch
         k.has_light = draw_light_sample(s, st, scratch, k.h, batch.transmits, k.light);
         k.numbers = draw_bsdf_numbers(s, st);
         complete_frame(k.h.sp.g.tangent, k.b1, k.b2);
-        w.kernel_hits.push_back(k);
+        ++n;
     }
-    const size_t n = w.kernel_hits.size();
     if (n == 0) return;
     counters.kernel_hits += n;
 
     // The rows: every hit samples; those with a light sample evaluate too.
     w.wo.resize(3 * n), w.h.resize(n), w.random.resize(n), w.u.resize(3 * n);
-    w.light_wo.clear(), w.light_wi.clear(), w.light_h.clear(), w.light_random.clear();
+    w.light_wo.resize(3 * n), w.light_wi.resize(3 * n), w.light_h.resize(n), w.light_random.resize(n);
+    size_t m = 0;  // the light samples' rows
     for (size_t j = 0; j < n; ++j) {
         const WavefrontStorage::KernelHit& k = w.kernel_hits[j];
         const ShadingGeometry& g = k.h.sp.g;
@@ -108,15 +110,13 @@ void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch
         w.u[3 * j + 1] = float(k.numbers.u1);
         w.u[3 * j + 2] = float(k.numbers.u2);
         if (k.has_light) {
-            float wi[3];
-            put_local(k.light.wi, g.tangent, k.b1, k.b2, wi);
-            w.light_wo.insert(w.light_wo.end(), &w.wo[3 * j], &w.wo[3 * j] + 3);
-            w.light_wi.insert(w.light_wi.end(), wi, wi + 3);
-            w.light_h.push_back(w.h[j]);
-            w.light_random.push_back(w.random[j]);
+            put_local(k.light.wi, g.tangent, k.b1, k.b2, &w.light_wi[3 * m]);
+            for (int c = 0; c < 3; ++c) w.light_wo[3 * m + c] = w.wo[3 * j + c];
+            w.light_h[m] = w.h[j];
+            w.light_random[m] = w.random[j];
+            ++m;
         }
     }
-    const size_t m = w.light_h.size();
     w.value.resize(3 * m), w.eval_pdf.resize(m);
     if (m > 0) {
         ChiangBatchRows rows;
@@ -145,27 +145,32 @@ void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch
     }
 
     // Each path's stages after its numbers, as the scalar path runs them (render_eval, render_sample).
+    // (b and sc are set up once: their per-lobe arrays stay 0, the lobe passes' hits being the scalar path's.)
     size_t light_row = 0;
+    BsdfValue b;
+    BsdfScatter sc;
     for (size_t j = 0; j < n; ++j) {
         const WavefrontStorage::KernelHit& k = w.kernel_hits[j];
         PathState& st = w.paths[k.path];
         const Vec3 t = k.h.sp.g.tangent;
         if (k.has_light) {
             const size_t r = light_row++;
-            BsdfValue b;
             b.pdf = double(w.eval_pdf[r]);
             // A closure counts where its pdf is not 0 (closure_counts); non-finite results count as none.
             const RGB value(w.value[3 * r], w.value[3 * r + 1], w.value[3 * r + 2]);
-            if (b.pdf != 0.0 && std::isfinite(b.pdf) && isfinite(value)) b.value = value;
-            else b.pdf = 0.0;
-            ShadowRay shadow;
+            if (b.pdf != 0.0 && std::isfinite(b.pdf) && isfinite(value)) {
+                b.value = value;
+            } else {
+                b.value = RGB(0.0);
+                b.pdf = 0.0;
+            }
             if (finish_light_sample(s, st, k.h, k.light, b, counters, shadow)) {
                 w.shadows.push_back(shadow);
                 w.shadow_path.push_back(k.path);
             }
         }
-        BsdfScatter sc;
         const double pdf = double(w.sample_pdf[j]);
+        sc.label = LabelNone;
         if (w.lobe[j] >= 0 && pdf > 0 && std::isfinite(pdf)) {
             const float* d = &w.sampled_wi[3 * j];
             sc.wi = normalize(double(d[0]) * t + double(d[1]) * k.b1 + double(d[2]) * k.b2);
