@@ -122,6 +122,39 @@ def test_ci_comparison(label, scene):
     assert rc == 0, log[-2000:]
 
 
+FAST_SWEEP = """
+scene = "swatch"
+blender = ["bpy"]
+
+[[axis]]
+setting = "hairbsdf.wavefront"
+values = [1]
+
+[[axis]]
+setting = "hairbsdf.curve_intersector"
+values = ["SWEEP"]
+"""
+
+
+@pytest.mark.blender
+def test_fast_configuration_passes_the_gate(tmp_path):
+    """The fastest configuration, set through the engine's own settings in Blender (the wavefront path tracer
+    with its batch kernels, curve_intersector SWEEP; a sweep's hairbsdf.* axes reach our renders only, Cycles
+    has no such settings), passes the CI gate against Cycles on `swatch`; its renders went through the kernels."""
+    require_engine()
+    sweep = tmp_path / "fast.toml"
+    sweep.write_text(FAST_SWEEP)
+    rc, log, data = compare("--sweep", str(sweep), "--ci", "--jobs", "2", "--out", str(tmp_path / "out"))
+    assert data is not None, "no report (rc %d):\n%s" % (rc, log[-4000:])
+    assert [c["status"] for c in data["cases"]] == ["PASS"], log[-3000:]
+    reports = sorted((tmp_path / "out").rglob("hairbsdf_s*.exr.engine.jsonl"))
+    assert reports, "no engine report"
+    for report in reports:
+        stats = json.loads(report.read_text().splitlines()[-1])["stats"]
+        assert stats["kernel_hits"] > 0, report
+    assert rc == 0, log[-2000:]
+
+
 def test_gate_fails_without_the_engine(tmp_path):
     """Planted fault: `hairbsdf._render` raises ImportError (a sitecustomize on PYTHONPATH blocks it);
     the CI gate must fail, not xfail or skip."""

@@ -592,7 +592,7 @@ std::vector<SceneKey> make_schema() {
         Row("integrator.chiang_lcg", K::Bool, "Cycles < 3.6: Chiang's per-hit LCG").field(&Settings::chiang_lcg),
         Row("integrator.camera_ray_stream", K::Bool, "camera rays as one coherent Embree stream per tile (same image at float rounding)")
             .field(&Settings::camera_ray_stream),
-        Row("integrator.wavefront", K::Bool, "wavefront path tracer: a tile's rays as Embree streams, hits shaded by material (same image at float rounding)")
+        Row("integrator.wavefront", K::Bool, "wavefront path tracer: a tile's rays as Embree streams, hits shaded by material (each path the per-pixel one to float precision)")
             .field(&Settings::wavefront),
         Row("integrator.wavefront_streams", K::Bool, "the wavefront's bounce and shadow rays as Embree streams; off: one by one (bit-identical image)")
             .field(&Settings::wavefront_streams),

@@ -9,6 +9,22 @@ import numpy as np
 from .._blender_versions import tilt_convention
 
 
+# The engine's settings (ui.py's scene.hairbsdf) that are scene keys: the property's name -> the key's path in
+# the scene schema, whose choices and default the property takes (an enum's identifiers are the names in
+# capitals) and where the exporter writes its value (scene_value).
+SCENE_SETTINGS = {"tilt": "integrator.tilt", "accuracy": "integrator.accuracy",
+                  "huang_sampler": "integrator.huang_sampler", "wavefront": "integrator.wavefront",
+                  "curve_intersector": "curve_intersector"}
+
+
+def scene_value(name: str, value):
+    """The scene's value of engine setting `name`: an enum's identifier back to the schema's name."""
+    if not isinstance(value, str):
+        return value
+    from ..render import schema_choices
+    return next(choice for choice in schema_choices(SCENE_SETTINGS[name]) if choice.upper() == value)
+
+
 class ExportError(Exception):
     """A scene the renderer cannot render at all (no camera, unsupported camera type...).
     The engine reports it with report({'ERROR'}) and renders nothing."""

@@ -16,7 +16,8 @@ import time
 import numpy as np
 
 from ._common import ExportError  # noqa: F401 (re-exported for the engine)
-from ._common import TILT_AUTO, ExportReport, blender_version, default_tilt, lookup3_hash_uint2, matrix_to_numpy
+from ._common import (SCENE_SETTINGS, TILT_AUTO, ExportReport, blender_version, default_tilt, lookup3_hash_uint2,
+                      matrix_to_numpy, scene_value)
 from .export_camera import export_camera
 from .export_hair import CurvesCache, HairBuffer, camera_inside_hair, export_curves_object, export_particle_hair
 from .export_lights import export_light
@@ -101,8 +102,9 @@ def export_integrator(scene, view_layer, render: bool, settings: dict, report) -
         "clamp_indirect": float(cy.sample_clamp_indirect),
         "tilt": tilt,
     }
-    # The engine's choices are the scene's names in capitals (ui.py); not set: the scene's defaults.
-    integrator.update((name, settings[name].lower()) for name in ("accuracy", "huang_sampler") if name in settings)
+    # The engine's own settings (ui.py) that are integrator keys; not set: the scene's defaults.
+    integrator.update((name, scene_value(name, settings[name])) for name, path in SCENE_SETTINGS.items()
+                      if path.startswith("integrator.") and name != "tilt" and name in settings)
     # Cycles 5.x regenerated Huang's energy-compensation tables (docs/blender5.md).
     integrator["huang_glass_albedo_table"] = "5.x" if blender_version() >= HUANG_GLASS_TABLES_5_FROM else "4.x"
     integrator["passes"] = passes.requested(view_layer) if render else []
@@ -225,6 +227,9 @@ def export_scene(depsgraph, *, render=None, settings=None, cancel=None):
         "world": world,
         "images": materials.attributes.images.images,
         "integrator": integrator,
+        # the engine's settings that are top-level scene keys (curve_intersector); not set: the defaults
+        **{path: scene_value(name, settings[name]) for name, path in SCENE_SETTINGS.items()
+           if "." not in path and name in settings},
         "source": {"blender_version": ".".join(str(v) for v in blender_version()),
                    "scene": scene.name, "view_layer": view_layer.name if view_layer else "",
                    "frame": int(scene.frame_current), "render": bool(render)},

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import bpy
 
-from .. import _core
 from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
 from .._param_docs import BOOL, CHOICE, FLOAT, INT
-from ._common import TILT_AUTO
+from ..render import schema_choices, schema_default
+from ._common import SCENE_SETTINGS, TILT_AUTO
 from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
@@ -103,6 +103,11 @@ CHOICE_PROSE = {
         "cycles": ("Cycles", "Cycles' truncated Bessel series: matches Cycles"),
         "exact": ("Exact", "Exact special functions (differs from Cycles by up to ~5e-3)"),
     },
+    "curve_intersector": {
+        "EMBREE": ("Embree", "Embree's round Catmull-Rom curves, as Cycles traces them"),
+        "SWEEP": ("Sweep", "Our exact test of the swept tube over capped-cone proxies: faster, about four times "
+                           "the memory of the curves"),
+    },
     "huang_sampler": {
         "cycles": ("Cycles", "Cycles' sampler, weight = its energy estimate, pdf 1: Cycles' estimator, so the "
                              "image's expected value is Cycles'"),
@@ -112,19 +117,17 @@ CHOICE_PROSE = {
 }
 
 
-def _integrator_row(key: str) -> dict:
-    return next(k for k in _core.scene_schema() if k["path"] == "integrator." + key)
-
-
 def integrator_choices(key: str) -> tuple:
-    """EnumProperty items of the scene's integrator.<key>: (identifier, label, description)."""
+    """EnumProperty items of engine setting `key` (its scene key, _common.SCENE_SETTINGS):
+    (identifier, label, description)."""
     prose = CHOICE_PROSE.get(key, {})
-    return tuple((name.upper(), *prose.get(name, (name, ""))) for name in _integrator_row(key)["allowed"])
+    return tuple((name.upper(), *prose.get(name, (name, ""))) for name in schema_choices(SCENE_SETTINGS[key]))
 
 
-def integrator_default(key: str) -> str:
-    """The identifier of integrator.<key>'s default in the scene schema."""
-    return _integrator_row(key)["default"].upper()
+def integrator_default(key: str):
+    """The scene schema's default of engine setting `key`: an enum's identifier, else the value."""
+    default = schema_default(SCENE_SETTINGS[key])
+    return default.upper() if isinstance(default, str) else default
 
 
 class HairBsdfSceneSettings(bpy.types.PropertyGroup):
@@ -141,6 +144,13 @@ class HairBsdfSceneSettings(bpy.types.PropertyGroup):
     huang_sampler: bpy.props.EnumProperty(
         name="Huang Sampler", description="BSDF sampling of the Huang hair model (docs/huang.md, In the engine)",
         items=integrator_choices("huang_sampler"), default=integrator_default("huang_sampler"))
+    wavefront: bpy.props.BoolProperty(
+        name="Wavefront", description="The wavefront path tracer: a tile's paths traced together and their Principled "
+        "Hair (Chiang) hits shaded through the float32 SIMD kernels; faster, the same image in expectation "
+        "(docs/engine.md, A wavefront engine)", default=integrator_default("wavefront"))
+    curve_intersector: bpy.props.EnumProperty(
+        name="Curve Intersector", description="How rays meet 3D curves (docs/engine.md, Curve intersection)",
+        items=integrator_choices("curve_intersector"), default=integrator_default("curve_intersector"))
 
 
 class HAIRBSDF_RENDER_PT_settings(bpy.types.Panel):
@@ -163,6 +173,8 @@ class HAIRBSDF_RENDER_PT_settings(bpy.types.Panel):
         layout.prop(s, "tilt")
         layout.prop(s, "accuracy")
         layout.prop(s, "huang_sampler")
+        layout.prop(s, "wavefront")
+        layout.prop(s, "curve_intersector")
 
 
 def _node_panel(layout, id_data, output_type, input_name):

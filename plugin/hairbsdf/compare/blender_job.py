@@ -142,10 +142,22 @@ def apply_hair_model(spec):
     return model_override.override_materials(bpy.data.materials, spec["model"], spec.get("path"), mapping)
 
 
+# Settings under this path are our engine's own (ui.py's scene.hairbsdf): set on our renders once the engine
+# is registered, left out of Cycles' (which has none; its reference is the same scene).
+ENGINE_SETTINGS = "hairbsdf."
+
+
+def engine_overrides(overrides, ours):
+    """The overrides a render takes: (before our engine is registered, after), ours or Cycles'."""
+    own = [o for o in overrides or [] if o.get("setting", "").startswith(ENGINE_SETTINGS)]
+    return [o for o in overrides or [] if o not in own], (own if ours else [])
+
+
 def apply_overrides(scene, overrides):
     """--sweep (sweep.py): sets a node input on the named material ("*": every material that has
     the node; the node by name, label or type) or a render setting (a dotted path from the scene,
-    e.g. cycles.samples). Raises ValueError naming the sweep key when something is not there."""
+    e.g. cycles.samples, or hairbsdf.wavefront for our engine's own). Raises ValueError naming the
+    sweep key when something is not there."""
     for o in overrides or []:
         if "setting" in o:
             obj, parts = scene, o["setting"].split(".")
@@ -222,7 +234,9 @@ def do_render(job):
         if job.get("threads"):
             scene.render.threads_mode = "FIXED"
             scene.render.threads = int(job["threads"])
-        apply_overrides(scene, job.get("overrides"))
+        ours = job["engine"] == job["engine_id"]
+        scene_overrides, engine_setting_overrides = engine_overrides(job.get("overrides"), ours)
+        apply_overrides(scene, scene_overrides)
         ims = scene.render.image_settings
         ims.file_format = "OPEN_EXR"
         ims.color_mode = "RGBA"
@@ -235,7 +249,6 @@ def do_render(job):
                               scene.render.resolution_y * scene.render.resolution_percentage // 100]
         meta["samples"] = int(cy.samples)
         engine_report = job["exr_out"] + ".engine.jsonl"
-        ours = job["engine"] == job["engine_id"]
         if ours:
             how, errors = ensure_hairbsdf(job.get("sites"), job["engine_id"])
             meta["engine_registration"] = how
@@ -255,6 +268,7 @@ def do_render(job):
                 meta["error"] = "the engine has no accuracy setting"
                 meta["status"] = "NOT AVAILABLE"
                 return meta
+            apply_overrides(scene, engine_setting_overrides)
             if job.get("hair_model"):
                 meta["hair_model_params"] = apply_hair_model(job["hair_model"])
             if os.path.exists(engine_report):

@@ -16,6 +16,10 @@ cases (docs/cluster.md, "Sweeps", is the schema's documentation).
     setting = "cycles.samples"             # a render setting: a dotted path from the scene
     values = [1, 4]
 
+    [[axis]]
+    setting = "hairbsdf.wavefront"         # our engine's own settings (hairbsdf.*): set on our renders only
+    values = [0, 1]                        # (a bool setting takes 0 / 1)
+
 Blender sets each value after it opens the scene (blender_job.apply_overrides); the scene is built
 once. A bad file raises SweepError naming the key.
 """
