@@ -28,8 +28,9 @@ import sys
 TRACE_PATH = "hairbsdf::render::trace_path("
 # The path loop's functions: the per-pixel loop, the stages it and the wavefront call (path_stages.h, when
 # GCC did not inline them), and the wavefront's driver (its own lines: queues, sorting, gathers).
-PATH_FUNCTIONS = (TRACE_PATH, "hairbsdf::render::stages::", "hairbsdf::render::trace_tile_wavefront(")
-WAVEFRONT = "hairbsdf::render::trace_tile_wavefront("
+WAVEFRONT = ("hairbsdf::render::trace_tile_wavefront(", "hairbsdf::render::(anonymous namespace)::trace_rows(",
+             "hairbsdf::render::(anonymous namespace)::shade_with_kernels(")
+PATH_FUNCTIONS = (TRACE_PATH, "hairbsdf::render::stages::") + WAVEFRONT
 RENDER_SO = "_render"
 
 # The stages' statements in source order: (a substring of the first line of a block, its stage). Each
@@ -40,16 +41,19 @@ BLOCKS = [
     ("double forward_mis(const PathState& st", "MIS: lights hit by rays (forward MIS, suns, world)"),
     ("int hit_material(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("// Lights crossed before the surface", "MIS: lights hit by rays (forward MIS, suns, world)"),
-    ("bool prepare_bsdf(", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("bool prepare_hit_inline(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("surface_point(s, ray, hit, sp);", "hit set-up: frame, tangent, h, attributes, material program"),
     ("h.first_hair = ", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("if (!material.program().empty())", "hit set-up: frame, tangent, h, attributes, material program"),
     ("const RGB emission = ", "MIS: lights hit by rays (forward MIS, suns, world)"),
     ("if (killed || st.terminate_after", "path loop: bookkeeping (bounces, roulette, throughput)"),
-    ("bsdf.set(material", "closure set-up: Bsdf::set (models' parameters, view terms)"),
-    ("bool sample_light(", "NEE: MIS weight, contribution, shadow-ray set-up"),
-    ("bool sample_bsdf(", "BSDF sample (closure pick, model sample, MIS pdf)"),
+    ("bool prepare_bsdf(", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("bsdf.set(s.materials", "closure set-up: Bsdf::set (models' parameters, view terms)"),
+    ("bool draw_light_sample_inline(", "NEE: MIS weight, contribution, shadow-ray set-up"),
+    ("BsdfNumbers draw_bsdf_numbers_inline(", "BSDF sample (closure pick, model sample, MIS pdf)"),
     ("if (!isfinite(st.throughput))", "path loop: bookkeeping (bounces, roulette, throughput)"),
+    ("bool sample_bsdf(", "BSDF sample (closure pick, model sample, MIS pdf)"),
+    ("// The halves on their own", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("PathResult trace_path(", "path loop: bookkeeping (bounces, roulette, throughput)"),
     ("Ray camera_ray(", "outside"),
 ]
@@ -58,6 +62,7 @@ CALLEES = [
     ("Geometry::occluded", "Embree: shadow rays (rtcOccluded1 / 1M, our filters)"),
     ("Geometry::intersect", "Embree: camera and bounce rays (rtcIntersect1 / 1M, our filters)"),
     ("LightSet::sample(", "NEE: light pick and light sample"),
+    ("chiang_batch_run(", "batch kernels: NEE eval and BSDF sample (float32; the wavefront's)"),
     ("render_eval(", "NEE: BSDF eval"),
     ("Bsdf::eval(", "NEE: BSDF eval"),
 ]
@@ -70,6 +75,7 @@ ORDER = [
     "NEE: BSDF eval",
     "NEE: MIS weight, contribution, shadow-ray set-up",
     "BSDF sample (closure pick, model sample, MIS pdf)",
+    "batch kernels: NEE eval and BSDF sample (float32; the wavefront's)",
     "MIS: lights hit by rays (forward MIS, suns, world)",
     "path loop: bookkeeping (bounces, roulette, throughput)",
     "film: a path's contributions (clamp, lobe shares)",
