@@ -322,9 +322,15 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         // them, and those of different curves never do.
         const size_t vertex_skip = linear ? 1 : 0;
         im.sweep_geometries.reserve(n_spaces);
-        auto sweep_geometry = [&](size_t first, size_t count) {
+        // The proxies are capped cones (Embree's cone linear curves) in world space. In an object's space they are
+        // round linear curves on the same vertices (the cones with spherical caps, so they hold the tube too):
+        // Embree 3.13's cone intersector takes the ray's direction to be a unit vector, which an instance's scale
+        // or shear makes it not (in an instance scaled by 1.3 it finds 793 of 10 895 hits on a thin cone, and too
+        // many at 0.7); its round linear curves do not (docs/engine.md, "Curve intersection").
+        auto sweep_geometry = [&](size_t first, size_t count, bool in_object_space) {
             constexpr size_t k = curve_proxy_pieces;
-            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_CONE_LINEAR_CURVE);
+            RTCGeometry g = rtcNewGeometry(im.device, in_object_space ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
+                                                                      : RTC_GEOMETRY_TYPE_CONE_LINEAR_CURVE);
             rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, im.proxy_vertices.data(), 0,
                                        sizeof(float) * 4, im.proxy_vertices.size());
             rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, im.proxy_first.data() + first * k, 0,
@@ -338,8 +344,8 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             rtcCommitGeometry(g);
             return g;
         };
-        auto curve_geometry = [&](size_t first, size_t count) {
-            if (im.sweep) return sweep_geometry(first, count);
+        auto curve_geometry = [&](size_t first, size_t count, bool in_object_space) {
+            if (im.sweep) return sweep_geometry(first, count, in_object_space);
             RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
                                                       : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
                                                               : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
@@ -359,7 +365,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         for (size_t space = 0; space < n_spaces; ++space) {
             const size_t first = space_first_segment[space], count = space_first_segment[space + 1] - first;
             if (count == 0) continue;
-            RTCGeometry g = curve_geometry(first, count);
+            RTCGeometry g = curve_geometry(first, count, space != 0);
             if (space == 0) {
                 im.curve_geom = rtcAttachGeometry(im.scene, g);
                 rtcReleaseGeometry(g);
