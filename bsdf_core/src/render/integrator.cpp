@@ -289,7 +289,7 @@ bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters) 
 }
 
 static inline bool prepare_hit_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
-                                                      PathCounters& counters, HitShading& h) {
+                                      PathCounters& counters, HitShading& h) {
     const IntegratorSettings& is = s.desc.integrator;
     const Ray& ray = st.ray;
     const Hit& hit = st.hit;
@@ -342,15 +342,18 @@ static inline bool prepare_hit_inline(const PreparedScene& s, PathState& st, Pat
     return true;
 }
 
-bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
-    if (!prepare_hit_inline(s, st, scratch, counters, h)) return false;
+static inline bool set_bsdf_inline(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h) {
     Bsdf& bsdf = scratch.bsdf;
     bsdf.set(s.materials[size_t(h.sp.material)], h.sp.g, h.blur, st.rng, h.first_hair);  // draws a stochastic eval's seed
     return !bsdf.empty();
 }
 
+bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
+    return prepare_hit_inline(s, st, scratch, counters, h) && set_bsdf_inline(s, st, scratch, h);
+}
+
 static inline bool draw_light_sample_inline(const PreparedScene& s, PathState& st, PathScratch& scratch,
-                                                            const HitShading& h, bool bsdf_transmits, LightSample& ls) {
+                                            const HitShading& h, bool bsdf_transmits, LightSample& ls) {
     if (s.lights.size() == 0) return false;
     const SurfacePoint& sp = h.sp;
     const double u_sel = st.rng.next(), u0 = st.rng.next(), u1 = st.rng.next();
@@ -373,10 +376,9 @@ static inline bool draw_light_sample_inline(const PreparedScene& s, PathState& s
     return true;
 }
 
-static inline bool finish_light_sample_inline(const PreparedScene& /*s*/, PathState& st,
-                                                              const HitShading& h, const LightSample& ls,
-                                                              const BsdfValue& b, PathCounters& counters,
-                                                              ShadowRay& shadow) {
+static inline bool finish_light_sample_inline(const PreparedScene& /*s*/, PathState& st, const HitShading& h,
+                                              const LightSample& ls, const BsdfValue& b, PathCounters& counters,
+                                              ShadowRay& shadow) {
     const SurfacePoint& sp = h.sp;
     const double bsdf_pdf = ls.use_mis ? b.pdf : 0.0;
     const RGB c = (power_heuristic(ls.pdf, bsdf_pdf) / ls.pdf) * (st.throughput * b.value * ls.radiance);
@@ -423,8 +425,7 @@ static inline BsdfNumbers draw_bsdf_numbers_inline(const PreparedScene& s, PathS
 }
 
 static inline bool finish_bsdf_sample_inline(const PreparedScene& s, PathState& st, const HitShading& h,
-                                                             const BsdfScatter& sc, bool bsdf_transmits,
-                                                             PathCounters& counters) {
+                                             const BsdfScatter& sc, bool bsdf_transmits, PathCounters& counters) {
     const IntegratorSettings& is = s.desc.integrator;
     const SurfacePoint& sp = h.sp;
     if (sc.label == LabelNone) return false;
@@ -476,6 +477,10 @@ bool sample_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, co
 // The halves on their own, for the wavefront (the whole stages above inline them).
 bool prepare_hit(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h) {
     return prepare_hit_inline(s, st, scratch, counters, h);
+}
+
+bool set_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h) {
+    return set_bsdf_inline(s, st, scratch, h);
 }
 
 bool draw_light_sample(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h,

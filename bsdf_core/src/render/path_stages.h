@@ -80,7 +80,9 @@ bool after_trace(const PreparedScene& s, PathState& st, PathCounters& counters);
 // At st.hit: surface point, first-hit passes, Russian roulette, the material's program, emission
 // with forward MIS, termination, Filter Glossy's roughness (h.blur). False: the path ended.
 bool prepare_hit(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h);
-// prepare_hit, then the Bsdf (scratch.bsdf). False: the path ended.
+// The hit's Bsdf (scratch.bsdf) with Filter Glossy's roughness. False: no BSDF there (the path ended).
+bool set_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, const HitShading& h);
+// prepare_hit, then set_bsdf. False: the path ended.
 bool prepare_bsdf(const PreparedScene& s, PathState& st, PathScratch& scratch, PathCounters& counters, HitShading& h);
 // Next-event estimation with scratch.bsdf: draw_light_sample, the BSDF's eval there, finish_light_sample.
 // True when the contribution is non-zero and waits for `shadow`'s ray.

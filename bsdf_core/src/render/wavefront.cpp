@@ -57,6 +57,19 @@ void put_local(Vec3 v, Vec3 t, Vec3 b1, Vec3 b2, float* row) {
     row[2] = float(dot(v, b2));
 }
 
+// A hit on the scalar path once its Bsdf is set: its light sample (queued for the shadow stream) and its
+// BSDF sample (the path goes on if it gives a next ray).
+void shade_on_scalar_path(const PreparedScene& s, uint32_t i, const stages::HitShading& h, PathScratch& scratch,
+                          PathCounters& counters, stages::ShadowRay& shadow) {
+    WavefrontStorage& w = *scratch.wavefront;
+    stages::PathState& st = w.paths[i];
+    if (stages::sample_light(s, st, scratch, h, counters, shadow)) {
+        w.shadows.push_back(shadow);
+        w.shadow_path.push_back(i);
+    }
+    if (stages::sample_bsdf(s, st, scratch, h, counters)) w.next_live.push_back(i);
+}
+
 // The hits [begin, end) of w.shading, all of one material that the batch kernels can shade
 // (MaterialShader::batch_chiang): each path's stages up to its numbers, one kernel call for the light
 // samples' evals and one for the BSDF samples, then each path's stages after them, in the path's own
@@ -78,14 +91,7 @@ void shade_with_kernels(const PreparedScene& s, const BatchChiangMaterial& batch
         k.path = i;
         if (!prepare_hit(s, st, scratch, counters, k.h)) continue;
         if (k.h.first_hair || k.h.blur > 0) {  // the scalar way
-            Bsdf& bsdf = scratch.bsdf;
-            bsdf.set(s.materials[size_t(k.h.sp.material)], k.h.sp.g, k.h.blur, st.rng, k.h.first_hair);
-            if (bsdf.empty()) continue;
-            if (sample_light(s, st, scratch, k.h, counters, shadow)) {
-                w.shadows.push_back(shadow);
-                w.shadow_path.push_back(i);
-            }
-            if (sample_bsdf(s, st, scratch, k.h, counters)) w.next_live.push_back(i);
+            if (set_bsdf(s, st, scratch, k.h)) shade_on_scalar_path(s, i, k.h, scratch, counters, shadow);
             continue;
         }
         k.has_light = draw_light_sample(s, st, scratch, k.h, batch.transmits, k.light);
@@ -251,13 +257,8 @@ void trace_rows(const PreparedScene& s, int x0, int y0, int x1, int y1, int s0, 
             }
             for (size_t j = begin; j < end; ++j) {
                 const uint32_t i = w.shading[j].second;
-                PathState& st = w.paths[i];
-                if (!prepare_bsdf(s, st, scratch, counters, h)) continue;
-                if (sample_light(s, st, scratch, h, counters, shadow)) {
-                    w.shadows.push_back(shadow);
-                    w.shadow_path.push_back(i);
-                }
-                if (sample_bsdf(s, st, scratch, h, counters)) w.next_live.push_back(i);
+                if (prepare_bsdf(s, w.paths[i], scratch, counters, h))
+                    shade_on_scalar_path(s, i, h, scratch, counters, shadow);
             }
         }
 

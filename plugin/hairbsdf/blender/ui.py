@@ -117,14 +117,14 @@ CHOICE_PROSE = {
 }
 
 
-def integrator_choices(key: str) -> tuple:
+def setting_choices(key: str) -> tuple:
     """EnumProperty items of engine setting `key` (its scene key, _common.SCENE_SETTINGS):
     (identifier, label, description)."""
     prose = CHOICE_PROSE.get(key, {})
     return tuple((name.upper(), *prose.get(name, (name, ""))) for name in schema_choices(SCENE_SETTINGS[key]))
 
 
-def integrator_default(key: str):
+def setting_default(key: str):
     """The scene schema's default of engine setting `key`: an enum's identifier, else the value."""
     default = schema_default(SCENE_SETTINGS[key])
     return default.upper() if isinstance(default, str) else default
@@ -137,20 +137,20 @@ class HairBsdfSceneSettings(bpy.types.PropertyGroup):
     tilt: bpy.props.EnumProperty(
         name="Tilt Convention",
         description="Principled Hair cuticle tilt convention (docs/principled_hair.md, section Blender 3.4-4.1)",
-        items=(TILT_AUTO,) + integrator_choices("tilt"), default=TILT_AUTO[0])
+        items=(TILT_AUTO,) + setting_choices("tilt"), default=TILT_AUTO[0])
     accuracy: bpy.props.EnumProperty(
         name="Accuracy", description="Special functions of the hair model",
-        items=integrator_choices("accuracy"), default=integrator_default("accuracy"))
+        items=setting_choices("accuracy"), default=setting_default("accuracy"))
     huang_sampler: bpy.props.EnumProperty(
         name="Huang Sampler", description="BSDF sampling of the Huang hair model (docs/huang.md, In the engine)",
-        items=integrator_choices("huang_sampler"), default=integrator_default("huang_sampler"))
+        items=setting_choices("huang_sampler"), default=setting_default("huang_sampler"))
     wavefront: bpy.props.BoolProperty(
         name="Wavefront", description="The wavefront path tracer: a tile's paths traced together and their Principled "
         "Hair (Chiang) hits shaded through the float32 SIMD kernels; faster, the same image in expectation "
-        "(docs/engine.md, A wavefront engine)", default=integrator_default("wavefront"))
+        "(docs/engine.md, A wavefront engine)", default=setting_default("wavefront"))
     curve_intersector: bpy.props.EnumProperty(
         name="Curve Intersector", description="How rays meet 3D curves (docs/engine.md, Curve intersection)",
-        items=integrator_choices("curve_intersector"), default=integrator_default("curve_intersector"))
+        items=setting_choices("curve_intersector"), default=setting_default("curve_intersector"))
 
 
 class HAIRBSDF_RENDER_PT_settings(bpy.types.Panel):
