@@ -585,3 +585,69 @@ TEST(RenderGeometry, SweepProxyConesHoldTheirPiecesOfTheTube) {
         EXPECT_EQ(outside, 0) << "thin " << thin << ": " << outside << " of " << points;
     }
 }
+
+// Repeated keys (a strand's last key three more times, a middle key once more, as exported particle hair can
+// have them): a segment shorter than its radius is no tube Sweep's proxies hold, and where its keys coincide
+// Embree's surface is a ball of radius r, which Cycles renders. Sweep leaves such segments to Embree's own
+// curves (sweep_leaves_to_embree), so it finds Embree's hits there, in world space and in a sheared instance.
+// Half of the rays aim within 1.5 radii of a repeated key. World space: 1 of 11 727 hits disagrees and 6 distances;
+// instanced: 7 of 11 472 and 9. With every segment to Sweep (NaN proxies for the repeated keys) 70 and 68 hits
+// disagree, 64 and 69 distances, and 5 and 13 occlusion answers: it fails. (The harness's particle hair in a sheared
+// parent, test_engine_transforms.py, lost 2.4 % of its projected area that way.)
+TEST(RenderGeometry, SweepLeavesSegmentsOfRepeatedKeysToEmbree) {
+    const std::array<double, 12> world_from_object = {1.3, 0.4, 0, 0.1, 0, 1.1, 0.3, -0.2, 0.2, 0, 0.8, 0};
+    for (bool instanced : {false, true}) {
+        SceneDesc a = bent_strands(CurveIntersector::Embree, 7);
+        std::vector<std::array<float, 4>> points;
+        std::vector<int32_t> offsets{0};
+        std::vector<Vec3> repeated;
+        for (size_t c = 0; c + 1 < a.curves.offsets.size(); ++c) {
+            const int32_t b = a.curves.offsets[c], e = a.curves.offsets[c + 1], middle = (b + e) / 2;
+            for (int32_t k = b; k < e; ++k) {
+                points.push_back(a.curves.points[size_t(k)]);
+                if (k == middle) points.push_back(a.curves.points[size_t(k)]);
+            }
+            for (int j = 0; j < 3; ++j) points.push_back(a.curves.points[size_t(e - 1)]);
+            offsets.push_back(int32_t(points.size()));
+            for (int32_t k : {middle, e - 1}) {
+                const auto& p = a.curves.points[size_t(k)];
+                repeated.push_back({p[0], p[1], p[2]});
+            }
+        }
+        a.curves.points = points;
+        a.curves.offsets = offsets;
+        if (instanced) {
+            a.curves.object.assign(a.curves.random.size(), 0);
+            a.curves.object_transforms = {world_from_object};
+        }
+        SceneDesc b = a;
+        b.curve_intersector = CurveIntersector::Sweep;
+        const Geometry embree(a), sweep(b);
+        const ObjectSpace* space = sweep.curve_object_space(0);
+        auto to_world = [&](Vec3 p) { return space ? space->point_to_world(p) : p; };
+        TestRandom random{17};
+        int hits = 0, disagreements = 0, t_mismatch = 0, occlusion_disagreements = 0;
+        const int n = 20000;
+        for (int i = 0; i < n; ++i) {
+            Vec3 target{2 * random.next() - 1, 1.4 * random.next() - 0.7, 0.8 * random.next() - 0.4};
+            if (i % 2 == 0)
+                target = repeated[size_t(random.next() * double(repeated.size())) % repeated.size()] +
+                         (1.5 * 0.06 * random.next()) * random.direction();
+            const Vec3 d = random.direction();
+            const Ray r = ray(to_world(target) - 3.0 * d, d);
+            const Hit ha = embree.intersect(r, {}), hb = sweep.intersect(r, {});
+            occlusion_disagreements += embree.occluded(r, {}) != sweep.occluded(r, {});
+            if (bool(ha) != bool(hb) || (ha && (ha.kind != hb.kind || ha.prim != hb.prim))) {
+                ++disagreements;
+                continue;
+            }
+            if (!ha || ha.kind != PrimKind::Curve) continue;
+            ++hits;
+            t_mismatch += std::fabs(ha.t - hb.t) > 1e-4;
+        }
+        EXPECT_GT(hits, 8000) << instanced;
+        EXPECT_LE(disagreements, hits / 1000) << instanced << " " << hits;
+        EXPECT_LE(t_mismatch, hits / 1000) << instanced;
+        EXPECT_LE(occlusion_disagreements, n / 1000) << instanced;
+    }
+}

@@ -111,7 +111,9 @@ struct SweepGeometry {
     const std::array<float, 4>* control_points;
     const uint32_t* segment_first;
     const int32_t* segment_curve;
-    const uint8_t* segment_ends;  // bit 0: the curve's first segment; bit 1: its last
+    // bit 0: the curve's first segment, or one after a segment Embree's curves hold; bit 1: the last, or one before
+    // such a segment (the tube stops there for Sweep); bit 2: Embree's curves hold this segment
+    const uint8_t* segment_ends;
     uint32_t first_segment;
 };
 
@@ -140,6 +142,10 @@ void sweep_filter(const RTCFilterFunctionNArguments* args) {
             continue;
         }
         const uint8_t ends = geometry->segment_ends[segment];
+        if (ends & 4) {  // Embree's own curve holds this segment (its proxies have no extent)
+            args->valid[i] = 0;
+            continue;
+        }
         const SweepPiece sweep = proxy_piece(&geometry->control_points[geometry->segment_first[segment]], piece,
                                              (ends & 1) != 0, (ends & 2) != 0);
         RTCRayN* ray = args->ray;
@@ -234,7 +240,15 @@ struct Geometry::Impl {
     // and index buffer; one user-data record per Embree geometry (reserved up front: Embree keeps
     // pointers to them).
     bool sweep = false;
-    std::vector<uint8_t> segment_ends;
+    std::vector<uint8_t> segment_ends;  // bit 0: the curve begins (or Embree's segment precedes); bit 1: ends; bit 2: Embree's
+    // The segments Sweep leaves to Embree's own round curves (sweep_leaves_to_embree), space by space: their first
+    // control points (the index buffer), curves and segment numbers; per space's geometry its first entry.
+    std::vector<uint32_t> embree_first;
+    std::vector<int32_t> embree_curve;
+    std::vector<uint32_t> embree_segment;
+    unsigned embree_geom = RTC_INVALID_GEOMETRY_ID;      // in world space
+    std::vector<uint32_t> embree_offset_by_instance;     // by the instance's geomID
+    unsigned embree_geom_in_instance = RTC_INVALID_GEOMETRY_ID;
     std::vector<std::array<float, 4>> proxy_vertices;
     std::vector<uint32_t> proxy_first;
     std::vector<SweepGeometry> sweep_geometries;
@@ -344,6 +358,40 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             rtcCommitGeometry(g);
             return g;
         };
+        // The segments of [first, first + count) that Sweep leaves to Embree (sweep_leaves_to_embree) as Embree's
+        // round Catmull-Rom curves, attached to `scene`; their first entry in im.embree_* is `offset`. Returns the
+        // geomID, or RTC_INVALID_GEOMETRY_ID when the space has none.
+        auto attach_embree_segments = [&](RTCScene target, size_t first, size_t count, uint32_t& offset) {
+            offset = uint32_t(im.embree_first.size());
+            for (size_t s = first; s < first + count; ++s)
+                if (im.segment_ends[s] & 4) {
+                    im.embree_first.push_back(segment_first_[s]);
+                    im.embree_curve.push_back(segment_curve_[s]);
+                    im.embree_segment.push_back(uint32_t(s));
+                }
+            const size_t n = im.embree_first.size() - offset;
+            if (n == 0) return RTC_INVALID_GEOMETRY_ID;
+            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
+                                       sizeof(float) * 4, control_points_.size());
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, im.embree_first.data() + offset, 0,
+                                       sizeof(uint32_t), n);
+            rtcSetGeometryUserData(g, im.embree_curve.data() + offset);
+            rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+            rtcCommitGeometry(g);
+            const unsigned id = rtcAttachGeometry(target, g);
+            rtcReleaseGeometry(g);
+            return id;
+        };
+        if (im.sweep) {  // reserved: the geometries keep pointers into them
+            size_t n_embree = 0;
+            for (uint8_t e : im.segment_ends) n_embree += (e & 4) != 0;
+            im.embree_first.reserve(n_embree);
+            im.embree_curve.reserve(n_embree);
+            im.embree_segment.reserve(n_embree);
+        }
         auto curve_geometry = [&](size_t first, size_t count, bool in_object_space) {
             if (im.sweep) return sweep_geometry(first, count, in_object_space);
             RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
@@ -366,16 +414,22 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             const size_t first = space_first_segment[space], count = space_first_segment[space + 1] - first;
             if (count == 0) continue;
             RTCGeometry g = curve_geometry(first, count, space != 0);
+            uint32_t embree_offset = 0;
             if (space == 0) {
                 im.curve_geom = rtcAttachGeometry(im.scene, g);
                 rtcReleaseGeometry(g);
+                if (im.sweep) im.embree_geom = attach_embree_segments(im.scene, first, count, embree_offset);
                 continue;
             }
             RTCScene object_scene = rtcNewScene(im.device);
             rtcSetSceneFlags(object_scene, RTCSceneFlags(RTC_SCENE_FLAG_COMPACT | RTC_SCENE_FLAG_ROBUST));
             rtcSetSceneBuildQuality(object_scene, RTC_BUILD_QUALITY_MEDIUM);
-            rtcAttachGeometry(object_scene, g);
+            rtcAttachGeometry(object_scene, g);  // geomID 0 in its scene
             rtcReleaseGeometry(g);
+            if (im.sweep) {
+                const unsigned id = attach_embree_segments(object_scene, first, count, embree_offset);
+                if (id != RTC_INVALID_GEOMETRY_ID) im.embree_geom_in_instance = id;  // 1 in every object's scene
+            }
             rtcCommitScene(object_scene);
             im.object_scenes.push_back(object_scene);
             RTCGeometry inst = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_INSTANCE);
@@ -388,6 +442,10 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             const unsigned geom = rtcAttachGeometry(im.scene, inst);
             if (im.first_segment_by_geom.size() <= geom) im.first_segment_by_geom.resize(geom + 1, 0);
             im.first_segment_by_geom[geom] = uint32_t(first);
+            if (im.sweep) {
+                if (im.embree_offset_by_instance.size() <= geom) im.embree_offset_by_instance.resize(geom + 1, 0);
+                im.embree_offset_by_instance[geom] = embree_offset;
+            }
             rtcReleaseGeometry(inst);
         }
         has_curves_ = true;
@@ -421,7 +479,9 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
                    segment_first_.capacity() * sizeof(uint32_t) + segment_curve_.capacity() * sizeof(int32_t) +
                    curve_object_.capacity() * sizeof(int32_t) + im.segment_ends.capacity() +
                    im.proxy_vertices.capacity() * sizeof(im.proxy_vertices[0]) +
-                   im.proxy_first.capacity() * sizeof(uint32_t);
+                   im.proxy_first.capacity() * sizeof(uint32_t) +
+                   (im.embree_first.capacity() + im.embree_segment.capacity()) * sizeof(uint32_t) +
+                   im.embree_curve.capacity() * sizeof(int32_t);
 }
 
 Geometry::~Geometry() {
@@ -452,11 +512,26 @@ void Geometry::build_sweep_proxies(Impl& im) {
             segment_first_[s] + 1 != segment_first_[s + 1])
             im.segment_ends[s] |= 2;
     }
-    // Per piece its capped cone (sweep_proxy_cone): two vertices of its own.
+    // Segments shorter than their radius go to Embree's own curves; for Sweep their neighbours' tubes stop there.
+    for (size_t s = 0; s < n_segments; ++s) {
+        if (!sweep_leaves_to_embree(&control_points_[segment_first_[s]])) continue;
+        im.segment_ends[s] |= 4;
+        if (!(im.segment_ends[s] & 1)) im.segment_ends[s - 1] |= 2;
+        if (!(im.segment_ends[s] & 2)) im.segment_ends[s + 1] |= 1;
+    }
+    // Per piece its capped cone (sweep_proxy_cone): two vertices of its own; none for Embree's segments (a point).
     im.proxy_vertices.resize(n_segments * k * 2);
     im.proxy_first.resize(n_segments * k);
     for (size_t s = 0; s < n_segments; ++s) {
         const auto* cp = &control_points_[segment_first_[s]];
+        if (im.segment_ends[s] & 4) {
+            for (int j = 0; j < k; ++j) {
+                const size_t piece = s * k + size_t(j);
+                im.proxy_first[piece] = uint32_t(2 * piece);
+                im.proxy_vertices[2 * piece] = im.proxy_vertices[2 * piece + 1] = {cp[1][0], cp[1][1], cp[1][2], 0.0f};
+            }
+            continue;
+        }
         for (int j = 0; j < k; ++j) {
             const SweepProxyCone cone =
                 sweep_proxy_cone(proxy_piece(cp, j, (im.segment_ends[s] & 1) != 0, (im.segment_ends[s] & 2) != 0));
@@ -477,13 +552,21 @@ Hit Geometry::to_hit(const RTCRayHit& rh) const {
     hit.u = rh.hit.u;
     hit.v = rh.hit.v;
     hit.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+    const Impl& im = *impl_;
     if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {  // a curve in its object's space
+        const unsigned instance = rh.hit.instID[0];
         hit.kind = PrimKind::Curve;
-        hit.segment = int(impl_->first_segment_by_geom[rh.hit.instID[0]] + segment_of_prim(rh.hit.primID));
+        hit.segment = rh.hit.geomID == im.embree_geom_in_instance
+                          ? int(im.embree_segment[im.embree_offset_by_instance[instance] + rh.hit.primID])
+                          : int(im.first_segment_by_geom[instance] + segment_of_prim(rh.hit.primID));
         hit.prim = segment_curve_[size_t(hit.segment)];
-    } else if (rh.hit.geomID == impl_->curve_geom) {
+    } else if (rh.hit.geomID == im.curve_geom) {
         hit.kind = PrimKind::Curve;
         hit.segment = int(segment_of_prim(rh.hit.primID));
+        hit.prim = segment_curve_[size_t(hit.segment)];
+    } else if (rh.hit.geomID == im.embree_geom) {  // a world-space segment Sweep leaves to Embree
+        hit.kind = PrimKind::Curve;
+        hit.segment = int(im.embree_segment[rh.hit.primID]);
         hit.prim = segment_curve_[size_t(hit.segment)];
     } else {
         hit.kind = PrimKind::Triangle;

@@ -10,6 +10,7 @@
 // (sweep_proxy_cone). A proxy hit starts Newton's method; its answer is the tube's own hit, or none.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 
@@ -19,6 +20,17 @@ namespace hairbsdf::render {
 
 // Straight pieces per curve segment in the Sweep intersector's proxies.
 inline constexpr int curve_proxy_pieces = 4;
+
+// A segment no shorter than its radius is a tube that the proxies and Newton's method hold. A shorter one (repeated
+// keys among them) is not: where its keys coincide, Embree's equations have a ball of radius r for their surface,
+// as Cycles renders it. Sweep leaves such segments to Embree's own round curves (geometry.cpp). Not finite: true.
+inline bool sweep_leaves_to_embree(const std::array<float, 4>* segment_control_points) {
+    const std::array<float, 4>& a = segment_control_points[1];
+    const std::array<float, 4>& b = segment_control_points[2];
+    const double dx = double(b[0]) - a[0], dy = double(b[1]) - a[1], dz = double(b[2]) - a[2];
+    const double radius = std::max(double(a[3]), double(b[3]));
+    return !(dx * dx + dy * dy + dz * dz >= radius * radius);
+}
 
 // A piece of one segment: its four Catmull-Rom control points and its range of u.
 struct SweepPiece {
