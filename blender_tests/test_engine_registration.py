@@ -68,7 +68,7 @@ res["prose"] = {n: sorted(ui.CHOICE_PROSE.get(n, {})) for n in choices}
 res["wavefront"] = [props["wavefront"].default, schema["integrator.wavefront"]["default"]]
 # The settings reach the exported scene: integrator keys and top-level keys.
 from hairbsdf.blender.export_scene import export_scene
-scene.hairbsdf.wavefront, scene.hairbsdf.curve_intersector, scene.hairbsdf.accuracy = True, "SWEEP", "EXACT"
+scene.hairbsdf.wavefront, scene.hairbsdf.curve_intersector, scene.hairbsdf.accuracy = False, "EMBREE", "EXACT"
 desc, _ = export_scene(bpy.context.evaluated_depsgraph_get(), render=True)
 res["exported"] = [desc["integrator"]["wavefront"], desc["curve_intersector"], desc["integrator"]["accuracy"]]
 scene.hairbsdf.tilt = "3.4"
@@ -95,14 +95,14 @@ def test_register_unregister(run_blender, engine_kind):
     # the order is pinned here, so a reordered table fails.
     ids = {n: [i for i, _ in items] for n, items in r["enums"].items()}
     assert ids == {"tilt": ["AUTO", "4.2", "3.4"], "accuracy": ["CYCLES", "EXACT"],
-                   "huang_sampler": ["CYCLES", "MIXTURE"], "curve_intersector": ["EMBREE", "SWEEP"]}
+                   "huang_sampler": ["CYCLES", "MIXTURE"], "curve_intersector": ["EMBREE", "SWEEP", "AUTO"]}
     assert all([v for _, v in items] == list(range(len(items))) for items in r["enums"].values())
     for n, (allowed, default) in r["schema"].items():
         assert ids[n][-len(allowed):] == [a.upper() for a in allowed], n
         assert r["prose"][n] == sorted(allowed), n  # every choice has its label and description, none stale
         assert r["enum_defaults"][n] == ("AUTO" if n == "tilt" else default.upper()), n
-    assert r["wavefront"] == [False, "False"]
-    assert r["exported"] == [True, "SWEEP", "exact"]
+    assert r["wavefront"] == [True, "True"]
+    assert r["exported"] == [False, "EMBREE", "exact"]  # each differs from its default
     assert r["before"] == []
     for name in ("CYCLES_RENDER_PT_sampling", "CYCLES_RENDER_PT_sampling_render", "CYCLES_RENDER_PT_sampling_advanced",
                  "CYCLES_RENDER_PT_light_paths", "CYCLES_RENDER_PT_light_paths_max_bounces", "CYCLES_RENDER_PT_film",

@@ -2,8 +2,8 @@
 (issue 29's goals: Chiang <= 0.7x, Huang <= 1.0x; docs/benchmarks.md, "Engine against Cycles").
 
     .venv/bin/python lab/bench_vs_cycles.py [--scenes bench_hair,swatch] [--model chiang|huang|scene]
-                                            [--rounds 3] [--spp N] [--res WxH] [--before DIR] [--sweep]
-                                            [--wavefront] [--json F] [--perf]
+                                            [--rounds 3] [--spp N] [--res WxH] [--before DIR] [--embree]
+                                            [--per-pixel] [--json F] [--perf]
 
 Scenes: `bench_hair` (blender_tests/render_units: 1500 strands over a plane, sun + world, 160 x 160, 32 spp)
 and the harness scenes of plugin/hairbsdf/compare/scenes/catalog.py (`swatch`, `huang_ellipse`, ...), at
@@ -14,10 +14,11 @@ Blender scene (the HAIRBSDF exporter) once.
 
 Each round renders every scene in its own child process, Cycles first, then ours, then with --before
 ours again from another build of the module (DIR is put first on sys.path: a folder holding another
-build's hairbsdf package and .so files), and with --sweep ours again with the scene key curve_intersector
-set to SWEEP (our own exact curve test over Embree's linear proxies; docs/engine.md, "Curve intersection"), and
-with --wavefront ours again with integrator.wavefront (the wavefront path tracer, its Chiang hits through the
-batch kernels; with --sweep also both together). Per render:
+build's hairbsdf package and .so files). Ours renders with the scene's defaults (the wavefront path tracer, its
+Chiang hits through the batch kernels; curve_intersector AUTO, which is SWEEP at these sizes). --embree renders
+ours again with curve_intersector EMBREE (Embree's own round curves; docs/engine.md, "Curve intersection"),
+--per-pixel again with integrator.wavefront off (the per-pixel loop); both: also the two together, the
+configuration before they became the defaults. Per render:
   wall   seconds of the render call: Cycles' bpy.ops.render.render (scene sync, BVH build, sampling),
          ours hairbsdf.render.render (scene checks, BVH build, sampling)
   cpu    user + system CPU seconds of the child over the same call (all threads)
@@ -217,10 +218,10 @@ def main(argv=None):
     ap.add_argument("--spp", type=int, default=0, help="samples per pixel (default: the scene's)")
     ap.add_argument("--res", default="", help="WxH (default: the scene's)")
     ap.add_argument("--before", default="", help="a folder put first on sys.path for a second build of ours")
-    ap.add_argument("--sweep", action="store_true",
-                    help="also render ours with curve_intersector SWEEP (one more column)")
-    ap.add_argument("--wavefront", action="store_true",
-                    help="also render ours with integrator.wavefront (one more column; two with --sweep)")
+    ap.add_argument("--embree", action="store_true",
+                    help="also render ours with curve_intersector EMBREE (one more column)")
+    ap.add_argument("--per-pixel", action="store_true",
+                    help="also render ours with integrator.wavefront off (one more column; two with --embree)")
     ap.add_argument("--json", default="", help="also write every measurement to this JSON file")
     ap.add_argument("--perf", action="store_true",
                     help="profile each render call with perf and split it into Embree and the rest")
@@ -242,12 +243,12 @@ def main(argv=None):
 
     # Our renders besides the default one: a column each, scene keys set as given.
     variants = {}
-    if a.sweep:
-        variants["SWEEP"] = {"curve_intersector": "SWEEP"}
-    if a.wavefront:
-        variants["wavefront"] = {"integrator.wavefront": True}
-        if a.sweep:
-            variants["SWEEP + wavefront"] = {"curve_intersector": "SWEEP", "integrator.wavefront": True}
+    if a.embree:
+        variants["EMBREE"] = {"curve_intersector": "EMBREE"}
+    if a.per_pixel:
+        variants["per pixel"] = {"integrator.wavefront": False}
+        if a.embree:
+            variants["EMBREE per pixel"] = {"curve_intersector": "EMBREE", "integrator.wavefront": False}
     rows = []
     print("| round | scene | models | Cycles wall / cpu s | ours wall / cpu s | ours / Cycles: wall / cpu |"
           + (" before wall / cpu s | before / Cycles: cpu |" if a.before else "")

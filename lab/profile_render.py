@@ -27,19 +27,19 @@ def main():
                     "lab/render_identity/dump_scenes.py) at --samples instead of --scene")
     ap.add_argument("--camera-ray-stream", action="store_true",
                     help="integrator.camera_ray_stream: camera rays as one Embree stream per tile row")
-    ap.add_argument("--wavefront", action="store_true",
-                    help="integrator.wavefront: the wavefront path tracer (each bounce's rays as Embree streams)")
+    ap.add_argument("--per-pixel", action="store_true",
+                    help="integrator.wavefront off: the per-pixel loop (default: the wavefront path tracer)")
     ap.add_argument("--one-by-one", action="store_true",
-                    help="with --wavefront: integrator.wavefront_streams off (its rays traced one by one)")
+                    help="integrator.wavefront_streams off (the wavefront's rays traced one by one)")
     ap.add_argument("--scalar-shading", action="store_true",
-                    help="with --wavefront: integrator.wavefront_kernels off (every hit on the scalar double path)")
-    ap.add_argument("--curve-intersector", help="the scene's curve_intersector (EMBREE, SWEEP; default the scene's)")
+                    help="integrator.wavefront_kernels off (every hit of the wavefront on the scalar double path)")
+    ap.add_argument("--curve-intersector", help="the scene's curve_intersector (EMBREE, SWEEP, AUTO; default the scene's)")
     ap.add_argument("--repeat", type=int, default=1, help="render this many times (default 1)")
     a = ap.parse_args()
     if a.samples < 1 or a.threads < 1 or a.repeat < 1:
         ap.error("--samples, --threads and --repeat must be positive")
-    if (a.one_by_one or a.scalar_shading) and not a.wavefront:
-        ap.error("--one-by-one and --scalar-shading: only with --wavefront")
+    if (a.one_by_one or a.scalar_shading) and a.per_pixel:
+        ap.error("--one-by-one and --scalar-shading: not with --per-pixel (they set the wavefront's options)")
     if a.modules:
         use_native_modules(a.modules, ap)
     from hairbsdf.render import render
@@ -53,16 +53,17 @@ def main():
         spec.loader.exec_module(cases)
         desc, name = cases.scene_desc(cases.case(a.scene), samples=a.samples), a.scene
     desc["integrator"]["camera_ray_stream"] = a.camera_ray_stream
-    if a.wavefront:  # absent otherwise, so that modules from before the option still read the scene
-        desc["integrator"].update(wavefront=True, wavefront_streams=not a.one_by_one)
-        if a.scalar_shading:
-            desc["integrator"]["wavefront_kernels"] = False
+    desc["integrator"]["wavefront"] = not a.per_pixel
+    if a.one_by_one:
+        desc["integrator"]["wavefront_streams"] = False
+    if a.scalar_shading:
+        desc["integrator"]["wavefront_kernels"] = False
     if a.curve_intersector:
         desc["curve_intersector"] = a.curve_intersector
     for _ in range(a.repeat):
         out = render(desc, threads=a.threads)
         print(f"{name}, {a.samples} spp, {a.threads} thread(s), camera_ray_stream {a.camera_ray_stream}, "
-              f"wavefront {a.wavefront}{' one by one' if a.one_by_one else ''}"
+              f"wavefront {not a.per_pixel}{' one by one' if a.one_by_one else ''}"
               f"{' scalar shading' if a.scalar_shading else ''}"
               f"{', curve_intersector ' + a.curve_intersector if a.curve_intersector else ''}: "
               f"{out['stats']['seconds']:.2f} s, {out['stats']['rays']} rays, "

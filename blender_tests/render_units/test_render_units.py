@@ -109,8 +109,9 @@ def _blocks(img, n=4):
     return img.reshape(n, h // n, n, w // n, -1).mean(axis=(1, 3, 4))
 
 
-def _assert_mean_matches_cycles(name, cycles_images, **integrator):
-    """Our two renders of case `name` (integrator keys set as given) against Cycles' image; returns them."""
+def _assert_mean_matches_cycles(name, cycles_images, scene_keys=None, **integrator):
+    """Our two renders of case `name` (top-level `scene_keys` and integrator keys set as given) against Cycles'
+    image; returns them."""
     from hairbsdf.render import render
 
     images, meta = cycles_images
@@ -121,12 +122,13 @@ def _assert_mean_matches_cycles(name, cycles_images, **integrator):
     for seed in (11, 12):
         desc = C.scene_desc(c, samples=spp, seed=seed)
         desc["integrator"].update(integrator)
+        desc.update(scene_keys or {})
         runs.append(render(desc, threads=2))
     a, b = (r["combined"][..., :3].astype(np.float64) for r in runs)
     for r in runs:
         assert r["stats"]["nan_count"] == 0 and not r["stats"]["warnings"]
-    if integrator:
-        name += " + " + ", ".join(f"{k} {v}" for k, v in integrator.items())
+    if integrator or scene_keys:
+        name += " + " + ", ".join(f"{k} {v}" for k, v in {**(scene_keys or {}), **integrator}.items())
     ours = 0.5 * (a + b)
     # Per-pixel variance of one render from the two independent ones; the difference
     # ours - cycles has variance <= var(ours) + var(cycles) ~ 1.5 var(one render).
@@ -147,20 +149,27 @@ def _assert_mean_matches_cycles(name, cycles_images, **integrator):
     return runs
 
 
-@pytest.mark.parametrize("name", C.CASE_NAMES)
-def test_mean_matches_cycles(name, cycles_images):
-    _assert_mean_matches_cycles(name, cycles_images)
-
-
 HAIR_CASES = [c["name"] for c in C.CASES if c["hair"]]
 
 
+@pytest.mark.parametrize("name", C.CASE_NAMES)
+def test_mean_matches_cycles(name, cycles_images):
+    """The defaults: the wavefront path tracer, its Chiang hair shaded through the float32 batch kernels, THICK
+    curves by Sweep (curve_intersector AUTO at these sizes)."""
+    runs = _assert_mean_matches_cycles(name, cycles_images)
+    if name in HAIR_CASES:
+        assert all(r["stats"]["kernel_hits"] > 0 for r in runs), "no hit went through the batch kernels"
+        intersector = "SWEEP" if C.case(name)["shape"] == "THICK" else "EMBREE"  # Sweep takes THICK curves only
+        assert all(r["stats"]["curve_intersector"] == intersector for r in runs)
+
+
 @pytest.mark.parametrize("name", HAIR_CASES)
-def test_wavefront_mean_matches_cycles(name, cycles_images):
-    """The wavefront path tracer, its Chiang hair shaded through the float32 batch kernels
-    (integrator.wavefront_kernels, on by default): the same gates against Cycles."""
-    runs = _assert_mean_matches_cycles(name, cycles_images, wavefront=True)
-    assert all(r["stats"]["kernel_hits"] > 0 for r in runs), "no hit went through the batch kernels"
+def test_per_pixel_mean_matches_cycles(name, cycles_images):
+    """The per-pixel loop and Embree's own curves (the configuration before the wavefront and Sweep became the
+    defaults): the same gates against Cycles."""
+    runs = _assert_mean_matches_cycles(name, cycles_images, scene_keys={"curve_intersector": "EMBREE"},
+                                       wavefront=False)
+    assert all(r["stats"]["kernel_hits"] == 0 and r["stats"]["curve_intersector"] == "EMBREE" for r in runs)
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -586,6 +586,24 @@ TEST(RenderGeometry, SweepProxyConesHoldTheirPiecesOfTheTube) {
     }
 }
 
+// curve_intersector AUTO (the default): Sweep for THICK curves up to sweep_auto_max_segments segments, Embree's own
+// curves beyond (Sweep's proxies' memory) and for every other shape; EMBREE and SWEEP hold at any size.
+TEST(RenderGeometry, AutoIntersectorTakesSweepUpToItsBound) {
+    constexpr size_t bound = sweep_auto_max_segments;
+    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound));
+    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound + 1));
+    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Sweep, bound + 1));
+    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Embree, 1));
+    for (CurveShape shape : {CurveShape::Ribbons, CurveShape::ThickLinear})
+        EXPECT_FALSE(uses_sweep(shape, CurveIntersector::Auto, 1));
+    EXPECT_EQ(SceneDesc{}.curve_intersector, CurveIntersector::Auto);
+    // A small scene: the default builds Sweep's proxies, EMBREE does not.
+    SceneDesc s = bent_strands(CurveIntersector::Auto, 5);
+    EXPECT_TRUE(Geometry(s).sweep_curves());
+    s.curve_intersector = CurveIntersector::Embree;
+    EXPECT_FALSE(Geometry(s).sweep_curves());
+}
+
 // Repeated keys (a strand's last key three more times, a middle key once more, as exported particle hair can
 // have them): a segment shorter than its radius is no tube Sweep's proxies hold, and where its keys coincide
 // Embree's surface is a ball of radius r, which Cycles renders. Sweep leaves such segments to Embree's own

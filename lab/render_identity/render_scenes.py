@@ -3,6 +3,8 @@ with the running Python's hairbsdf and saves the images; compare with compare.py
 
     python lab/render_identity/render_scenes.py SCENES OUT [--wavefront | --wavefront-one-by-one] [VARIANT ...]
 
+Without a flag the scenes render through the per-pixel loop (integrator.wavefront off, whatever the dump says),
+whose images a change to the shading code must keep bit for bit.
 --wavefront renders with integrator.wavefront (rays as Embree streams, one-closure Chiang materials through the
 float32 batch kernels: the per-pixel engine's images at float rounding); --wavefront-one-by-one also sets
 wavefront_streams and wavefront_kernels off (its images must be bit-identical)."""
@@ -35,7 +37,8 @@ def variants(name, desc):
         yield name + "+lobes", d
 options = {"--wavefront": {"wavefront": True}, "--wavefront-one-by-one": {"wavefront": True, "wavefront_streams": False,
                                                                             "wavefront_kernels": False}}
-integrator = {k: v for a in sys.argv[3:] for k, v in options.get(a, {}).items()}
+integrator = {"wavefront": False}
+integrator.update({k: v for a in sys.argv[3:] for k, v in options.get(a, {}).items()})
 only = [a for a in sys.argv[3:] if a not in options]
 for path in sorted(glob.glob(os.path.join(src, "*.npz"))):
     name = os.path.basename(path)[:-4]

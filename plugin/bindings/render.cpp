@@ -254,6 +254,7 @@ py::dict py_render(py::handle scene_dict, py::object progress, py::object cancel
     stats["peak_memory_bytes"] = out.stats.peak_memory_bytes;
     stats["nan_count"] = out.stats.nan_count;
     stats["kernel_hits"] = out.stats.kernel_hits;
+    stats["curve_intersector"] = out.stats.sweep_curves ? "SWEEP" : "EMBREE";
     stats["cancelled"] = out.stats.cancelled;
     stats["warnings"] = out.warnings;
     py::dict result;
@@ -481,7 +482,7 @@ const std::string& render_doc() {
     static const std::string doc = [] {
         std::string d = "Renders a scene_desc dict (docs/scene_desc.md). Returns {'combined': (H, W, 4) float32 RGBA, "
                         "'stats': {samples, seconds, build_seconds, rays, peak_memory_bytes, nan_count, kernel_hits, "
-                        "cancelled, warnings}} plus the passes asked for in integrator['passes']:";
+                        "curve_intersector (the one that traced THICK curves), cancelled, warnings}} plus the passes asked for in integrator['passes']:";
         for (const bindings::RenderPass& pass : bindings::render_passes()) {
             d += std::string(" ") + pass.name + " ->";
             for (const bindings::PassImage& im : pass.images)

@@ -14,6 +14,7 @@
 
 #include "hairbsdf/model_factory.h"
 #include "hairbsdf/params/huang.h"
+#include "hairbsdf/render/geometry.h"
 #include "hairbsdf/render/scene.h"
 #include "render_passes.h"
 
@@ -172,6 +173,15 @@ py::object value_of(const SceneKey& k, const std::vector<E>& values) {
     for (E e : values)
         for (int i = 0; i < A::width; ++i) *dst++ = A::at(e, i);
     return std::move(out);
+}
+
+// AUTO's bound comes from the renderer (geometry.h), so the text is built once.
+const char* curve_intersector_meaning() {
+    static const std::string text =
+        "THICK curves: EMBREE, Embree 3's round Catmull-Rom curves; SWEEP, hairbsdf's exact test of the same "
+        "surface over Embree's capped-cone proxies (faster, about 4x the memory); AUTO, SWEEP up to " +
+        std::to_string(R::sweep_auto_max_segments) + " segments, else EMBREE";
+    return text.c_str();
 }
 
 // Fluent rows for the table below.
@@ -351,10 +361,9 @@ std::vector<SceneKey> make_schema() {
             .field(&R::SceneDesc::curve_subdivisions),
         Row("curve_backface_culling", K::Bool, "cull back faces of THICK curves (Cycles 3.x)")
             .field(&R::SceneDesc::cull_curve_back_faces),
-        Row("curve_intersector", K::Enum, "THICK curves: EMBREE, Embree 3's round Catmull-Rom curves; SWEEP, "
-            "hairbsdf's exact test of the same surface over Embree's capped-cone proxies (experimental: faster, more "
-            "memory)")
-            .choices<R::CurveIntersector>({{"EMBREE", R::CurveIntersector::Embree}, {"SWEEP", R::CurveIntersector::Sweep}})
+        Row("curve_intersector", K::Enum, curve_intersector_meaning())
+            .choices<R::CurveIntersector>({{"EMBREE", R::CurveIntersector::Embree}, {"SWEEP", R::CurveIntersector::Sweep},
+                                           {"AUTO", R::CurveIntersector::Auto}})  // appended: a .blend saves positions
             .field(&R::SceneDesc::curve_intersector),
 
         Row("meshes", K::Dict, "all triangle meshes, concatenated"),

@@ -49,7 +49,8 @@ def _scene(shape, model, stream):
                        "transmission_bounces": 6, "transparent_bounces": 8, "min_light_bounces": 0,
                        "filter_type": "BLACKMAN_HARRIS", "filter_width": 1.5, "exposure": 1.0,
                        "film_transparent": False, "light_sampling_threshold": 0.0, "tilt": "4.2",
-                       "passes": ["hair_lobes", "depth", "normal"], "camera_ray_stream": stream},
+                       "passes": ["hair_lobes", "depth", "normal"], "camera_ray_stream": stream,
+                       "wavefront": False},  # the per-pixel loop (the default is the wavefront)
     }
 
 

@@ -387,8 +387,8 @@ def scene_defaults_by_leaf() -> dict:
 def test_fallbacks_do_not_repeat_scene_defaults():
     """A scene key's default is its schema row's (the renderer's field): a reader of a Blender attribute or a keyword
     that names a scene key leaves the key out when it is missing, or reads render.schema_default / the one named
-    default (principled.DEFAULT_MODEL, _common.TILT_AUTO); it never writes the default again as a fallback. The tilt
-    setting's "AUTO" is written once, in blender/_common.py. (compare/scenes/ builds Blender scenes in Blender
+    default (principled.DEFAULT_MODEL, _common.TILT_AUTO); it never writes the default again as a fallback. The "AUTO"
+    identifier (the tilt setting's and curve_intersector's) is written once, in blender/_common.py. (compare/scenes/ builds Blender scenes in Blender
     itself: its node settings are not scene keys.)"""
     from hairbsdf.blender._common import TILT_AUTO
 

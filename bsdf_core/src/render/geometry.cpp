@@ -235,7 +235,7 @@ struct Geometry::Impl {
     std::vector<uint32_t> first_segment_by_geom;
     MemoryCounter memory;
     size_t own_bytes = 0;
-    // The Sweep intersector (CurveIntersector::Sweep, THICK curves): per segment whether it
+    // The Sweep intersector (THICK curves, uses_sweep): per segment whether it
     // starts or ends its curve; the proxies' vertices (each piece's capped cone, two of its own)
     // and index buffer; one user-data record per Embree geometry (reserved up front: Embree keeps
     // pointers to them).
@@ -324,7 +324,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             for (const auto& m : cd.object_transforms) object_spaces_.emplace_back(m);
         }
         if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
-        im.sweep = scene.curve_shape == CurveShape::Thick && scene.curve_intersector == CurveIntersector::Sweep;
+        im.sweep = uses_sweep(scene.curve_shape, scene.curve_intersector, segment_first_.size());
         if (im.sweep) build_sweep_proxies(im);
         const bool linear = scene.curve_shape == CurveShape::ThickLinear;
         const bool round = linear || scene.curve_shape == CurveShape::Thick;
@@ -495,6 +495,8 @@ Geometry::~Geometry() {
 size_t Geometry::peak_memory_bytes() const {
     return size_t(std::max(0LL, impl_->memory.peak.load())) + impl_->own_bytes;
 }
+
+bool Geometry::sweep_curves() const { return impl_->sweep; }
 
 // A Sweep geometry's primitives are its proxy pieces (their hits already carry the segment's u).
 uint32_t Geometry::segment_of_prim(uint32_t prim) const {

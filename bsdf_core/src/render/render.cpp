@@ -139,6 +139,7 @@ void RenderJob::run() {
         size_t scene_bytes = scene_.curves.points.size() * sizeof(scene_.curves.points[0]) +
                              scene_.curves.offsets.size() * 12 + scene_.meshes.vertices.size() * 12 +
                              scene_.meshes.triangles.size() * 16;
+        out.stats.sweep_curves = prepared.geometry.sweep_curves();
         out.stats.peak_memory_bytes = prepared.geometry.peak_memory_bytes() + film.memory_bytes() +
                                       out.rgba.size() * sizeof(float) + scene_bytes;
     });

@@ -74,8 +74,11 @@ def blender_version() -> tuple:
     return tuple(bpy.app.version)
 
 
+# The identifier of a setting's automatic choice: the tilt's (the running Blender's convention; the scene key has
+# no such value) and curve_intersector's (the scene schema's AUTO, chosen by the scene's size).
+AUTO = "AUTO"
 # The engine's tilt choice "Auto" (ui.py's tilt setting, the exporter's reading of it): default_tilt().
-TILT_AUTO = ("AUTO", "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
+TILT_AUTO = (AUTO, "Auto", "That of the running Blender: 4.2 for Blender 4.2+, else 3.4")
 
 
 def default_tilt() -> str:

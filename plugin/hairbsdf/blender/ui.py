@@ -11,7 +11,7 @@ import bpy
 from .._constants import ENGINE_ID  # re-exported: the engine and panels take it from here
 from .._param_docs import BOOL, CHOICE, FLOAT, INT
 from ..render import schema_choices, schema_default
-from ._common import SCENE_SETTINGS, TILT_AUTO
+from ._common import AUTO, SCENE_SETTINGS, TILT_AUTO
 from .model_override import PLUGIN_MODEL, fill_params
 
 # Cycles panels whose settings the engine reads (exported by export_scene.export_integrator).
@@ -104,6 +104,7 @@ CHOICE_PROSE = {
         "exact": ("Exact", "Exact special functions (differs from Cycles by up to ~5e-3)"),
     },
     "curve_intersector": {
+        AUTO: ("Auto", "Sweep, but Embree for grooms too large for Sweep's memory (docs/scene_desc.md, curve_intersector)"),
         "EMBREE": ("Embree", "Embree's round Catmull-Rom curves, as Cycles traces them"),
         "SWEEP": ("Sweep", "Our exact test of the swept tube over capped-cone proxies: faster, about four times "
                            "the memory of the curves"),
@@ -146,8 +147,8 @@ class HairBsdfSceneSettings(bpy.types.PropertyGroup):
         items=setting_choices("huang_sampler"), default=setting_default("huang_sampler"))
     wavefront: bpy.props.BoolProperty(
         name="Wavefront", description="The wavefront path tracer: a tile's paths traced together and their Principled "
-        "Hair (Chiang) hits shaded through the float32 SIMD kernels; faster, the same image in expectation "
-        "(docs/engine.md, A wavefront engine)", default=setting_default("wavefront"))
+        "Hair (Chiang) hits shaded through the float32 SIMD kernels; faster, the same image in expectation. Off: "
+        "one path at a time (docs/engine.md, A wavefront engine)", default=setting_default("wavefront"))
     curve_intersector: bpy.props.EnumProperty(
         name="Curve Intersector", description="How rays meet 3D curves (docs/engine.md, Curve intersection)",
         items=setting_choices("curve_intersector"), default=setting_default("curve_intersector"))

@@ -11,8 +11,9 @@
 // tessellation rate 2^subdivisions + 1 as Cycles passes it; THICK_LINEAR (Blender 5.x's
 // Linear 3D Curves) = Embree's round linear curves through the keys, whose neighbour flags
 // Embree derives from the index buffer as in Cycles' build. A ray leaving a primitive
-// skips it: all of a curve, or one triangle. THICK with SceneDesc::curve_intersector = Sweep:
-// the same surface, found by our own test over Embree's capped-cone proxies (curve_sweep.h).
+// skips it: all of a curve, or one triangle. THICK with SceneDesc::curve_intersector = Sweep
+// (or Auto, below): the same surface, found by our own test over Embree's capped-cone proxies
+// (curve_sweep.h).
 #pragma once
 
 #include <atomic>
@@ -25,6 +26,18 @@
 struct RTCRayHit;  // Embree's ray and hit (embree3/rtcore_ray.h)
 
 namespace hairbsdf::render {
+
+// CurveIntersector::Auto takes Sweep for THICK curves of at most this many segments. Sweep's
+// proxies take about 310 bytes a segment more than Embree's own curves (100 000 strands of 12
+// keys: 447 MB against 105 MB, docs/benchmarks.md "Engine IX"), so at this bound about 620 MB
+// more; larger grooms keep Embree's memory (1M strands x 16 keys: docs/benchmarks.md).
+inline constexpr size_t sweep_auto_max_segments = 2'000'000;
+// Whether THICK curves of `segments` segments are intersected by Sweep.
+inline bool uses_sweep(CurveShape shape, CurveIntersector intersector, size_t segments) {
+    if (shape != CurveShape::Thick) return false;
+    return intersector == CurveIntersector::Sweep ||
+           (intersector == CurveIntersector::Auto && segments <= sweep_auto_max_segments);
+}
 
 struct Ray {
     Vec3 org, dir;  // dir is a unit vector
@@ -101,6 +114,8 @@ public:
                          size_t count) const;
 
     CurveShape curve_shape() const { return shape_; }
+    // THICK curves intersected by Sweep (CurveIntersector::Sweep, or Auto's choice).
+    bool sweep_curves() const;
     int segment_curve(int segment) const { return segment_curve_[size_t(segment)]; }
     // Index into the scene's points of the segment's first key (every curve of a repaired
     // scene has at least 2 keys, so curve c's control points start at offsets[c] + 2 c).

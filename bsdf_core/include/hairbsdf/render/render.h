@@ -29,6 +29,7 @@ struct RenderStats {
     size_t peak_memory_bytes = 0;
     uint64_t nan_count = 0;    // non-finite contributions zeroed
     uint64_t kernel_hits = 0;  // hits shaded through the batch kernels (integrator.wavefront_kernels)
+    bool sweep_curves = false; // THICK curves intersected by Sweep (curve_intersector, geometry.h)
     bool cancelled = false;
 };
 

@@ -19,9 +19,10 @@ namespace hairbsdf::render {
 // at the keys, Embree's round linear curves).
 enum class CurveShape { Ribbons, Thick, ThickLinear };
 // How THICK curves are intersected: Embree 3's round Catmull-Rom curves, or Embree's BVH over
-// capped-cone proxies with hairbsdf's exact test of the same surface (render/curve_sweep.h;
-// experimental: faster, with about 4x the memory, docs/benchmarks.md "Engine IX").
-enum class CurveIntersector { Embree, Sweep };
+// capped-cone proxies with hairbsdf's exact test of the same surface (render/curve_sweep.h:
+// faster, with about 4x the memory); Auto, the default: Sweep while the scene's segments are at
+// most sweep_auto_max_segments (geometry.h), else Embree.
+enum class CurveIntersector { Auto, Embree, Sweep };
 
 // All strands, concatenated. Curve c owns points [offsets[c], offsets[c+1]).
 struct CurveData {
@@ -215,9 +216,10 @@ struct IntegratorSettings {
     // Trace a tile's camera rays as one coherent Embree stream (the wavefront's camera stream,
     // render/wavefront.h); the same image at float rounding. Off: one rtcIntersect1 per camera ray.
     bool camera_ray_stream = false;
-    // The wavefront path tracer (render/wavefront.h): each bounce of a tile's paths traced as
-    // Embree streams, hits shaded grouped by material; the per-pixel loop's image.
-    bool wavefront = false;
+    // The wavefront path tracer (render/wavefront.h), the default: each bounce of a tile's paths
+    // traced as Embree streams, hits shaded grouped by material; each path the per-pixel one to
+    // float precision. Off: the per-pixel loop (render/integrator.h), one path at a time.
+    bool wavefront = true;
     // The wavefront's bounce and shadow rays as Embree streams (rtcIntersect1M / rtcOccluded1M, whose
     // packets return some hits a rounding step away); off: one rtcIntersect1 / rtcOccluded1 per ray,
     // and without camera_ray_stream the image is the per-pixel loop's bit for bit.
@@ -255,7 +257,7 @@ struct SceneDesc {
     CurveData curves;
     CurveShape curve_shape = CurveShape::Thick;
     int curve_subdivisions = 2;
-    CurveIntersector curve_intersector = CurveIntersector::Embree;
+    CurveIntersector curve_intersector = CurveIntersector::Auto;
     // Cull back faces of THICK curves. Off in Cycles: Blender's Embree build flag
     // BACKFACE_CULLING_CURVES only affects round *linear* curves, not Catmull-Rom sweeps
     // (checked against Cycles 4.5 renders; docs/scene_desc.md).
