@@ -9,7 +9,7 @@ The module must be the profiling build's (lab/README.md, "A profiling build"), t
 profiled (the addresses are looked up in it): GCC inlines the hit's frame, the closure eval and MIS into
 the path's stage functions (src/render/path_stages.h) and those into trace_path, so only the line tables
 say which statement an instruction belongs to. Every instruction of trace_path, of the stages and of the
-wavefront's driver (trace_tile_wavefront, with --wavefront), and every call they make (with all below it),
+wavefront's driver (trace_tile_wavefront; profile_render.py --per-pixel renders without it), and every call they make (with all below it),
 goes to the stage of its statement in integrator.cpp (addr2line -i: the innermost frame of the inline chain
 on a line of the stages, so a helper's body counts where it is written), refined by what was called or
 inlined there (the rules below); the driver's own lines are the wavefront's queues. Outside them: camera

@@ -605,11 +605,11 @@ TEST(RenderGeometry, AutoIntersectorTakesSweepUpToItsBound) {
 }
 
 // Repeated keys (a strand's last key three more times, a middle key once more, as exported particle hair can
-// have them): a segment shorter than its radius is no tube Sweep's proxies hold, and where its keys coincide
-// Embree's surface is a ball of radius r, which Cycles renders. Sweep leaves such segments to Embree's own
+// have them): a segment between coinciding keys is no tube Sweep's exact test holds, and where its centre line
+// stays at the key Embree's surface is a ball of radius r, which Cycles renders. Sweep leaves such segments to Embree's own
 // curves (sweep_leaves_to_embree), so it finds Embree's hits there, in world space and in a sheared instance.
 // Half of the rays aim within 1.5 radii of a repeated key. World space: 1 of 11 727 hits disagrees and 6 distances;
-// instanced: 7 of 11 472 and 9. With every segment to Sweep (NaN proxies for the repeated keys) 70 and 68 hits
+// instanced: 7 of 11 472 and 9. With every segment to Sweep (the exact test misses the ball) 70 and 68 hits
 // disagree, 64 and 69 distances, and 5 and 13 occlusion answers: it fails. (The harness's particle hair in a sheared
 // parent, test_engine_transforms.py, lost 2.4 % of its projected area that way.)
 TEST(RenderGeometry, SweepLeavesSegmentsOfRepeatedKeysToEmbree) {

@@ -514,7 +514,7 @@ void Geometry::build_sweep_proxies(Impl& im) {
             segment_first_[s] + 1 != segment_first_[s + 1])
             im.segment_ends[s] |= 2;
     }
-    // Segments shorter than their radius go to Embree's own curves; for Sweep their neighbours' tubes stop there.
+    // Segments between coinciding keys go to Embree's own curves; for Sweep their neighbours' tubes stop there.
     for (size_t s = 0; s < n_segments; ++s) {
         if (!sweep_leaves_to_embree(&control_points_[segment_first_[s]])) continue;
         im.segment_ends[s] |= 4;

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 #include "hairbsdf/math.h"
@@ -21,15 +22,19 @@ namespace hairbsdf::render {
 // Straight pieces per curve segment in the Sweep intersector's proxies.
 inline constexpr int curve_proxy_pieces = 4;
 
-// A segment no shorter than its radius is a tube that the proxies and Newton's method hold. A shorter one (repeated
-// keys among them) is not: where its keys coincide, Embree's equations have a ball of radius r for their surface,
-// as Cycles renders it. Sweep leaves such segments to Embree's own round curves (geometry.cpp). Not finite: true.
+// A segment between two coinciding keys (a key repeated, as exported particle hair can have them) is no tube:
+// its centre line leaves the key and comes back, or stays there, and where it stays (c' = 0) Embree's equations
+// have a ball of radius r for their surface, which Cycles renders. Newton's method has no normal plane there, so
+// Sweep leaves such segments to Embree's own round curves (geometry.cpp): keys within 1e-3 of the radius (and a
+// float's step of the coordinates) of each other. Not finite: true.
 inline bool sweep_leaves_to_embree(const std::array<float, 4>* segment_control_points) {
     const std::array<float, 4>& a = segment_control_points[1];
     const std::array<float, 4>& b = segment_control_points[2];
     const double dx = double(b[0]) - a[0], dy = double(b[1]) - a[1], dz = double(b[2]) - a[2];
     const double radius = std::max(double(a[3]), double(b[3]));
-    return !(dx * dx + dy * dy + dz * dz >= radius * radius);
+    const double scale = std::fabs(double(a[0])) + std::fabs(double(a[1])) + std::fabs(double(a[2])) + radius;
+    const double apart = 1e-3 * radius + 1e-7 * scale;
+    return !(dx * dx + dy * dy + dz * dz > apart * apart);
 }
 
 // A piece of one segment: its four Catmull-Rom control points and its range of u.
