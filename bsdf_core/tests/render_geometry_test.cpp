@@ -350,6 +350,39 @@ TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsOnThinStrands) {
     expect_sweep_finds_embrees_hits(true, true, 500, 5000);
 }
 
+// Embree's and Sweep's answers to the rays next_ray(0 .. n - 1), without skips: a hit on another primitive or
+// none (a disagreement), a curve hit whose distance differs by more than 1e-4, an occlusion answer that differs.
+struct IntersectorComparison {
+    int hits = 0, disagreements = 0, t_mismatch = 0, occlusion_disagreements = 0;
+};
+template <class NextRay>
+static IntersectorComparison compare_intersectors(const Geometry& embree, const Geometry& sweep, int n,
+                                                  NextRay next_ray) {
+    IntersectorComparison c;
+    for (int i = 0; i < n; ++i) {
+        const Ray r = next_ray();
+        const Hit ha = embree.intersect(r, {}), hb = sweep.intersect(r, {});
+        c.occlusion_disagreements += embree.occluded(r, {}) != sweep.occluded(r, {});
+        if (bool(ha) != bool(hb) || (ha && (ha.kind != hb.kind || ha.prim != hb.prim))) {
+            ++c.disagreements;
+            continue;
+        }
+        if (!ha || ha.kind != PrimKind::Curve) continue;
+        ++c.hits;
+        c.t_mismatch += std::fabs(ha.t - hb.t) > 1e-4;
+    }
+    return c;
+}
+
+// At least `min_hits` curve hits, and at most one disagreement (hit or distance) per thousand of them and one
+// occlusion answer per thousand rays.
+static void expect_intersectors_agree(const IntersectorComparison& c, int n, int min_hits, const char* what) {
+    EXPECT_GT(c.hits, min_hits) << what;
+    EXPECT_LE(c.disagreements, c.hits / 1000) << what << " " << c.hits;
+    EXPECT_LE(c.t_mismatch, c.hits / 1000) << what;
+    EXPECT_LE(c.occlusion_disagreements, n / 1000) << what;
+}
+
 // In an object's space under a scale and a shear, where the ray's direction in that space is no unit
 // vector: Sweep finds Embree's hits on the same strands in the same instance (the thin ones and the
 // bent ones), as in world space: 7 of 9 831 hits and 3 of 11 418 disagree, no occlusion answer. With
@@ -366,27 +399,14 @@ TEST(RenderGeometry, SweepIntersectorFindsEmbreesHitsInScaledAndShearedObjects) 
         const Geometry embree(a), sweep(b);
         const ObjectSpace& space = *sweep.curve_object_space(0);
         TestRandom random{99};
-        int hits = 0, disagreements = 0, t_mismatch = 0, occlusion_disagreements = 0;
         const int n = 20000;
-        for (int i = 0; i < n; ++i) {
+        const IntersectorComparison c = compare_intersectors(embree, sweep, n, [&] {
             const Vec3 target = space.point_to_world({2 * random.next() - 1, 1.4 * random.next() - 0.7,
                                                       0.8 * random.next() - 0.4});
             const Vec3 d = random.direction();
-            const Ray r = ray(target - 3.0 * d, d);
-            const Hit ha = embree.intersect(r, {}), hb = sweep.intersect(r, {});
-            occlusion_disagreements += embree.occluded(r, {}) != sweep.occluded(r, {});
-            if (bool(ha) != bool(hb) || (ha && (ha.kind != hb.kind || ha.prim != hb.prim))) {
-                ++disagreements;
-                continue;
-            }
-            if (!ha || ha.kind != PrimKind::Curve) continue;
-            ++hits;
-            t_mismatch += std::fabs(ha.t - hb.t) > 1e-4;
-        }
-        EXPECT_GT(hits, 5000) << thin;
-        EXPECT_LE(disagreements, hits / 1000) << thin << " " << hits;
-        EXPECT_LE(t_mismatch, hits / 1000) << thin;
-        EXPECT_LE(occlusion_disagreements, n / 1000) << thin;
+            return ray(target - 3.0 * d, d);
+        });
+        expect_intersectors_agree(c, n, 5000, thin ? "thin" : "bent");
     }
 }
 
@@ -644,28 +664,16 @@ TEST(RenderGeometry, SweepLeavesSegmentsOfRepeatedKeysToEmbree) {
         const ObjectSpace* space = sweep.curve_object_space(0);
         auto to_world = [&](Vec3 p) { return space ? space->point_to_world(p) : p; };
         TestRandom random{17};
-        int hits = 0, disagreements = 0, t_mismatch = 0, occlusion_disagreements = 0;
         const int n = 20000;
-        for (int i = 0; i < n; ++i) {
+        int i = 0;
+        const IntersectorComparison c = compare_intersectors(embree, sweep, n, [&] {
             Vec3 target{2 * random.next() - 1, 1.4 * random.next() - 0.7, 0.8 * random.next() - 0.4};
-            if (i % 2 == 0)
+            if (i++ % 2 == 0)
                 target = repeated[size_t(random.next() * double(repeated.size())) % repeated.size()] +
                          (1.5 * 0.06 * random.next()) * random.direction();
             const Vec3 d = random.direction();
-            const Ray r = ray(to_world(target) - 3.0 * d, d);
-            const Hit ha = embree.intersect(r, {}), hb = sweep.intersect(r, {});
-            occlusion_disagreements += embree.occluded(r, {}) != sweep.occluded(r, {});
-            if (bool(ha) != bool(hb) || (ha && (ha.kind != hb.kind || ha.prim != hb.prim))) {
-                ++disagreements;
-                continue;
-            }
-            if (!ha || ha.kind != PrimKind::Curve) continue;
-            ++hits;
-            t_mismatch += std::fabs(ha.t - hb.t) > 1e-4;
-        }
-        EXPECT_GT(hits, 8000) << instanced;
-        EXPECT_LE(disagreements, hits / 1000) << instanced << " " << hits;
-        EXPECT_LE(t_mismatch, hits / 1000) << instanced;
-        EXPECT_LE(occlusion_disagreements, n / 1000) << instanced;
+            return ray(to_world(target) - 3.0 * d, d);
+        });
+        expect_intersectors_agree(c, n, 8000, instanced ? "instanced" : "world space");
     }
 }
