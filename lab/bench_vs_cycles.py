@@ -307,6 +307,7 @@ def main(argv=None):
                                       for r in mine)
             print(f"  perf: median ours' Embree / Cycles' all {floor:.3f} (ours / Cycles with free shading)")
     if a.json:
+        os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
         with open(a.json, "w") as f:
             json.dump(rows, f, indent=1)
     return 0
