@@ -606,21 +606,28 @@ TEST(RenderGeometry, SweepProxyConesHoldTheirPiecesOfTheTube) {
     }
 }
 
-// curve_intersector AUTO (the default): Sweep for THICK curves up to sweep_auto_max_segments segments, Embree's own
-// curves beyond (Sweep's proxies' memory) and for every other shape; EMBREE and SWEEP hold at any size.
+// curve_intersector AUTO (the default): Sweep for THICK curves in world space up to sweep_auto_max_segments segments,
+// Embree's own curves beyond (Sweep's proxies' memory), for curves in an object's space (where Embree's, like
+// Cycles', reach past a strand's end) and for every other shape; EMBREE and SWEEP hold at any size.
 TEST(RenderGeometry, AutoIntersectorTakesSweepUpToItsBound) {
     constexpr size_t bound = sweep_auto_max_segments;
-    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound));
-    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound + 1));
-    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Sweep, bound + 1));
-    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Embree, 1));
+    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound, false));
+    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, bound + 1, false));
+    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Auto, 1, true));
+    EXPECT_TRUE(uses_sweep(CurveShape::Thick, CurveIntersector::Sweep, bound + 1, true));
+    EXPECT_FALSE(uses_sweep(CurveShape::Thick, CurveIntersector::Embree, 1, false));
     for (CurveShape shape : {CurveShape::Ribbons, CurveShape::ThickLinear})
-        EXPECT_FALSE(uses_sweep(shape, CurveIntersector::Auto, 1));
+        EXPECT_FALSE(uses_sweep(shape, CurveIntersector::Auto, 1, false));
     EXPECT_EQ(SceneDesc{}.curve_intersector, CurveIntersector::Auto);
     // A small scene: the default builds Sweep's proxies, EMBREE does not.
     SceneDesc s = bent_strands(CurveIntersector::Auto, 5);
     EXPECT_TRUE(Geometry(s).sweep_curves());
     s.curve_intersector = CurveIntersector::Embree;
+    EXPECT_FALSE(Geometry(s).sweep_curves());
+    s.curve_intersector = CurveIntersector::Auto;  // one strand in an object's space: Embree's curves for all
+    s.curves.object.assign(s.curves.random.size(), -1);
+    s.curves.object[0] = 0;
+    s.curves.object_transforms = {{1.3, 0.4, 0, 0.1, 0, 1.1, 0.3, -0.2, 0.2, 0, 0.8, 0}};
     EXPECT_FALSE(Geometry(s).sweep_curves());
 }
 

@@ -180,7 +180,7 @@ const char* curve_intersector_meaning() {
     static const std::string text =
         "THICK curves: EMBREE, Embree 3's round Catmull-Rom curves; SWEEP, hairbsdf's exact test of the same "
         "surface over Embree's capped-cone proxies (faster, about 4x the memory); AUTO, SWEEP up to " +
-        std::to_string(R::sweep_auto_max_segments) + " segments, else EMBREE";
+        std::to_string(R::sweep_auto_max_segments) + " segments all in world space, else EMBREE";
     return text.c_str();
 }
 

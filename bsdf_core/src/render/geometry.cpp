@@ -324,7 +324,8 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
             for (const auto& m : cd.object_transforms) object_spaces_.emplace_back(m);
         }
         if (release_points) std::vector<std::array<float, 4>>().swap(*release_points);
-        im.sweep = uses_sweep(scene.curve_shape, scene.curve_intersector, segment_first_.size());
+        im.sweep = uses_sweep(scene.curve_shape, scene.curve_intersector, segment_first_.size(),
+                              space_first_segment[n_spaces] > space_first_segment[1]);
         if (im.sweep) build_sweep_proxies(im);
         const bool linear = scene.curve_shape == CurveShape::ThickLinear;
         const bool round = linear || scene.curve_shape == CurveShape::Thick;

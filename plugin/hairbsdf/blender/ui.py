@@ -104,7 +104,8 @@ CHOICE_PROSE = {
         "exact": ("Exact", "Exact special functions (differs from Cycles by up to ~5e-3)"),
     },
     "curve_intersector": {
-        AUTO: ("Auto", "Sweep, but Embree for grooms too large for Sweep's memory (docs/scene_desc.md, curve_intersector)"),
+        AUTO: ("Auto", "Sweep, but Embree for grooms too large for Sweep's memory and for curves kept in an object's space "
+                        "(docs/scene_desc.md, curve_intersector)"),
         "EMBREE": ("Embree", "Embree's round Catmull-Rom curves, as Cycles traces them"),
         "SWEEP": ("Sweep", "Our exact test of the swept tube over capped-cone proxies: faster, about four times "
                            "the memory of the curves"),

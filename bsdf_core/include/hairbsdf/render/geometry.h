@@ -27,16 +27,19 @@ struct RTCRayHit;  // Embree's ray and hit (embree3/rtcore_ray.h)
 
 namespace hairbsdf::render {
 
-// CurveIntersector::Auto takes Sweep for THICK curves of at most this many segments. Sweep's
-// proxies take about 310 bytes a segment more than Embree's own curves (100 000 strands of 12
-// keys: 447 MB against 105 MB, docs/benchmarks.md "Engine IX"), so at this bound about 620 MB
-// more; larger grooms keep Embree's memory (1M strands x 16 keys: docs/benchmarks.md).
+// CurveIntersector::Auto takes Sweep for THICK curves of at most this many segments, all in world
+// space. Sweep's proxies take about 310 bytes a segment more than Embree's own curves (100 000
+// strands of 12 keys: 447 MB against 105 MB, docs/benchmarks.md "Engine IX"), so at this bound
+// about 620 MB more; larger grooms keep Embree's memory (1M strands x 16 keys: docs/benchmarks.md).
+// Curves in an object's space (a non-uniform transform) keep Embree's own curves: there Embree's
+// round curves reach past a strand's end, as in Cycles, and Sweep's stop at it (docs/engine.md,
+// "Curve intersection").
 inline constexpr size_t sweep_auto_max_segments = 2'000'000;
 // Whether THICK curves of `segments` segments are intersected by Sweep.
-inline bool uses_sweep(CurveShape shape, CurveIntersector intersector, size_t segments) {
+inline bool uses_sweep(CurveShape shape, CurveIntersector intersector, size_t segments, bool curves_in_object_space) {
     if (shape != CurveShape::Thick) return false;
     return intersector == CurveIntersector::Sweep ||
-           (intersector == CurveIntersector::Auto && segments <= sweep_auto_max_segments);
+           (intersector == CurveIntersector::Auto && segments <= sweep_auto_max_segments && !curves_in_object_space);
 }
 
 struct Ray {
