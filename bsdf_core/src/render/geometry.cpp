@@ -337,6 +337,25 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         // them, and those of different curves never do.
         const size_t vertex_skip = linear ? 1 : 0;
         im.sweep_geometries.reserve(n_spaces);
+        // Embree's own curves of the scene's shape over `count` segments whose first control points are `index`
+        // (segment_first_, or the part of it Sweep leaves to Embree), prim i of curve curve_of_prim[i] (the
+        // filter's user data). Committed, not attached.
+        auto embree_curves = [&](const uint32_t* index, size_t count, int32_t* curve_of_prim) {
+            RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
+                                                      : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
+                                                              : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
+            if (!linear) rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(),
+                                       vertex_skip * sizeof(float) * 4, sizeof(float) * 4,
+                                       control_points_.size() - vertex_skip);
+            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, index, 0, sizeof(uint32_t), count);
+            rtcSetGeometryUserData(g, curve_of_prim);
+            rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
+            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
+            rtcCommitGeometry(g);
+            return g;
+        };
         // The proxies are capped cones (Embree's cone linear curves) in world space. In an object's space they are
         // round linear curves on the same vertices (the cones with spherical caps, so they hold the tube too):
         // Embree 3.13's cone intersector takes the ray's direction to be a unit vector, which an instance's scale
@@ -372,16 +391,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
                 }
             const size_t n = im.embree_first.size() - offset;
             if (n == 0) return RTC_INVALID_GEOMETRY_ID;
-            RTCGeometry g = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE);
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(), 0,
-                                       sizeof(float) * 4, control_points_.size());
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, im.embree_first.data() + offset, 0,
-                                       sizeof(uint32_t), n);
-            rtcSetGeometryUserData(g, im.embree_curve.data() + offset);
-            rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-            rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
-            rtcCommitGeometry(g);
+            RTCGeometry g = embree_curves(im.embree_first.data() + offset, n, im.embree_curve.data() + offset);
             const unsigned id = rtcAttachGeometry(target, g);
             rtcReleaseGeometry(g);
             return id;
@@ -395,21 +405,7 @@ void Geometry::build(const SceneDesc& scene, std::vector<std::array<float, 4>>* 
         }
         auto curve_geometry = [&](size_t first, size_t count, bool in_object_space) {
             if (im.sweep) return sweep_geometry(first, count, in_object_space);
-            RTCGeometry g = rtcNewGeometry(im.device, linear  ? RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE
-                                                      : round ? RTC_GEOMETRY_TYPE_ROUND_CATMULL_ROM_CURVE
-                                                              : RTC_GEOMETRY_TYPE_FLAT_CATMULL_ROM_CURVE);
-            if (!linear) rtcSetGeometryTessellationRate(g, float(std::min(1 << subdivisions, 16) + 1));
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, control_points_.data(),
-                                       vertex_skip * sizeof(float) * 4, sizeof(float) * 4,
-                                       control_points_.size() - vertex_skip);
-            rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, segment_first_.data() + first, 0,
-                                       sizeof(uint32_t), count);
-            rtcSetGeometryUserData(g, segment_curve_.data() + first);
-            rtcSetGeometryIntersectFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-            rtcSetGeometryOccludedFilterFunction(g, cull ? curve_filter<true> : curve_filter<false>);
-            rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
-            rtcCommitGeometry(g);
-            return g;
+            return embree_curves(segment_first_.data() + first, count, segment_curve_.data() + first);
         };
         for (size_t space = 0; space < n_spaces; ++space) {
             const size_t first = space_first_segment[space], count = space_first_segment[space + 1] - first;
